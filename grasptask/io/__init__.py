@@ -1,0 +1,1 @@
+"""Reading inputs and writing artifacts: recordings, manifests, configs, staged atomic outputs."""

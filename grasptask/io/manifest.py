@@ -1,0 +1,156 @@
+"""Manifests: one CSV row per recording, naming its file, labels, frame, units and tool.
+
+Required columns: ``path, task, subject, trial, grasp``. Optional: ``id`` (default
+``<task>_<grasp>_s<subject>_t<trial>``), ``frame`` (``object`` or ``sensor``), ``force_unit``, ``torque_unit``,
+``time_unit``, ``tool`` (a tool config, required for ``frame=sensor``) and ``bias_window_s`` (length of the
+initial static window used for bias removal, then trimmed). Paths are relative to the manifest's folder.
+Row numbers count data rows from 1.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from grasptask.errors import BadInputError
+from grasptask.io.units import UNIT_TABLES
+
+REQUIRED = ("path", "task", "subject", "trial", "grasp")
+OPTIONAL = ("id", "frame", "force_unit", "torque_unit", "time_unit", "tool", "bias_window_s")
+FRAMES = ("object", "sensor")
+
+
+@dataclass(frozen=True)
+class RecordingEntry:
+    """One recording and how to read it."""
+
+    id: str
+    path: Path
+    task: str
+    subject: str
+    trial: int
+    grasp: str
+    frame: str = "object"
+    units: dict[str, str] = field(default_factory=dict)
+    tool: Path | None = None
+    bias_window_s: float = 0.0
+    source: str = ""  # "<manifest>: row N", for messages
+
+    @property
+    def group(self) -> str:
+        """Statistics group: ``<task>_<grasp>`` when the grasp was imposed, ``<task>`` when it was free."""
+        return self.task if self.grasp == "free" else f"{self.task}_{self.grasp}"
+
+
+def default_id(task: str, grasp: str, subject: str, trial: int) -> str:
+    return f"{task}_{grasp}_s{subject}_t{trial}"
+
+
+def is_manifest(path: str | Path) -> bool:
+    """A CSV whose header has a ``path`` column is a manifest, not a recording."""
+    path = Path(path)
+    if path.suffix.lower() != ".csv" or not path.is_file():
+        return False
+    with open(path) as handle:
+        header = handle.readline()
+    return "path" in [c.strip().strip('"') for c in header.split(",")]
+
+
+def read_manifest(path: str | Path) -> list[RecordingEntry]:
+    path = Path(path)
+    if not path.is_file():
+        raise BadInputError(path, "manifest not found")
+    try:
+        frame = pd.read_csv(path, dtype=str, keep_default_na=False, skipinitialspace=True)
+    except pd.errors.EmptyDataError:
+        raise BadInputError(path, "empty manifest")
+    frame.columns = [c.strip() for c in frame.columns]
+    for name in REQUIRED:
+        if name not in frame.columns:
+            raise BadInputError(path, "missing column", column=name)
+    for name in frame.columns:
+        if name not in REQUIRED + OPTIONAL:
+            raise BadInputError(path, f"unexpected column (allowed: {', '.join(REQUIRED + OPTIONAL)})", column=name)
+    if frame.empty:
+        raise BadInputError(path, "manifest lists no recordings")
+    entries, seen = [], {}
+    for index, row in enumerate(frame.to_dict("records"), start=1):
+        entry = _entry(path, index, row)
+        if entry.id in seen:
+            raise BadInputError(path, f"duplicate recording id '{entry.id}' (first at row {seen[entry.id]})", row=index)
+        seen[entry.id] = index
+        entries.append(entry)
+    return entries
+
+
+def _entry(path: Path, row_number: int, row: dict[str, str]) -> RecordingEntry:
+    def fail(column: str, problem: str) -> BadInputError:
+        return BadInputError(path, problem, row=row_number, column=column)
+
+    for name in REQUIRED:
+        if not row[name].strip():
+            raise fail(name, "empty value")
+    try:
+        trial = int(row["trial"])
+    except ValueError:
+        raise fail("trial", f"trial must be an integer, got {row['trial']!r}")
+    frame = row.get("frame", "").strip() or "object"
+    if frame not in FRAMES:
+        raise fail("frame", f"unknown frame '{frame}' (known: {', '.join(FRAMES)})")
+    units = {}
+    for key, table in UNIT_TABLES.items():
+        unit = row.get(key, "").strip()
+        if unit:
+            if unit not in table:
+                raise fail(key, f"unknown unit '{unit}' (known: {', '.join(table)})")
+            units[key] = unit
+    tool = row.get("tool", "").strip()
+    tool_path = (path.parent / tool) if tool else None
+    if frame == "sensor" and tool_path is None:
+        raise fail("tool", "frame is 'sensor' but no tool config names the sensor pose")
+    if tool_path is not None and not tool_path.is_file():
+        raise fail("tool", f"tool config not found: {tool_path}")
+    bias = row.get("bias_window_s", "").strip()
+    try:
+        bias_window = float(bias) if bias else 0.0
+    except ValueError:
+        bias_window = -1.0
+    if not np.isfinite(bias_window) or bias_window < 0:
+        raise fail("bias_window_s", f"must be a non-negative number of seconds, got {bias!r}")
+    task, grasp, subject = row["task"].strip(), row["grasp"].strip(), row["subject"].strip()
+    return RecordingEntry(
+        id=row.get("id", "").strip() or default_id(task, grasp, subject, trial),
+        path=path.parent / row["path"].strip(),
+        task=task,
+        subject=subject,
+        trial=trial,
+        grasp=grasp,
+        frame=frame,
+        units=units,
+        tool=tool_path,
+        bias_window_s=bias_window,
+        source=f"{path}: row {row_number}",
+    )
+
+
+def write_manifest(path: Path, entries: list[RecordingEntry], relative_to: Path) -> None:
+    rows = []
+    for e in entries:
+        rows.append(
+            {
+                "path": e.path.relative_to(relative_to).as_posix(),
+                "task": e.task,
+                "subject": e.subject,
+                "trial": e.trial,
+                "grasp": e.grasp,
+                "id": e.id,
+                "frame": e.frame,
+                "torque_unit": e.units.get("torque_unit", "N.m"),
+                "tool": e.tool.relative_to(relative_to).as_posix() if e.tool else "",
+                "bias_window_s": e.bias_window_s,
+            }
+        )
+    pd.DataFrame(rows).to_csv(path, index=False)

@@ -1,0 +1,146 @@
+"""Reading one recording (CSV or Parquet) into a validated ``(n, 7)`` array of t, fx, fy, fz, tx, ty, tz.
+
+Row numbers in error messages count data rows from 1, not counting a CSV header.
+"""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+from typing import Mapping, Sequence
+
+import numpy as np
+import pandas as pd
+import pyarrow as pa
+import pyarrow.csv as pacsv
+import pyarrow.parquet as pq
+
+from grasptask.errors import BadInputError
+from grasptask.io.tool import CANONICAL_COLUMNS
+
+MIN_SAMPLES = 10
+RECORDING_SUFFIXES = (".csv", ".parquet", ".pq")
+
+
+def read_recording(
+    path: str | Path,
+    columns: Mapping[str, str] | None = None,
+    ignore_columns: Sequence[str] = (),
+) -> np.ndarray:
+    """The recording's samples as float64 ``(n, 7)`` in canonical column order, units as stored.
+
+    ``columns`` maps a canonical name (``t``, ``fx``, ...) to the file's own column name; ``ignore_columns``
+    names file columns to drop. Anything else that is missing, extra, non-numeric, NaN or infinite, too short
+    or not strictly increasing in time raises :class:`BadInputError` naming the file, row and column.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise BadInputError(path, "file not found")
+    if path.stat().st_size == 0:
+        raise BadInputError(path, "empty file")
+    suffix = path.suffix.lower()
+    if suffix not in RECORDING_SUFFIXES:
+        raise BadInputError(path, f"unknown recording format '{suffix}' (expected .csv or .parquet)")
+    rename = {file_name: canonical for canonical, file_name in (columns or {}).items()}
+    file_columns = _read_header(path, suffix)
+    names = [rename.get(c, c) for c in file_columns if c not in set(ignore_columns)]
+    _check_columns(path, names, rename)
+    wanted = [c for c in file_columns if c not in set(ignore_columns)]
+    table = _read_table(path, suffix, wanted, file_columns)
+    data = _to_float(path, table, wanted, names)
+    _check_values(path, data)
+    return data
+
+
+def _read_header(path: Path, suffix: str) -> list[str]:
+    if suffix == ".csv":
+        with open(path, newline="") as handle:
+            header = next(csv.reader(handle), [])
+        if not header:
+            raise BadInputError(path, "empty file")
+        return [c.strip() for c in header]
+    try:
+        return list(pq.read_schema(path).names)
+    except (pa.ArrowInvalid, OSError) as exc:
+        raise BadInputError(path, f"not a readable Parquet file ({exc})")
+
+
+def _check_columns(path: Path, names: list[str], rename: Mapping[str, str]) -> None:
+    seen = set()
+    for name in names:
+        if name in seen:
+            raise BadInputError(path, "duplicate column", column=name)
+        seen.add(name)
+    inverse = {v: k for k, v in rename.items()}
+    for name in CANONICAL_COLUMNS:
+        if name not in seen:
+            raise BadInputError(path, "missing column", column=inverse.get(name, name))
+    for name in names:
+        if name not in CANONICAL_COLUMNS:
+            raise BadInputError(
+                path, f"unexpected column (expected {', '.join(CANONICAL_COLUMNS)})", column=inverse.get(name, name)
+            )
+
+
+def _read_table(path: Path, suffix: str, wanted: list[str], file_columns: list[str]) -> pa.Table:
+    if suffix != ".csv":
+        return pq.read_table(path, columns=wanted)
+    convert = pacsv.ConvertOptions(
+        column_types={c: pa.float64() for c in wanted}, include_columns=wanted, strings_can_be_null=False
+    )
+    try:
+        return pacsv.read_csv(path, convert_options=convert)
+    except pa.ArrowInvalid:
+        # The fast parser says only that something is wrong; find the exact cell the slow way.
+        frame = pd.read_csv(path, dtype=str, keep_default_na=False, usecols=wanted)
+        for column in wanted:
+            numeric = pd.to_numeric(frame[column].str.strip(), errors="coerce")
+            bad = numeric.isna() & ~frame[column].str.strip().str.lower().isin(["nan", "", "inf", "-inf"])
+            if bad.any():
+                row = int(np.flatnonzero(bad.to_numpy())[0])
+                raise BadInputError(path, f"non-numeric value {frame[column].iloc[row]!r}", row=row + 1, column=column)
+        raise BadInputError(path, "malformed CSV (ragged rows or bad quoting)")
+
+
+def _to_float(path: Path, table: pa.Table, wanted: list[str], names: list[str]) -> np.ndarray:
+    if table.num_rows == 0:
+        raise BadInputError(path, f"no samples (at least {MIN_SAMPLES} are needed)")
+    order = {name: file_name for file_name, name in zip(wanted, names)}
+    data = np.empty((table.num_rows, len(CANONICAL_COLUMNS)))
+    for k, name in enumerate(CANONICAL_COLUMNS):
+        column = table.column(order[name])
+        if pa.types.is_string(column.type) or pa.types.is_large_string(column.type):
+            values = pd.to_numeric(column.to_pandas(), errors="coerce")
+            bad = values.isna() & column.to_pandas().notna()
+            if bad.any():
+                row = int(np.flatnonzero(bad.to_numpy())[0])
+                raise BadInputError(path, f"non-numeric value {column[row].as_py()!r}", row=row + 1, column=order[name])
+            data[:, k] = values.to_numpy(dtype=float)
+        elif pa.types.is_integer(column.type) or pa.types.is_floating(column.type):
+            data[:, k] = column.to_numpy(zero_copy_only=False)
+        else:
+            raise BadInputError(path, f"non-numeric column of type {column.type}", column=order[name])
+    return data
+
+
+def _check_values(path: Path, data: np.ndarray) -> None:
+    finite = np.isfinite(data)
+    if not finite.all():
+        row, col = np.argwhere(~finite)[0]
+        what = "NaN (or empty)" if np.isnan(data[row, col]) else "infinite value"
+        raise BadInputError(path, what, row=int(row) + 1, column=CANONICAL_COLUMNS[col])
+    if len(data) < MIN_SAMPLES:
+        raise BadInputError(path, f"only {len(data)} samples (at least {MIN_SAMPLES} are needed)")
+    steps = np.diff(data[:, 0])
+    if not (steps > 0).all():
+        row = int(np.flatnonzero(steps <= 0)[0]) + 2
+        raise BadInputError(path, "time is not strictly increasing", row=row, column="t")
+
+
+def write_recording(path: Path, data: np.ndarray) -> None:
+    """Write ``(n, 7)`` samples with the canonical header; the format follows the suffix."""
+    table = pa.table({name: data[:, k] for k, name in enumerate(CANONICAL_COLUMNS)})
+    if path.suffix == ".csv":
+        pacsv.write_csv(table, path, pacsv.WriteOptions(quoting_style="none"))
+    else:
+        pq.write_table(table, path)

@@ -1,0 +1,25 @@
+"""One look for every figure: colours per task, markers per grasp type, readable sizes."""
+
+from __future__ import annotations
+
+import matplotlib
+
+matplotlib.use("Agg")
+
+TASK_COLOURS = {"drawing": "#1f77b4", "cutting": "#d62728", "screwdriving": "#2ca02c"}
+GRASP_MARKERS = {"tripod": "o", "cylindrical": "s", "power": "^", "free": "D"}
+FALLBACK_COLOURS = ["#9467bd", "#8c564b", "#e377c2", "#7f7f7f", "#bcbd22", "#17becf"]
+FONT_SIZE = 10
+
+
+def task_colour(task: str, known: list[str] | None = None) -> str:
+    if task in TASK_COLOURS:
+        return TASK_COLOURS[task]
+    others = sorted(t for t in (known or [task]) if t not in TASK_COLOURS)
+    return FALLBACK_COLOURS[others.index(task) % len(FALLBACK_COLOURS)] if task in others else FALLBACK_COLOURS[0]
+
+
+def apply_style() -> None:
+    matplotlib.rcParams.update(
+        {"font.size": FONT_SIZE, "axes.titlesize": FONT_SIZE + 1, "figure.dpi": 110, "savefig.bbox": "tight"}
+    )

@@ -1,0 +1,113 @@
+"""Log-Euclidean distances between task ellipsoids (paper eq. 15, without its stray minus sign) and how well
+they separate tasks.
+
+Each matrix log is taken once (:func:`grasptask.task.spd.log_vectors`); the distance matrix is then the
+pairwise Euclidean distance of the vectorised logs.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+from scipy.spatial.distance import pdist, squareform
+from sklearn.metrics import silhouette_samples
+
+from grasptask.task.fit import ellipsoid_matrices
+from grasptask.task.spd import log_vectors
+from grasptask.task.stats import group_order
+
+
+def distance_matrix(matrices: np.ndarray) -> np.ndarray:
+    """``D[i, j] = ||log S_i - log S_j||_F`` for a ``(k, 6, 6)`` stack."""
+    return squareform(pdist(log_vectors(matrices)))
+
+
+def embedding_2d(matrices: np.ndarray) -> np.ndarray:
+    """2D coordinates whose Euclidean distances best approximate the Log-Euclidean ones.
+
+    The distances are Euclidean in log space, so classical MDS reduces to PCA of the vectorised logs.
+    """
+    vectors = log_vectors(matrices)
+    centred = vectors - vectors.mean(axis=0)
+    _, _, vt = np.linalg.svd(centred, full_matrices=False)
+    coords = centred @ vt[:2].T
+    return coords * np.sign(coords[np.argmax(np.abs(coords), axis=0), [0, 1]])
+
+
+def loo_1nn_accuracy(distances: np.ndarray, labels: np.ndarray) -> float:
+    """Leave-one-out 1-nearest-neighbour accuracy of ``labels``."""
+    d = distances.copy()
+    np.fill_diagonal(d, np.inf)
+    return float(np.mean(labels[np.argmin(d, axis=1)] == labels))
+
+
+def separation_summary(distances: np.ndarray, labels: np.ndarray) -> dict:
+    """LOO 1-NN accuracy, silhouette (overall and per label), mean within- and between-label distances."""
+    labels = np.asarray(labels)
+    largest = distances.max()
+    same = labels[:, None] == labels[None, :]
+    off_diagonal = ~np.eye(len(labels), dtype=bool)
+    unique = list(dict.fromkeys(labels))
+    summary = {
+        "n_ellipsoids": int(len(labels)),
+        "labels": unique,
+        "loo_1nn_accuracy": loo_1nn_accuracy(distances, labels),
+        "max_distance": float(largest),
+        "mean_within": float(distances[same & off_diagonal].mean()) if (same & off_diagonal).any() else None,
+        "mean_between": float(distances[~same].mean()) if (~same).any() else None,
+    }
+    if len(unique) > 1 and len(unique) < len(labels):
+        per_sample = silhouette_samples(distances, labels, metric="precomputed")
+        summary["silhouette"] = float(per_sample.mean())
+        summary["silhouette_by_label"] = {str(u): float(per_sample[labels == u].mean()) for u in unique}
+    for key in ("mean_within", "mean_between"):
+        if summary[key] is not None:
+            summary[f"{key}_normalised"] = summary[key] / largest if largest > 0 else 0.0
+    return summary
+
+
+@dataclass
+class Distances:
+    """Distances between the ellipsoids of a table, in the paper's order (Figure 9)."""
+
+    table: pd.DataFrame  # the ellipsoid rows, reordered
+    raw: np.ndarray
+    embedding: np.ndarray
+
+    @property
+    def normalised(self) -> np.ndarray:
+        largest = self.raw.max()
+        return self.raw / largest if largest > 0 else self.raw
+
+    def summary(self) -> dict:
+        return {
+            "by_task": separation_summary(self.raw, self.table["task"].to_numpy()),
+            "by_group": separation_summary(self.raw, self.table["group"].to_numpy()),
+        }
+
+    def long_table(self) -> pd.DataFrame:
+        ids = self.table["id"].to_numpy()
+        k = len(ids)
+        return pd.DataFrame(
+            {
+                "id_a": np.repeat(ids, k),
+                "id_b": np.tile(ids, k),
+                "distance": self.raw.ravel(),
+                "distance_normalised": self.normalised.ravel(),
+            }
+        )
+
+
+def paper_order(ellipsoids: pd.DataFrame) -> pd.DataFrame:
+    """Sort by group (paper order), then subject and trial."""
+    rank = {g: i for i, g in enumerate(group_order(ellipsoids["group"]))}
+    keyed = ellipsoids.assign(_rank=ellipsoids["group"].map(rank))
+    return keyed.sort_values(["_rank", "subject", "trial", "id"], kind="stable").drop(columns="_rank").reset_index(drop=True)
+
+
+def compute_distances(ellipsoids: pd.DataFrame) -> Distances:
+    table = paper_order(ellipsoids)
+    matrices = ellipsoid_matrices(table)
+    return Distances(table=table, raw=distance_matrix(matrices), embedding=embedding_2d(matrices))

@@ -1,0 +1,134 @@
+"""From manifest entries to one 6D ellipsoid per recording, in SI units and the object frame."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable, Iterable
+
+import numpy as np
+import pandas as pd
+
+from grasptask.errors import BadInputError
+from grasptask.io.manifest import RecordingEntry
+from grasptask.io.recordings import MIN_SAMPLES, read_recording
+from grasptask.io.tool import ToolConfig, load_tool
+from grasptask.io.units import UNIT_TABLES
+from grasptask.task import preprocess
+from grasptask.task.ellipsoid import Ellipsoid, is_singular, second_moment
+from grasptask.task.frames import transform_wrenches
+
+ELLIPSOID_COLUMNS = ["id", "task", "grasp", "group", "subject", "trial", "path", "n_samples", "duration_s"]
+
+
+@dataclass(frozen=True)
+class FitOptions:
+    preprocess: preprocess.Preprocess = field(default_factory=preprocess.Preprocess)
+    centered: bool = False
+
+
+def load_wrenches(entry: RecordingEntry, tool: ToolConfig | None = None, options: FitOptions = FitOptions()):
+    """Time (s) and ``(n, 6)`` wrenches (N, N.m) in the object frame, preprocessed."""
+    tool = tool or ToolConfig(name="none")
+    data = read_recording(entry.path, tool.columns, tool.ignore_columns)
+    units = {**tool.units, **entry.units}
+    factor = {key: table[units.get(key, next(iter(table)))] for key, table in UNIT_TABLES.items()}
+    t = data[:, 0] * factor["time_unit"]
+    wrenches = data[:, 1:] * np.repeat([factor["force_unit"], factor["torque_unit"]], 3)
+    if entry.frame == "sensor":
+        wrenches = transform_wrenches(wrenches, tool.sensor_rotation, tool.sensor_position)
+    try:
+        t, wrenches = preprocess.apply(t, wrenches, options.preprocess, entry.bias_window_s)
+    except ValueError as exc:
+        raise BadInputError(entry.path, str(exc))
+    if len(t) < MIN_SAMPLES:
+        raise BadInputError(entry.path, f"only {len(t)} samples left after preprocessing (at least {MIN_SAMPLES})")
+    return t, wrenches
+
+
+def fit_entry(entry: RecordingEntry, tool: ToolConfig | None = None, options: FitOptions = FitOptions()):
+    """The recording's ellipsoid and its sample count and duration."""
+    t, wrenches = load_wrenches(entry, tool, options)
+    if not np.any(wrenches):
+        raise BadInputError(entry.path, "all wrench samples are zero, so the ellipsoid is singular")
+    matrix = second_moment(wrenches, options.centered)
+    if is_singular(matrix):
+        rank = np.linalg.matrix_rank(matrix)
+        raise BadInputError(entry.path, f"wrench samples span only {rank} of 6 dimensions, so the ellipsoid is singular")
+    return Ellipsoid.from_matrix(matrix), len(t), float(t[-1] - t[0])
+
+
+@dataclass
+class FitResult:
+    ellipsoids: pd.DataFrame
+    skipped: list[BadInputError]
+
+    @property
+    def matrices(self) -> np.ndarray:
+        return ellipsoid_matrices(self.ellipsoids)
+
+
+def fit_recordings(
+    entries: Iterable[RecordingEntry],
+    options: FitOptions = FitOptions(),
+    skip_bad: bool = False,
+    progress: Callable[[Iterable], Iterable] = iter,
+) -> FitResult:
+    """Fit every recording; with ``skip_bad`` a bad recording is set aside instead of stopping the run."""
+    tools: dict[Path, ToolConfig] = {}
+    rows, skipped = [], []
+    for entry in progress(list(entries)):
+        try:
+            tool = None
+            if entry.tool is not None:
+                tool = tools.get(entry.tool) or tools.setdefault(entry.tool, load_tool(entry.tool))
+            ellipsoid, n, duration = fit_entry(entry, tool, options)
+        except BadInputError as exc:
+            if not skip_bad:
+                raise
+            skipped.append(exc)
+            continue
+        rows.append(
+            {
+                "id": entry.id,
+                "task": entry.task,
+                "grasp": entry.grasp,
+                "group": entry.group,
+                "subject": entry.subject,
+                "trial": entry.trial,
+                "path": str(entry.path),
+                "n_samples": n,
+                "duration_s": duration,
+                "S": ellipsoid.S.ravel(),
+                "axes": ellipsoid.axes.ravel(),
+                "lengths": ellipsoid.lengths,
+            }
+        )
+    if not rows:
+        raise BadInputError("fit-task", "no usable recordings")
+    return FitResult(pd.DataFrame(rows), skipped)
+
+
+def ellipsoid_matrices(frame: pd.DataFrame) -> np.ndarray:
+    """The ``(k, 6, 6)`` stack of ``S`` from an ellipsoids table."""
+    return np.stack([np.asarray(s, dtype=float).reshape(6, 6) for s in frame["S"]])
+
+
+def read_ellipsoids(path: str | Path) -> pd.DataFrame:
+    """Read ``ellipsoids.parquet``, checking it has what later stages need."""
+    path = Path(path)
+    if not path.is_file():
+        raise BadInputError(path, "file not found")
+    try:
+        frame = pd.read_parquet(path)
+    except Exception as exc:  # pyarrow raises several types for a file that is not Parquet
+        raise BadInputError(path, f"not a readable Parquet file ({type(exc).__name__})")
+    for column in ("id", "task", "group", "S"):
+        if column not in frame.columns:
+            raise BadInputError(path, "missing column", column=column)
+    if frame.empty:
+        raise BadInputError(path, "no ellipsoids")
+    for row, s in enumerate(frame["S"], start=1):
+        if len(s) != 36 or not np.all(np.isfinite(np.asarray(s, dtype=float))):
+            raise BadInputError(path, "S must hold 36 finite numbers", row=row, column="S")
+    return frame

@@ -1,0 +1,57 @@
+"""Optional preprocessing of wrench samples: bias removal, trimming, zero-phase low-pass filtering."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import signal
+
+
+@dataclass(frozen=True)
+class Preprocess:
+    """Preprocessing options; all off by default.
+
+    ``bias_window_s`` overrides each recording's own static window from the manifest when given.
+    """
+
+    bias_window_s: float | None = None
+    trim_start_s: float = 0.0
+    trim_end_s: float = 0.0
+    lowpass_hz: float | None = None
+    lowpass_order: int = 4
+
+
+def remove_bias(t: np.ndarray, wrenches: np.ndarray, window_s: float) -> tuple[np.ndarray, np.ndarray]:
+    """Subtract the mean of the initial static window (sensor offset plus end-effector weight), then drop it."""
+    static = t < t[0] + window_s
+    if not static.any() or static.all():
+        raise ValueError(f"bias window of {window_s} s leaves no static or no task samples")
+    return t[~static], wrenches[~static] - wrenches[static].mean(axis=0)
+
+
+def trim(t: np.ndarray, wrenches: np.ndarray, start_s: float, end_s: float) -> tuple[np.ndarray, np.ndarray]:
+    keep = (t >= t[0] + start_s) & (t <= t[-1] - end_s)
+    return t[keep], wrenches[keep]
+
+
+def lowpass(t: np.ndarray, wrenches: np.ndarray, cutoff_hz: float, order: int = 4) -> np.ndarray:
+    """Zero-phase Butterworth low-pass at ``cutoff_hz``, sampling rate from the median time step."""
+    rate = 1.0 / float(np.median(np.diff(t)))
+    if cutoff_hz >= rate / 2:
+        raise ValueError(f"low-pass cutoff {cutoff_hz} Hz is not below the Nyquist rate {rate / 2:.1f} Hz")
+    sos = signal.butter(order, cutoff_hz, fs=rate, output="sos")
+    padlen = min(len(t) - 1, 3 * (2 * len(sos) + 1))
+    return signal.sosfiltfilt(sos, wrenches, axis=0, padlen=padlen)
+
+
+def apply(t: np.ndarray, wrenches: np.ndarray, options: Preprocess, bias_window_s: float = 0.0):
+    """Bias removal (recording's window unless overridden), trimming, then filtering."""
+    window = options.bias_window_s if options.bias_window_s is not None else bias_window_s
+    if window > 0:
+        t, wrenches = remove_bias(t, wrenches, window)
+    if options.trim_start_s or options.trim_end_s:
+        t, wrenches = trim(t, wrenches, options.trim_start_s, options.trim_end_s)
+    if options.lowpass_hz:
+        wrenches = lowpass(t, wrenches, options.lowpass_hz, options.lowpass_order)
+    return t, wrenches
