@@ -13,9 +13,10 @@ import json
 import os
 import shutil
 import tempfile
+from collections.abc import Callable, Iterable
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Iterable
+from typing import Any
 
 import pandas as pd
 import pyarrow as pa
@@ -71,7 +72,7 @@ class Provenance:
         config: Any,
         inputs: Iterable[str | Path] = (),
         seed: int | None = None,
-    ) -> "Provenance":
+    ) -> Provenance:
         return cls(
             command=command,
             config_hash=config_hash(config),
@@ -96,7 +97,7 @@ class StagedOutput:
         self._staged: list[str] = []
         self._tmp: Path | None = None
 
-    def __enter__(self) -> "StagedOutput":
+    def __enter__(self) -> StagedOutput:
         parent = self.out.resolve().parent
         parent.mkdir(parents=True, exist_ok=True)
         self._tmp = Path(tempfile.mkdtemp(prefix=f".{self.out.name}.staging-", dir=parent))

@@ -18,7 +18,9 @@ def load_yaml(path: str | Path) -> dict[str, Any]:
         data = yaml.safe_load(path.read_text())
     except yaml.YAMLError as exc:
         line = getattr(getattr(exc, "problem_mark", None), "line", None)
-        raise BadInputError(path, f"invalid YAML: {getattr(exc, 'problem', exc)}", row=None if line is None else line + 1)
+        raise BadInputError(
+            path, f"invalid YAML: {getattr(exc, 'problem', exc)}", row=None if line is None else line + 1
+        ) from exc
     if not isinstance(data, dict):
         raise BadInputError(path, "expected a mapping at the top level")
     return data

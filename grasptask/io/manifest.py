@@ -66,7 +66,7 @@ def read_manifest(path: str | Path) -> list[RecordingEntry]:
     try:
         frame = pd.read_csv(path, dtype=str, keep_default_na=False, skipinitialspace=True)
     except pd.errors.EmptyDataError:
-        raise BadInputError(path, "empty manifest")
+        raise BadInputError(path, "empty manifest") from None
     frame.columns = [c.strip() for c in frame.columns]
     for name in REQUIRED:
         if name not in frame.columns:
@@ -96,7 +96,7 @@ def _entry(path: Path, row_number: int, row: dict[str, str]) -> RecordingEntry:
     try:
         trial = int(row["trial"])
     except ValueError:
-        raise fail("trial", f"trial must be an integer, got {row['trial']!r}")
+        raise fail("trial", f"trial must be an integer, got {row['trial']!r}") from None
     frame = row.get("frame", "").strip() or "object"
     if frame not in FRAMES:
         raise fail("frame", f"unknown frame '{frame}' (known: {', '.join(FRAMES)})")

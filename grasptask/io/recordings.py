@@ -6,8 +6,8 @@ Row numbers in error messages count data rows from 1, not counting a CSV header.
 from __future__ import annotations
 
 import csv
+from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Mapping, Sequence
 
 import numpy as np
 import pandas as pd
@@ -62,7 +62,7 @@ def _read_header(path: Path, suffix: str) -> list[str]:
     try:
         return list(pq.read_schema(path).names)
     except (pa.ArrowInvalid, OSError) as exc:
-        raise BadInputError(path, f"not a readable Parquet file ({exc})")
+        raise BadInputError(path, f"not a readable Parquet file ({exc})") from exc
 
 
 def _check_columns(path: Path, names: list[str], rename: Mapping[str, str]) -> None:
@@ -98,14 +98,16 @@ def _read_table(path: Path, suffix: str, wanted: list[str], file_columns: list[s
             bad = numeric.isna() & ~frame[column].str.strip().str.lower().isin(["nan", "", "inf", "-inf"])
             if bad.any():
                 row = int(np.flatnonzero(bad.to_numpy())[0])
-                raise BadInputError(path, f"non-numeric value {frame[column].iloc[row]!r}", row=row + 1, column=column)
-        raise BadInputError(path, "malformed CSV (ragged rows or bad quoting)")
+                raise BadInputError(
+                    path, f"non-numeric value {frame[column].iloc[row]!r}", row=row + 1, column=column
+                ) from None
+        raise BadInputError(path, "malformed CSV (ragged rows or bad quoting)") from None
 
 
 def _to_float(path: Path, table: pa.Table, wanted: list[str], names: list[str]) -> np.ndarray:
     if table.num_rows == 0:
         raise BadInputError(path, f"no samples (at least {MIN_SAMPLES} are needed)")
-    order = {name: file_name for file_name, name in zip(wanted, names)}
+    order = {name: file_name for file_name, name in zip(wanted, names, strict=True)}
     data = np.empty((table.num_rows, len(CANONICAL_COLUMNS)))
     for k, name in enumerate(CANONICAL_COLUMNS):
         column = table.column(order[name])

@@ -32,8 +32,11 @@ def embedding_2d(matrices: np.ndarray) -> np.ndarray:
     vectors = log_vectors(matrices)
     centred = vectors - vectors.mean(axis=0)
     _, _, vt = np.linalg.svd(centred, full_matrices=False)
-    coords = centred @ vt[:2].T
-    return coords * np.sign(coords[np.argmax(np.abs(coords), axis=0), [0, 1]])
+    coords = np.zeros((len(vectors), 2))
+    coords[:, : min(2, len(vt))] = centred @ vt[:2].T
+    # fix each axis's sign so that its largest coordinate is positive: the same data give the same picture
+    signs = np.sign(coords[np.argmax(np.abs(coords), axis=0), [0, 1]])
+    return coords * np.where(signs == 0, 1.0, signs)
 
 
 def loo_1nn_accuracy(distances: np.ndarray, labels: np.ndarray) -> float:
@@ -104,7 +107,11 @@ def paper_order(ellipsoids: pd.DataFrame) -> pd.DataFrame:
     """Sort by group (paper order), then subject and trial."""
     rank = {g: i for i, g in enumerate(group_order(ellipsoids["group"]))}
     keyed = ellipsoids.assign(_rank=ellipsoids["group"].map(rank))
-    return keyed.sort_values(["_rank", "subject", "trial", "id"], kind="stable").drop(columns="_rank").reset_index(drop=True)
+    return (
+        keyed.sort_values(["_rank", "subject", "trial", "id"], kind="stable")
+        .drop(columns="_rank")
+        .reset_index(drop=True)
+    )
 
 
 def compute_distances(ellipsoids: pd.DataFrame) -> Distances:

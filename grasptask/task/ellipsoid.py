@@ -52,12 +52,12 @@ class Ellipsoid:
     lengths: np.ndarray
 
     @classmethod
-    def from_matrix(cls, matrix: np.ndarray) -> "Ellipsoid":
+    def from_matrix(cls, matrix: np.ndarray) -> Ellipsoid:
         lengths, axes = principal_axes(matrix)
         return cls(S=np.asarray(matrix), axes=axes, lengths=lengths)
 
     @classmethod
-    def from_wrenches(cls, wrenches: np.ndarray, centered: bool = False) -> "Ellipsoid":
+    def from_wrenches(cls, wrenches: np.ndarray, centered: bool = False) -> Ellipsoid:
         return cls.from_matrix(second_moment(wrenches, centered))
 
     @property

@@ -2,9 +2,9 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable, Iterable
 
 import numpy as np
 import pandas as pd
@@ -40,7 +40,7 @@ def load_wrenches(entry: RecordingEntry, tool: ToolConfig | None = None, options
     try:
         t, wrenches = preprocess.apply(t, wrenches, options.preprocess, entry.bias_window_s)
     except ValueError as exc:
-        raise BadInputError(entry.path, str(exc))
+        raise BadInputError(entry.path, str(exc)) from exc
     if len(t) < MIN_SAMPLES:
         raise BadInputError(entry.path, f"only {len(t)} samples left after preprocessing (at least {MIN_SAMPLES})")
     return t, wrenches
@@ -54,7 +54,9 @@ def fit_entry(entry: RecordingEntry, tool: ToolConfig | None = None, options: Fi
     matrix = second_moment(wrenches, options.centered)
     if is_singular(matrix):
         rank = np.linalg.matrix_rank(matrix)
-        raise BadInputError(entry.path, f"wrench samples span only {rank} of 6 dimensions, so the ellipsoid is singular")
+        raise BadInputError(
+            entry.path, f"wrench samples span only {rank} of 6 dimensions, so the ellipsoid is singular"
+        )
     return Ellipsoid.from_matrix(matrix), len(t), float(t[-1] - t[0])
 
 
@@ -122,7 +124,7 @@ def read_ellipsoids(path: str | Path) -> pd.DataFrame:
     try:
         frame = pd.read_parquet(path)
     except Exception as exc:  # pyarrow raises several types for a file that is not Parquet
-        raise BadInputError(path, f"not a readable Parquet file ({type(exc).__name__})")
+        raise BadInputError(path, f"not a readable Parquet file ({type(exc).__name__})") from exc
     for column in ("id", "task", "group", "S"):
         if column not in frame.columns:
             raise BadInputError(path, "missing column", column=column)

@@ -49,7 +49,7 @@ class TaskModel:
         }
 
     @classmethod
-    def from_dict(cls, name: str, data: dict) -> "TaskModel":
+    def from_dict(cls, name: str, data: dict) -> TaskModel:
         return cls(name, int(data["n_recordings"]), Ellipsoid.from_matrix(np.asarray(data["S"], dtype=float)))
 
 
@@ -59,7 +59,9 @@ def mean_models(ellipsoids: pd.DataFrame, by: str) -> dict[str, TaskModel]:
     models = {}
     for name in order:
         members = ellipsoids[ellipsoids[by] == name]
-        models[name] = TaskModel(name, len(members), Ellipsoid.from_matrix(log_euclidean_mean(ellipsoid_matrices(members))))
+        models[name] = TaskModel(
+            name, len(members), Ellipsoid.from_matrix(log_euclidean_mean(ellipsoid_matrices(members)))
+        )
     return models
 
 
@@ -82,4 +84,4 @@ def load_task_models(path: str | Path, section: str = "tasks") -> dict[str, Task
         data = json.loads(path.read_text())
         return {name: TaskModel.from_dict(name, d) for name, d in data[section].items()}
     except (json.JSONDecodeError, KeyError, TypeError, ValueError) as exc:
-        raise BadInputError(path, f"not a task-models file ({type(exc).__name__}: {exc})")
+        raise BadInputError(path, f"not a task-models file ({type(exc).__name__}: {exc})") from exc

@@ -22,9 +22,10 @@ transformed to the object frame, so ingestion's frame transformation is exercise
 
 from __future__ import annotations
 
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable, Iterable
+from typing import Any
 
 import numpy as np
 from scipy import signal, stats
@@ -155,7 +156,12 @@ def _screwdriving(p: dict, t: np.ndarray, rng, scale: float, rate: float) -> Con
     fx = slip * np.cos(slip_dir) - across * np.sin(slip_dir)
     fy = slip * np.sin(slip_dir) + across * np.cos(slip_dir)
     force = np.column_stack([fx, fy, push])
-    twist = scale * p["twist_torque_nm"] * _lognormal(rng, p["twist_sd"]) * (np.sqrt(np.maximum(turn, 0)) - p["twist_offset"])
+    twist = (
+        scale
+        * p["twist_torque_nm"]
+        * _lognormal(rng, p["twist_sd"])
+        * (np.sqrt(np.maximum(turn, 0)) - p["twist_offset"])
+    )
     moment = np.column_stack([np.zeros(n), np.zeros(n), twist])
     alpha = np.deg2rad(rng.normal(p["tilt_deg"], p["tilt_sd_deg"]))
     return Contact(force, _tilt(alpha, rng.uniform(0, 2 * np.pi), 0.0), _contact_point(p, rng), moment)
@@ -166,7 +172,9 @@ TASK_MODELS: dict[str, Callable] = {"drawing": _drawing, "cutting": _cutting, "s
 
 def simulate_trial(config: dict[str, Any], trial: Trial, seed: int) -> tuple[np.ndarray, bool]:
     """Samples ``(n, 7)`` of one trial (t in s, N, N.m) and whether they are stored in the sensor frame."""
-    rng = np.random.default_rng([seed, list(TASK_GRASPS).index(trial.task), trial.subject, trial.trial, hash_grasp(trial.grasp)])
+    rng = np.random.default_rng(
+        [seed, list(TASK_GRASPS).index(trial.task), trial.subject, trial.trial, hash_grasp(trial.grasp)]
+    )
     sensor, p = config["sensor"], task_parameters(config, trial.task, trial.grasp)
     rate = float(sensor["rate_hz"])
     scale = (
@@ -227,7 +235,9 @@ def hash_grasp(grasp: str) -> int:
 def sensor_tool(config: dict[str, Any]) -> ToolConfig:
     sensor = config["sensor"]
     rotation = Rotation.from_euler("xyz", sensor["rotation_rpy_deg"], degrees=True).as_matrix()
-    return ToolConfig(name="sensorized_tool", sensor_position=np.asarray(sensor["position_m"], float), sensor_rotation=rotation)
+    return ToolConfig(
+        name="sensorized_tool", sensor_position=np.asarray(sensor["position_m"], float), sensor_rotation=rotation
+    )
 
 
 def tool_yaml(config: dict[str, Any]) -> str:

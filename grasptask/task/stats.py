@@ -52,7 +52,7 @@ def statistics_table(ellipsoids: pd.DataFrame) -> pd.DataFrame:
         for domain, stats in group_statistics(ellipsoid_matrices(members)).items():
             for stat, values in stats.items():
                 labels = ["x", "y", "z"] if stat == "proj" else ["1", "2", "3"]
-                for label, value in zip(labels, values):
+                for label, value in zip(labels, values, strict=True):
                     rows.append([group, task, grasp, domain, stat, label, round(float(value), 6)])
     return pd.DataFrame(rows, columns=STATS_COLUMNS)
 

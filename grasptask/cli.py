@@ -1,0 +1,205 @@
+"""``grasptask``: the command-line interface, a thin layer over :mod:`grasptask.stages`."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+
+from grasptask import __version__
+from grasptask.errors import BadInputError
+from grasptask.io.units import FORCE_UNITS, TIME_UNITS, TORQUE_UNITS
+from grasptask.paths import DEFAULT_SIMULATE_CONFIG
+
+
+class _Group(click.Group):
+    """Turns :class:`BadInputError` into one line on stderr and exit code 2."""
+
+    def invoke(self, ctx):
+        try:
+            return super().invoke(ctx)
+        except BadInputError as exc:
+            click.echo(f"error: {exc}", err=True)
+            raise click.exceptions.Exit(2) from None
+
+
+@click.group(cls=_Group, context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(__version__, prog_name="grasptask")
+def main():
+    """Task-oriented grasps for a multi-fingered hand, from sensorized-tool demonstrations.
+
+    Stages read and write files: simulate -> fit-task -> distances. Run `grasptask COMMAND --help` for each,
+    or `grasptask pipeline run pipelines/demo.yaml` for a whole pipeline.
+    """
+
+
+def _out_option(f):
+    return click.option(
+        "--out", required=True, type=click.Path(file_okay=False, path_type=Path), help="Output folder."
+    )(f)
+
+
+@main.command()
+@_out_option
+@click.option(
+    "--config",
+    "config_path",
+    type=click.Path(path_type=Path),
+    default=DEFAULT_SIMULATE_CONFIG,
+    show_default=True,
+    help="Simulator parameters (YAML).",
+)
+@click.option("--seed", type=int, default=0, show_default=True, help="Seed; the output is identical for a seed.")
+@click.option(
+    "--format",
+    "fmt",
+    type=click.Choice(["csv", "parquet"]),
+    default="csv",
+    show_default=True,
+    help="File format of the recordings.",
+)
+def simulate(out, config_path, seed, fmt):
+    """Simulate sensorized-tool demonstrations: 7 subjects x 3 trials of drawing (tripod, cylindrical and
+    power grasps), cutting and screw driving, 105 recordings plus manifest.csv."""
+    from grasptask.stages import run_simulate
+
+    summary = run_simulate(config_path, out, seed, fmt)
+    click.echo(f"wrote {summary['recordings']} recordings and {summary['manifest']}")
+
+
+@main.command("fit-task")
+@click.argument("inputs", nargs=-1, required=True, type=click.Path(path_type=Path))
+@_out_option
+@click.option(
+    "--bias-window",
+    type=click.FloatRange(min=0),
+    default=None,
+    help="Seconds of initial static data to subtract as bias, then drop (default: the manifest's "
+    "bias_window_s column, else none).",
+)
+@click.option(
+    "--trim-start", type=click.FloatRange(min=0), default=0.0, show_default=True, help="Seconds to drop at the start."
+)
+@click.option(
+    "--trim-end", type=click.FloatRange(min=0), default=0.0, show_default=True, help="Seconds to drop at the end."
+)
+@click.option(
+    "--lowpass",
+    type=click.FloatRange(min=0, min_open=True),
+    default=None,
+    help="Zero-phase Butterworth low-pass cutoff in Hz (default: no filtering).",
+)
+@click.option("--centered", is_flag=True, help="Use the covariance instead of the second moment about the origin.")
+@click.option("--skip-bad", is_flag=True, help="Set aside bad recordings, list them at the end, and go on.")
+@click.option("--task", default="unlabelled", show_default=True, help="Task label for plain recording files.")
+@click.option("--grasp", default="free", show_default=True, help="Grasp label for plain recording files.")
+@click.option(
+    "--frame",
+    type=click.Choice(["object", "sensor"]),
+    default="object",
+    show_default=True,
+    help="Frame of plain recording files.",
+)
+@click.option("--tool", type=click.Path(path_type=Path), default=None, help="Tool config for plain recording files.")
+@click.option("--torque-unit", type=click.Choice(list(TORQUE_UNITS)), default=None, help="Torque unit of plain files.")
+@click.option("--force-unit", type=click.Choice(list(FORCE_UNITS)), default=None, help="Force unit of plain files.")
+@click.option("--time-unit", type=click.Choice(list(TIME_UNITS)), default=None, help="Time unit of plain files.")
+def fit_task(
+    inputs,
+    out,
+    bias_window,
+    trim_start,
+    trim_end,
+    lowpass,
+    centered,
+    skip_bad,
+    task,
+    grasp,
+    frame,
+    tool,
+    torque_unit,
+    force_unit,
+    time_unit,
+):
+    """Fit a 6D task ellipsoid to each recording and a Log-Euclidean mean model to each task.
+
+    INPUTS is a manifest CSV (columns path, task, subject, trial, grasp and optionally id, frame, force_unit,
+    torque_unit, time_unit, tool, bias_window_s), or recording files that share the --task/--grasp labels.
+    Writes ellipsoids.parquet, task_models.json and stats.csv (the long format of the paper's Tables 1-10).
+    """
+    from grasptask.stages import run_fit_task
+    from grasptask.task.fit import FitOptions
+    from grasptask.task.preprocess import Preprocess
+
+    options = FitOptions(Preprocess(bias_window, trim_start, trim_end, lowpass), centered)
+    units = {"torque_unit": torque_unit, "force_unit": force_unit, "time_unit": time_unit}
+    result, stats = run_fit_task(
+        inputs, out, options, skip_bad, task=task, grasp=grasp, frame=frame, tool=tool, units=units
+    )
+    click.echo(_fit_summary(result.ellipsoids, stats))
+    click.echo(f"wrote {out}/ellipsoids.parquet, task_models.json, stats.csv")
+    if result.skipped:
+        click.echo(f"skipped {len(result.skipped)} bad recording(s):", err=True)
+        for exc in result.skipped:
+            click.echo(f"  {exc}", err=True)
+
+
+def _fit_summary(ellipsoids, stats) -> str:
+    """Per group (paper order): recordings and the mean main-axis lengths of the force and torque ellipsoids."""
+    main_axis = stats[(stats["stat"] == "mu") & (stats["axis"] == "3")]
+    counts = ellipsoids.groupby("group").size()
+    lines = [f"{'group':<24}{'n':>4}{'force main axis (N)':>22}{'torque main axis (N.cm)':>26}"]
+    for group, rows in main_axis.groupby("group", sort=False):
+        force, torque = (rows.loc[rows["domain"] == d, "value"].iloc[0] for d in ("force", "torque"))
+        lines.append(f"{group:<24}{counts[group]:>4}{force:>22.2f}{torque:>26.2f}")
+    return "\n".join(lines)
+
+
+def _number(value) -> str:
+    return "n/a" if value is None else f"{value:.3f}"
+
+
+@main.command()
+@click.argument("ellipsoids", type=click.Path(path_type=Path))
+@_out_option
+def distances(ellipsoids, out):
+    """Log-Euclidean distances between the ellipsoids of ELLIPSOIDS (ellipsoids.parquet): distances.parquet,
+    distance_summary.json (leave-one-out 1-NN accuracy, silhouette, within/between means), a heatmap ordered
+    as the paper's Figure 9 and a 2D embedding."""
+    from grasptask.stages import run_distances
+
+    summary = run_distances(ellipsoids, out)
+    by_task = summary["by_task"]
+    click.echo(
+        f"{by_task['n_ellipsoids']} ellipsoids, {len(by_task['labels'])} tasks: "
+        f"LOO 1-NN task accuracy {_number(by_task['loo_1nn_accuracy'])}, "
+        f"silhouette {_number(by_task.get('silhouette'))}, "
+        f"mean normalised distance within tasks {_number(by_task.get('mean_within_normalised'))}"
+        f" vs between {_number(by_task.get('mean_between_normalised'))}"
+    )
+    click.echo(f"wrote {out}/distances.parquet, distance_summary.json, distance_heatmap.png, distance_embedding.png")
+
+
+@main.group()
+def pipeline():
+    """Run declarative pipelines (pipelines/*.yaml)."""
+
+
+@pipeline.command("run")
+@click.argument("pipeline_file", type=click.Path(path_type=Path))
+@click.option("--force", is_flag=True, help="Run every stage even if its inputs and config are unchanged.")
+@click.option("--dry-run", is_flag=True, help="Say which stages would run, run nothing.")
+def pipeline_run(pipeline_file, force, dry_run):
+    """Run PIPELINE_FILE's stages in order, skipping a stage whose inputs and config are unchanged."""
+    from grasptask.pipeline.runner import load_pipeline, run_pipeline
+
+    spec = load_pipeline(pipeline_file)
+    outcome = run_pipeline(spec, force=force, dry_run=dry_run, echo=click.echo)
+    if outcome.failed:
+        raise click.exceptions.Exit(outcome.exit_code)
+    if spec.final_message:
+        click.echo(spec.final_message)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,175 @@
+"""Run a pipeline file.
+
+A pipeline file (YAML) lists stages; each runs one ``grasptask`` command with the arguments you would type::
+
+    name: demo
+    state: results/demo/.pipeline.json     # optional; where the runner remembers what it ran
+    final_message: "report: results/demo/report/index.html"   # optional, printed at the end
+    stages:
+      - name: simulate
+        run: simulate
+        args: [--out, results/demo/recordings, --seed, "0"]
+        inputs: [configs/simulate.yaml]          # files or folders the stage reads
+        outputs: [results/demo/recordings]       # what it makes
+
+A stage is skipped when its outputs exist and the hash of its command, arguments and inputs (every file
+under an input folder included) matches the last successful run. Arguments that name existing files count
+as inputs too. Paths are relative to the folder the runner is started from.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from grasptask.errors import BadInputError
+from grasptask.io.artifacts import config_hash, path_hash
+from grasptask.io.config import load_yaml, reject_unknown, require
+
+
+@dataclass(frozen=True)
+class Stage:
+    name: str
+    run: list[str]
+    args: list[str]
+    inputs: list[Path]
+    outputs: list[Path]
+
+    def input_paths(self) -> list[Path]:
+        """Declared inputs plus any argument that names an existing path outside this stage's outputs."""
+        found = list(self.inputs)
+        for token in self.args:
+            path = Path(token)
+            if token and not token.startswith("-") and path.exists() and not self._is_output(path):
+                found.append(path)
+        return list(dict.fromkeys(found))
+
+    def _is_output(self, path: Path) -> bool:
+        """The path is an output, lies inside one, or is a folder that holds one (such as ``--out``)."""
+        resolved = path.resolve()
+        for output in (o.resolve() for o in self.outputs):
+            if resolved == output or output in resolved.parents or resolved in output.parents:
+                return True
+        return False
+
+    def key(self) -> str:
+        inputs = {}
+        for path in self.input_paths():
+            inputs[str(path)] = path_hash(path) if path.exists() else "missing"
+        return config_hash({"run": self.run, "args": self.args, "inputs": inputs})
+
+
+@dataclass(frozen=True)
+class PipelineSpec:
+    name: str
+    path: Path
+    stages: list[Stage]
+    state_path: Path
+    final_message: str = ""
+
+
+@dataclass
+class Outcome:
+    ran: list[str] = field(default_factory=list)
+    skipped: list[str] = field(default_factory=list)
+    failed: str | None = None
+    exit_code: int = 0
+
+
+def load_pipeline(path: str | Path) -> PipelineSpec:
+    path = Path(path)
+    data = load_yaml(path)
+    reject_unknown(data, {"name", "description", "state", "final_message", "stages"}, path)
+    name = require(data, "name", path, str)
+    stages_data = require(data, "stages", path, list)
+    if not stages_data:
+        raise BadInputError(path, "no stages")
+    stages, names = [], set()
+    for index, item in enumerate(stages_data, start=1):
+        where = f"stages[{index}]."
+        if not isinstance(item, dict):
+            raise BadInputError(path, f"stage {index} must be a mapping")
+        reject_unknown(item, {"name", "run", "args", "inputs", "outputs"}, path, where)
+        stage_name = str(item.get("name", f"stage-{index}"))
+        if stage_name in names:
+            raise BadInputError(path, f"duplicate stage name '{stage_name}'")
+        names.add(stage_name)
+        run = str(require(item, "run", path, str)).split()
+        for key in ("args", "inputs", "outputs"):
+            if not isinstance(item.get(key, []), list):
+                raise BadInputError(path, f"field '{where}{key}' must be a list")
+        outputs = [Path(str(p)) for p in item.get("outputs", [])]
+        if not outputs:
+            raise BadInputError(path, f"field '{where}outputs' must name what the stage makes")
+        stages.append(
+            Stage(
+                name=stage_name,
+                run=run,
+                args=[str(a) for a in item.get("args", [])],
+                inputs=[Path(str(p)) for p in item.get("inputs", [])],
+                outputs=outputs,
+            )
+        )
+    state = Path(str(data.get("state", f"results/.pipeline/{name}.json")))
+    return PipelineSpec(name, path, stages, state, str(data.get("final_message", "")))
+
+
+def _load_state(path: Path) -> dict:
+    try:
+        return json.loads(path.read_text())
+    except (OSError, json.JSONDecodeError):
+        return {}
+
+
+def _save_state(path: Path, state: dict) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.tmp")
+    tmp.write_text(json.dumps(state, indent=2, sort_keys=True) + "\n")
+    os.replace(tmp, path)
+
+
+def run_stage(stage: Stage) -> int:
+    """Run one stage's command in this process; its exit code."""
+    from grasptask.cli import main
+
+    code = main.main(args=[*stage.run, *stage.args], prog_name="grasptask", standalone_mode=False)
+    return code if isinstance(code, int) else 0
+
+
+def run_pipeline(
+    spec: PipelineSpec,
+    force: bool = False,
+    dry_run: bool = False,
+    echo: Callable[[str], None] = print,
+    runner: Callable[[Stage], int] = run_stage,
+) -> Outcome:
+    state = _load_state(spec.state_path)
+    outcome = Outcome()
+    for number, stage in enumerate(spec.stages, start=1):
+        label = f"[{number}/{len(spec.stages)}] {stage.name}"
+        key = stage.key()
+        fresh = state.get(stage.name, {}).get("key") == key and all(o.exists() for o in stage.outputs)
+        if fresh and not force:
+            echo(f"{label}: unchanged, skipped")
+            outcome.skipped.append(stage.name)
+            continue
+        echo(f"{label}: grasptask {' '.join([*stage.run, *stage.args])}")
+        if dry_run:
+            outcome.ran.append(stage.name)
+            continue
+        start = time.perf_counter()
+        code = runner(stage)
+        if code != 0:
+            echo(f"{label}: failed with exit code {code}; later stages not run")
+            outcome.failed, outcome.exit_code = stage.name, code
+            return outcome
+        # the key is taken again after the run: a stage may have created inputs of its own (none do today)
+        state[stage.name] = {"key": stage.key(), "seconds": round(time.perf_counter() - start, 3)}
+        _save_state(spec.state_path, state)
+        outcome.ran.append(stage.name)
+        echo(f"{label}: done in {time.perf_counter() - start:.1f} s")
+    return outcome

@@ -1,0 +1,72 @@
+"""The pipeline runner: stages in order, skipped when unchanged, rerun downstream of a change, stop on failure."""
+
+import shutil
+
+import yaml
+
+from grasptask.pipeline.runner import load_pipeline, run_pipeline
+from tests.conftest import wrench_samples
+
+
+def write_pipeline(tmp_path, recording_dir, bad=False):
+    spec = {
+        "name": "t",
+        "state": str(tmp_path / "state.json"),
+        "stages": [
+            {
+                "name": "fit",
+                "run": "fit-task",
+                "args": [str(recording_dir / "rec.csv"), "--task", "drawing", "--out", str(tmp_path / "tasks")],
+                "outputs": [str(tmp_path / "tasks" / "ellipsoids.parquet")],
+            },
+            {
+                "name": "distances",
+                "run": "distances",
+                "args": [str(tmp_path / "tasks" / "ellipsoids.parquet"), "--out", str(tmp_path / "dist")],
+                "outputs": [str(tmp_path / "dist" / "distances.parquet")],
+            },
+        ],
+    }
+    path = tmp_path / "pipeline.yaml"
+    path.write_text(yaml.safe_dump(spec))
+    return path
+
+
+def test_runs_then_skips_then_reruns_after_a_change(tmp_path, recording_factory):
+    from grasptask.io.recordings import write_recording
+
+    recording_factory("rec.csv")
+    spec = load_pipeline(write_pipeline(tmp_path, tmp_path))
+    first = run_pipeline(spec, echo=lambda _: None)
+    assert first.ran == ["fit", "distances"] and first.failed is None
+    second = run_pipeline(spec, echo=lambda _: None)
+    assert second.skipped == ["fit", "distances"]
+    write_recording(tmp_path / "rec.csv", wrench_samples(seed=9))
+    third = run_pipeline(spec, echo=lambda _: None)
+    assert third.ran == ["fit", "distances"]
+    shutil.rmtree(tmp_path / "dist")
+    fourth = run_pipeline(spec, echo=lambda _: None)
+    assert fourth.skipped == ["fit"] and fourth.ran == ["distances"]
+    assert run_pipeline(spec, force=True, echo=lambda _: None).ran == ["fit", "distances"]
+
+
+def test_a_failing_stage_stops_the_pipeline_with_its_exit_code(tmp_path):
+    (tmp_path / "rec.csv").write_text("")
+    spec = load_pipeline(write_pipeline(tmp_path, tmp_path))
+    messages = []
+    outcome = run_pipeline(spec, echo=messages.append)
+    assert outcome.failed == "fit" and outcome.exit_code == 2
+    assert outcome.ran == [] and not (tmp_path / "dist").exists()
+    assert any("failed with exit code 2" in m for m in messages)
+
+
+def test_pipeline_cli_and_bad_pipeline_file(tmp_path, cli):
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("name: x\nstages:\n  - run: simulate\n")
+    result = cli("pipeline", "run", bad)
+    assert result.exit_code == 2 and "outputs" in result.output
+
+
+def test_bundled_demo_pipeline_parses():
+    spec = load_pipeline("pipelines/demo.yaml")
+    assert [s.name for s in spec.stages] == ["simulate", "fit-task", "distances"]

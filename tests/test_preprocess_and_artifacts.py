@@ -1,0 +1,93 @@
+"""Preprocessing, atomic artifacts with provenance, and the distance computation against brute force."""
+
+import json
+
+import numpy as np
+import pandas as pd
+import pytest
+import scipy.linalg
+
+from grasptask.io.artifacts import Provenance, StagedOutput, read_parquet_provenance
+from grasptask.task import preprocess
+from grasptask.task.distances import compute_distances, loo_1nn_accuracy
+from tests.test_spd import random_spd
+
+
+def test_bias_removal_subtracts_the_static_window_and_drops_it():
+    t = np.arange(1000) / 500.0
+    wrenches = np.zeros((1000, 6)) + [0.3, -0.2, 1.0, 0.01, 0.0, -0.02]
+    wrenches[t >= 0.5, 2] += 2.0
+    kept_t, kept = preprocess.remove_bias(t, wrenches, 0.5)
+    assert kept_t[0] >= 0.5
+    np.testing.assert_allclose(kept, np.tile([0, 0, 2.0, 0, 0, 0], (len(kept), 1)), atol=1e-12)
+
+
+def test_lowpass_keeps_slow_motion_and_removes_fast_noise():
+    t = np.arange(5000) / 1000.0
+    slow = np.sin(2 * np.pi * 1.0 * t)
+    fast = 0.5 * np.sin(2 * np.pi * 200.0 * t)
+    filtered = preprocess.lowpass(t, np.column_stack([slow + fast] * 6), cutoff_hz=20.0)
+    assert np.abs(filtered[100:-100, 0] - slow[100:-100]).max() < 0.01
+
+
+def test_lowpass_rejects_a_cutoff_above_nyquist():
+    t = np.arange(100) / 100.0
+    with pytest.raises(ValueError, match="Nyquist"):
+        preprocess.lowpass(t, np.zeros((100, 6)), cutoff_hz=60.0)
+
+
+def test_staged_output_writes_nothing_when_the_command_fails(tmp_path):
+    out = tmp_path / "out"
+    with pytest.raises(RuntimeError):
+        with StagedOutput(out, Provenance.of("test", {})) as staged:
+            staged.write_csv("a.csv", pd.DataFrame({"x": [1]}))
+            raise RuntimeError("boom")
+    assert not out.exists()
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_artifacts_carry_provenance(tmp_path):
+    source = tmp_path / "input.txt"
+    source.write_text("hello")
+    provenance = Provenance.of("test", {"a": 1}, [source], seed=7)
+    with StagedOutput(tmp_path / "out", provenance) as staged:
+        staged.write_parquet("t.parquet", pd.DataFrame({"x": [1.0]}))
+        staged.write_json("m.json", {"value": 1})
+        staged.write_csv("s.csv", pd.DataFrame({"x": [1]}))
+    recorded = read_parquet_provenance(tmp_path / "out" / "t.parquet")
+    assert recorded["seed"] == 7 and recorded["inputs"][str(source)] == provenance.inputs[str(source)]
+    assert json.loads((tmp_path / "out" / "m.json").read_text())["provenance"]["config_hash"] == provenance.config_hash
+    ledger = json.loads((tmp_path / "out" / "provenance.json").read_text())
+    assert set(ledger) == {"t.parquet", "m.json", "s.csv"}
+    assert ledger["s.csv"]["version"]
+
+
+def test_distance_matrix_matches_pairwise_scipy_logm():
+    rng = np.random.default_rng(0)
+    matrices = [random_spd(rng) for _ in range(6)]
+    table = pd.DataFrame(
+        {
+            "id": [f"e{k}" for k in range(6)],
+            "task": ["a"] * 3 + ["b"] * 3,
+            "grasp": "free",
+            "group": ["a"] * 3 + ["b"] * 3,
+            "subject": "1",
+            "trial": range(6),
+            "S": [m.ravel() for m in matrices],
+        }
+    )
+    distances = compute_distances(table)
+    for i in range(6):
+        for j in range(6):
+            expected = np.linalg.norm(scipy.linalg.logm(matrices[i]).real - scipy.linalg.logm(matrices[j]).real)
+            assert np.isclose(distances.raw[i, j], expected, rtol=1e-7, atol=1e-9)
+    long = distances.long_table()
+    assert len(long) == 36 and np.isclose(long["distance_normalised"].max(), 1.0)
+
+
+def test_loo_1nn_accuracy_on_a_known_layout():
+    # 2.0 (a) and 2.4 (b) are each other's nearest neighbours, so both are misclassified
+    points = np.array([0.0, 1.0, 2.0, 10.0, 11.0, 2.4])
+    distances = np.abs(points[:, None] - points[None, :])
+    labels = np.array(["a", "a", "a", "b", "b", "b"])
+    assert loo_1nn_accuracy(distances, labels) == pytest.approx(4 / 6)
