@@ -119,7 +119,14 @@ def run_distances(ellipsoids_path: str | Path, out: str | Path) -> dict:
     distances = compute_distances(ellipsoids)
     summary = distances.summary()
     with StagedOutput(out, Provenance.of("distances", {}, [ellipsoids_path])) as staged:
-        staged.write_parquet("distances.parquet", distances.long_table())
+        # k^2 rows of floats that do not compress: no codec, dictionaries and statistics only for the ids
+        staged.write_parquet(
+            "distances.parquet",
+            distances.long_table(),
+            compression="none",
+            use_dictionary=["id_a", "id_b"],
+            write_statistics=["id_a", "id_b"],
+        )
         staged.write_json("distance_summary.json", summary)
         staged.write_with("distance_heatmap.png", partial(plot_heatmap, distances))
         staged.write_with("distance_embedding.png", partial(plot_embedding, distances))

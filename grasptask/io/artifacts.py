@@ -121,11 +121,12 @@ class StagedOutput:
         payload = {**payload, "provenance": self.provenance.to_dict()}
         self.path(name).write_text(json.dumps(payload, indent=2, default=_jsonable) + "\n")
 
-    def write_parquet(self, name: str, frame: pd.DataFrame) -> None:
+    def write_parquet(self, name: str, frame: pd.DataFrame, **options: Any) -> None:
+        """``options`` go to ``pyarrow.parquet.write_table`` (compression, statistics, dictionaries)."""
         table = pa.Table.from_pandas(frame, preserve_index=False)
         meta = dict(table.schema.metadata or {})
         meta[b"grasptask.provenance"] = json.dumps(self.provenance.to_dict()).encode()
-        pq.write_table(table.replace_schema_metadata(meta), self.path(name))
+        pq.write_table(table.replace_schema_metadata(meta), self.path(name), **options)
 
     def write_csv(self, name: str, frame: pd.DataFrame) -> None:
         frame.to_csv(self.path(name), index=False)

@@ -108,7 +108,8 @@ def _to_float(path: Path, table: pa.Table, wanted: list[str], names: list[str]) 
     if table.num_rows == 0:
         raise BadInputError(path, f"no samples (at least {MIN_SAMPLES} are needed)")
     order = {name: file_name for file_name, name in zip(wanted, names, strict=True)}
-    data = np.empty((table.num_rows, len(CANONICAL_COLUMNS)))
+    # column-major, so that each column is copied in one contiguous run
+    data = np.empty((table.num_rows, len(CANONICAL_COLUMNS)), order="F")
     for k, name in enumerate(CANONICAL_COLUMNS):
         column = table.column(order[name])
         if pa.types.is_string(column.type) or pa.types.is_large_string(column.type):
@@ -119,7 +120,10 @@ def _to_float(path: Path, table: pa.Table, wanted: list[str], names: list[str]) 
                 raise BadInputError(path, f"non-numeric value {column[row].as_py()!r}", row=row + 1, column=order[name])
             data[:, k] = values.to_numpy(dtype=float)
         elif pa.types.is_integer(column.type) or pa.types.is_floating(column.type):
-            data[:, k] = column.to_numpy(zero_copy_only=False)
+            start = 0
+            for chunk in column.chunks:  # one copy, straight from Arrow's buffers (nulls become NaN)
+                data[start : start + len(chunk), k] = chunk.to_numpy(zero_copy_only=False)
+                start += len(chunk)
         else:
             raise BadInputError(path, f"non-numeric column of type {column.type}", column=order[name])
     return data
@@ -143,6 +147,8 @@ def write_recording(path: Path, data: np.ndarray) -> None:
     """Write ``(n, 7)`` samples with the canonical header; the format follows the suffix."""
     table = pa.table({name: data[:, k] for k, name in enumerate(CANONICAL_COLUMNS)})
     if path.suffix == ".csv":
-        pacsv.write_csv(table, path, pacsv.WriteOptions(quoting_style="none"))
+        with open(path, "wb") as handle:
+            handle.write((",".join(CANONICAL_COLUMNS) + "\n").encode())
+            pacsv.write_csv(table, handle, pacsv.WriteOptions(include_header=False, quoting_style="none"))
     else:
         pq.write_table(table, path)

@@ -20,11 +20,29 @@ def _group_spans(groups: np.ndarray) -> list[tuple[str, int, int]]:
     return spans
 
 
+#: beyond this many ellipsoids the heatmap shows block means; a figure cannot show more pixels anyway
+MAX_HEATMAP_CELLS = 600
+
+
+def _block_mean(matrix: np.ndarray, size: int) -> np.ndarray:
+    """``matrix`` averaged over about ``size`` x ``size`` equal blocks (unchanged if already small enough)."""
+    k = len(matrix)
+    if k <= size:
+        return matrix
+    edges = np.linspace(0, k, size + 1).astype(int)
+    rows = np.add.reduceat(matrix, edges[:-1], axis=0) / np.diff(edges)[:, None]
+    return np.add.reduceat(rows, edges[:-1], axis=1) / np.diff(edges)[None, :]
+
+
 def plot_heatmap(distances: Distances, path: Path) -> None:
     apply_style()
     groups = distances.table["group"].to_numpy()
     fig, ax = plt.subplots(figsize=(7.2, 6.2))
-    image = ax.imshow(distances.normalised, cmap="viridis", vmin=0, vmax=1, interpolation="nearest")
+    shown = _block_mean(distances.normalised, MAX_HEATMAP_CELLS)
+    k = len(groups)
+    image = ax.imshow(
+        shown, cmap="viridis", vmin=0, vmax=1, interpolation="nearest", extent=(-0.5, k - 0.5, k - 0.5, -0.5)
+    )
     fig.colorbar(image, ax=ax, label="normalised Log-Euclidean distance")
     ticks, labels = [], []
     for name, start, stop in _group_spans(groups):

@@ -91,12 +91,14 @@ class Distances:
         }
 
     def long_table(self) -> pd.DataFrame:
-        ids = self.table["id"].to_numpy()
+        """Every ordered pair ``(id_a, id_b)``; ids are categorical, so k^2 rows cost k strings."""
+        ids = self.table["id"].astype(str).to_numpy()
         k = len(ids)
+        codes = np.arange(k, dtype=np.int32)
         return pd.DataFrame(
             {
-                "id_a": np.repeat(ids, k),
-                "id_b": np.tile(ids, k),
+                "id_a": pd.Categorical.from_codes(np.repeat(codes, k), categories=ids),
+                "id_b": pd.Categorical.from_codes(np.tile(codes, k), categories=ids),
                 "distance": self.raw.ravel(),
                 "distance_normalised": self.normalised.ravel(),
             }

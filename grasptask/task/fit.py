@@ -33,8 +33,11 @@ def load_wrenches(entry: RecordingEntry, tool: ToolConfig | None = None, options
     data = read_recording(entry.path, tool.columns, tool.ignore_columns)
     units = {**tool.units, **entry.units}
     factor = {key: table[units.get(key, next(iter(table)))] for key, table in UNIT_TABLES.items()}
-    t = data[:, 0] * factor["time_unit"]
-    wrenches = data[:, 1:] * np.repeat([factor["force_unit"], factor["torque_unit"]], 3)
+    t, wrenches = data[:, 0], data[:, 1:]
+    if factor["time_unit"] != 1.0:
+        t = t * factor["time_unit"]
+    if factor["force_unit"] != 1.0 or factor["torque_unit"] != 1.0:
+        wrenches = wrenches * np.repeat([factor["force_unit"], factor["torque_unit"]], 3)
     if entry.frame == "sensor":
         wrenches = transform_wrenches(wrenches, tool.sensor_rotation, tool.sensor_position)
     try:
