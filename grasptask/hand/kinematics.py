@@ -1,0 +1,132 @@
+"""Forward kinematics of the hand, vectorised over configurations (paper eq. 2, Appendix 10.2).
+
+Each finger is a chain from its base in the palm frame: joint k turns about its axis (in the frame of the link
+before it), then link k extends along its own x. Everything is computed for a batch of ``N`` configurations
+at once and returned in the object frame, given the palm pose ``(R_h, d_h)``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from grasptask.hand.model import Finger, Hand
+
+
+def axis_rotations(axis: np.ndarray, angles: np.ndarray) -> np.ndarray:
+    """Rodrigues: ``(N, 3, 3)`` rotations by ``angles`` about the unit ``axis``."""
+    k = np.array([[0.0, -axis[2], axis[1]], [axis[2], 0.0, -axis[0]], [-axis[1], axis[0], 0.0]])
+    s, c = np.sin(angles)[:, None, None], np.cos(angles)[:, None, None]
+    return np.eye(3) + s * k + (1.0 - c) * (k @ k)
+
+
+@dataclass
+class FingerPose:
+    """One finger in a batch of ``N`` configurations, in the object frame."""
+
+    joint_positions: np.ndarray  # (N, n+1, 3): each joint's origin, then the fingertip end
+    joint_axes: np.ndarray  # (N, n, 3): each joint's axis
+    link_rotations: np.ndarray  # (N, n, 3, 3): each link's frame after its joint
+    contact: np.ndarray  # (N, 3): the fingertip pad point
+    pad_normal: np.ndarray  # (N, 3): outward normal of the pad
+    jacobian: np.ndarray  # (N, 3, n): d contact / d joint angles
+    samples: np.ndarray  # (N, s, 3): collision sample points on the phalanges
+    radius: float
+
+
+@dataclass
+class HandPose:
+    fingers: dict[str, FingerPose]
+    palm_samples: np.ndarray  # (N, k, 3)
+    palm_radius: float
+
+    def contacts(self) -> np.ndarray:
+        """``(N, b, 3)`` pad points of the fingers, in order."""
+        return np.stack([f.contact for f in self.fingers.values()], axis=1)
+
+    def pad_normals(self) -> np.ndarray:
+        return np.stack([f.pad_normal for f in self.fingers.values()], axis=1)
+
+    def collision_spheres(self) -> tuple[np.ndarray, np.ndarray]:
+        """All sample points ``(N, s, 3)`` and their radii ``(s,)``: phalanges, then palm."""
+        points = [f.samples for f in self.fingers.values()] + [self.palm_samples]
+        radii = [np.full(f.samples.shape[1], f.radius) for f in self.fingers.values()]
+        radii.append(np.full(self.palm_samples.shape[1], self.palm_radius))
+        return np.concatenate(points, axis=1), np.concatenate(radii)
+
+
+def finger_forward(finger: Finger, q: np.ndarray) -> FingerPose:
+    """Finger ``finger`` at joint angles ``q`` ``(N, n)``, in the palm frame."""
+    n_conf = len(q)
+    rotation = np.broadcast_to(finger.base_rotation, (n_conf, 3, 3))
+    position = np.broadcast_to(finger.base_position, (n_conf, 3))
+    positions, axes, rotations, samples = [position], [], [], []
+    last_link = max(k for k, j in enumerate(finger.joints) if j.link > 0)
+    for k, joint in enumerate(finger.joints):
+        axes.append(rotation @ joint.axis)
+        rotation = rotation @ axis_rotations(joint.axis, q[:, k])
+        rotations.append(rotation)
+        if joint.link > 0:
+            fractions = finger.distal_sample_fractions if k == last_link else finger.sample_fractions
+            for f in fractions:
+                samples.append(position + rotation[:, :, 0] * (f * joint.link))
+            distal_start, distal_rotation, distal_length = position, rotation, joint.link
+            position = position + rotation[:, :, 0] * joint.link
+        positions.append(position)
+    contact = distal_start + distal_rotation[:, :, 0] * (finger.pad_along * distal_length)
+    contact = contact + distal_rotation[:, :, 2] * finger.radius
+    joint_positions = np.stack(positions[:-1], axis=1)
+    axes_arr = np.stack(axes, axis=1)
+    jacobian = np.cross(axes_arr, contact[:, None, :] - joint_positions).transpose(0, 2, 1)
+    return FingerPose(
+        joint_positions=np.stack(positions, axis=1),
+        joint_axes=axes_arr,
+        link_rotations=np.stack(rotations, axis=1),
+        contact=contact,
+        pad_normal=distal_rotation[:, :, 2],
+        jacobian=jacobian,
+        samples=np.stack(samples, axis=1),
+        radius=finger.radius,
+    )
+
+
+def _to_object(pose: FingerPose, rotation: np.ndarray, position: np.ndarray) -> FingerPose:
+    def point(x):
+        return np.einsum("nij,n...j->n...i", rotation, x) + position.reshape(len(position), *([1] * (x.ndim - 2)), 3)
+
+    def vector(x):
+        return np.einsum("nij,n...j->n...i", rotation, x)
+
+    return FingerPose(
+        joint_positions=point(pose.joint_positions),
+        joint_axes=vector(pose.joint_axes),
+        link_rotations=np.einsum("nij,nkjl->nkil", rotation, pose.link_rotations),
+        contact=point(pose.contact[:, None, :])[:, 0],
+        pad_normal=vector(pose.pad_normal[:, None, :])[:, 0],
+        jacobian=rotation @ pose.jacobian,
+        samples=point(pose.samples),
+        radius=pose.radius,
+    )
+
+
+def forward(
+    hand: Hand,
+    q: np.ndarray,
+    palm_rotation: np.ndarray | None = None,
+    palm_position: np.ndarray | None = None,
+) -> HandPose:
+    """The hand at joint angles ``q`` (``(n,)`` or ``(N, n)``, ordered as ``hand.joint_names``) with the palm at
+    ``(R_h, d_h)`` (``(3, 3)``/``(3,)`` or batched) in the object frame. Coupled joints are taken as given."""
+    q = np.atleast_2d(np.asarray(q, dtype=float))
+    n_conf = len(q)
+    rotation = np.eye(3) if palm_rotation is None else np.asarray(palm_rotation, dtype=float)
+    position = np.zeros(3) if palm_position is None else np.asarray(palm_position, dtype=float)
+    rotation = np.broadcast_to(rotation, (n_conf, 3, 3))
+    position = np.broadcast_to(position, (n_conf, 3))
+    fingers = {
+        name: _to_object(finger_forward(finger, q[:, cols]), rotation, position)
+        for (name, finger), cols in zip(hand.fingers.items(), hand.slices().values(), strict=True)
+    }
+    palm = np.einsum("nij,kj->nki", rotation, hand.palm.points) + position[:, None, :]
+    return HandPose(fingers, palm, hand.palm.radius)

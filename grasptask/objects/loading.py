@@ -1,0 +1,95 @@
+"""Object configs (``configs/objects/*.yaml``)::
+
+    type: superquadric
+    name: sensorized_tool
+    size_m: [0.01, 0.01, 0.10]        # half-sizes a1, a2, a3
+    exponents: [0.1, 1.0]             # e1, e2
+    pose: {position_m: [0, 0, 0], rotation_rpy_deg: [0, 0, 0]}
+
+    type: gp
+    name: mug
+    mesh: ../../data/objects/mug.stl  # or points_csv: a CSV with columns x, y, z, nx, ny, nz (outward normals)
+    n_support: 250                    # surface support points to start from (spread evenly)
+    max_support: 500                  # more are added where the fit misses the surface by over tolerance_m
+    tolerance_m: 0.0005
+    seed: 0
+
+Paths are relative to the config file. An optional ``symmetry`` entry describes the object's symmetry for
+clustering grasps.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import trimesh
+from scipy.spatial.transform import Rotation
+
+from grasptask.errors import BadInputError
+from grasptask.io.config import load_yaml, reject_unknown, require
+from grasptask.objects.gp import GPImplicitSurface
+from grasptask.objects.superquadric import Superquadric
+from grasptask.objects.surface import ImplicitObject
+from grasptask.paths import CONFIG_DIR
+
+DEFAULT_OBJECT = CONFIG_DIR / "objects" / "tool.yaml"
+POINT_COLUMNS = ["x", "y", "z", "nx", "ny", "nz"]
+
+
+def load_object(path: str | Path = DEFAULT_OBJECT) -> ImplicitObject:
+    path = Path(path)
+    data = load_yaml(path)
+    kind = require(data, "type", path, str)
+    common = {"type", "name", "description", "symmetry"}
+    if kind == "superquadric":
+        reject_unknown(data, common | {"size_m", "exponents", "pose"}, path)
+        size = np.asarray(require(data, "size_m", path, list), dtype=float)
+        e1, e2 = (float(e) for e in require(data, "exponents", path, list))
+        if size.shape != (3,) or np.any(size <= 0) or not (0 < e1 <= 2 and 0 < e2 <= 2):
+            raise BadInputError(path, "need 3 positive half-sizes and exponents in (0, 2]")
+        pose = data.get("pose", {}) or {}
+        rotation = Rotation.from_euler("xyz", pose.get("rotation_rpy_deg", [0, 0, 0]), degrees=True).as_matrix()
+        position = np.asarray(pose.get("position_m", [0, 0, 0]), dtype=float)
+        return Superquadric(size, e1, e2, rotation, position, str(data.get("name", path.stem)))
+    if kind == "gp":
+        allowed = {"mesh", "points_csv", "n_support", "max_support", "tolerance_m", "seed", "n_samples"}
+        reject_unknown(data, common | allowed, path)
+        points, normals = _surface_samples(path, data)
+        return GPImplicitSurface.fit(
+            points,
+            normals,
+            n_support=int(data.get("n_support", 250)),
+            max_support=int(data.get("max_support", 500)),
+            tolerance=float(data.get("tolerance_m", 5e-4)),
+            seed=int(data.get("seed", 0)),
+            name=str(data.get("name", path.stem)),
+        )
+    raise BadInputError(path, f"unknown object type '{kind}' (known: superquadric, gp)")
+
+
+def _surface_samples(path: Path, data: dict) -> tuple[np.ndarray, np.ndarray]:
+    if "mesh" in data:
+        mesh_path = path.parent / str(data["mesh"])
+        if not mesh_path.is_file():
+            raise BadInputError(path, f"mesh file not found: {mesh_path}")
+        mesh = trimesh.load(mesh_path, force="mesh")
+        if not mesh.is_watertight:
+            raise BadInputError(mesh_path, "mesh is not closed (watertight), so inside and outside are undefined")
+        points, faces = trimesh.sample.sample_surface_even(mesh, int(data.get("n_samples", 6000)), seed=0)
+        return np.asarray(points), np.asarray(mesh.face_normals[faces])
+    if "points_csv" in data:
+        csv = path.parent / str(data["points_csv"])
+        if not csv.is_file():
+            raise BadInputError(path, f"point file not found: {csv}")
+        frame = pd.read_csv(csv)
+        for column in POINT_COLUMNS:
+            if column not in frame.columns:
+                raise BadInputError(csv, "missing column", column=column)
+        values = frame[POINT_COLUMNS].to_numpy(dtype=float)
+        if not np.isfinite(values).all():
+            row = int(np.argwhere(~np.isfinite(values))[0, 0]) + 1
+            raise BadInputError(csv, "NaN or infinite value", row=row)
+        return values[:, :3], values[:, 3:]
+    raise BadInputError(path, "a gp object needs 'mesh' or 'points_csv'")

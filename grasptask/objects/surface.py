@@ -1,0 +1,111 @@
+"""What every object offers, and a dense sampling of its surface for exact distances and rendering.
+
+An object is an implicit function ``g`` (``< 0`` inside, ``0`` on the surface, ``> 0`` outside) with its
+gradient. :class:`SurfaceIndex` turns any such object into points on its surface (marching cubes on a grid, a
+dense area-uniform resampling, then Newton projection onto ``g = 0``) with a k-d tree, giving the Euclidean
+signed distance of any point to an accuracy far below a millimetre. The verifier uses it, not ``g`` or the
+radial distance, to judge contacts and clearances.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+import trimesh
+from scipy.spatial import cKDTree
+from skimage import measure
+
+
+class ImplicitObject:
+    """Base class: subclasses define ``g``, ``gradient`` and ``bounds``."""
+
+    name: str = "object"
+
+    def g(self, p: np.ndarray) -> np.ndarray:
+        raise NotImplementedError
+
+    def gradient(self, p: np.ndarray) -> np.ndarray:
+        raise NotImplementedError
+
+    def bounds(self) -> np.ndarray:
+        """``(2, 3)`` axis-aligned box containing the object."""
+        raise NotImplementedError
+
+    def normal(self, p: np.ndarray) -> np.ndarray:
+        """Outward unit normal ``grad g / |grad g|`` at ``(N, 3)`` points."""
+        grad = self.gradient(p)
+        return grad / np.linalg.norm(grad, axis=-1, keepdims=True)
+
+    @property
+    def characteristic_length(self) -> float:
+        """Largest distance from the object's centre to its surface: torque scale for the epsilon metric."""
+        return float(np.linalg.norm(self.surface.points - self.centre, axis=1).max())
+
+    @property
+    def centre(self) -> np.ndarray:
+        return np.asarray(getattr(self, "position", self.bounds().mean(axis=0)), dtype=float)
+
+    @cached_property
+    def surface(self) -> "SurfaceIndex":
+        return SurfaceIndex.build(self)
+
+    def signed_distance(self, p: np.ndarray) -> np.ndarray:
+        """Euclidean signed distance (m) from ``(N, 3)`` points to the surface, negative inside."""
+        return self.surface.signed_distance(np.atleast_2d(p), self)
+
+    def project(self, p: np.ndarray, iterations: int = 6) -> np.ndarray:
+        """Newton steps along the gradient onto ``g = 0`` (for points already near the surface)."""
+        x = np.array(p, dtype=float, copy=True)
+        for _ in range(iterations):
+            grad = self.gradient(x)
+            x -= (self.g(x) / np.maximum((grad * grad).sum(axis=1), 1e-300))[:, None] * grad
+        return x
+
+
+@dataclass
+class SurfaceIndex:
+    points: np.ndarray
+    normals: np.ndarray
+    mesh: trimesh.Trimesh
+    spacing: float
+    tree: cKDTree
+
+    @classmethod
+    def build(cls, obj: ImplicitObject, grid_cells: int = 250_000, spacing: float = 4e-4, max_points: int = 300_000):
+        low, high = obj.bounds()
+        extent = high - low
+        h = float(np.cbrt(np.prod(extent) / grid_cells))
+        h = min(h, extent.min() / 12)
+        low, high = low - 2 * h, high + 2 * h
+        axes = [np.arange(lo, hi + h, h) for lo, hi in zip(low, high, strict=True)]
+        grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
+        values = np.concatenate([obj.g(chunk) for chunk in np.array_split(grid, max(1, len(grid) // 50_000))])
+        volume = values.reshape([len(a) for a in axes])
+        verts, faces, _, _ = measure.marching_cubes(volume, level=0.0, spacing=(h, h, h))
+        mesh = trimesh.Trimesh(verts + low, faces, process=True)
+        mesh.vertices = obj.project(np.asarray(mesh.vertices))
+        count = int(min(max_points, max(2000, mesh.area / spacing**2)))
+        samples, _ = trimesh.sample.sample_surface(mesh, count, seed=0)
+        points = obj.project(np.asarray(samples))
+        normals = obj.normal(points)
+        actual = float(np.sqrt(mesh.area / count))
+        return cls(points, normals, mesh, actual, cKDTree(points))
+
+    def signed_distance(self, p: np.ndarray, obj: ImplicitObject) -> np.ndarray:
+        distance, index = self.tree.query(p)
+        offset = p - self.points[index]
+        along_normal = (offset * self.normals[index]).sum(axis=1)
+        # near the surface the tangent plane of the nearest sample is exact to second order
+        near = distance < 3 * self.spacing
+        far_sign = np.sign(obj.g(p[~near])) if (~near).any() else np.empty(0)
+        out = np.empty(len(p))
+        out[near] = along_normal[near]
+        out[~near] = far_sign * distance[~near]
+        return out
+
+    def nearest(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Nearest surface sample and its outward normal for each of ``(N, 3)`` points."""
+        _, index = self.tree.query(np.atleast_2d(p))
+        return self.points[index], self.normals[index]
