@@ -89,7 +89,7 @@ class Hand:
             start += finger.n_joints
         return out
 
-    def subset(self, names) -> "Hand":
+    def subset(self, names) -> Hand:
         """The same hand with only the named fingers (in the given order), e.g. the grasping fingers."""
         names = list(names)
         unknown = [n for n in names if n not in self.fingers]
@@ -97,7 +97,7 @@ class Hand:
             raise KeyError(f"no finger '{unknown[0]}' in hand '{self.name}'")
         return Hand(self.name, {n: self.fingers[n] for n in names}, self.palm, tuple(names), self.sources)
 
-    def grasping_hand(self) -> "Hand":
+    def grasping_hand(self) -> Hand:
         return self.subset(self.grasping)
 
     @property

@@ -20,11 +20,12 @@ the tolerance or the support budget is spent.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 from scipy.spatial import cKDTree
 
-from grasptask.objects.surface import ImplicitObject
+from grasptask.objects.surface import ImplicitObject, SurfaceIndex
 
 #: offsets along the normals (m) at which signed-distance targets are placed: outward (+) and inward (-)
 OFFSETS = (0.004, 0.010, 0.020, -0.004, -0.010)
@@ -41,9 +42,17 @@ def farthest_point_sample(points: np.ndarray, k: int, seed: int = 0) -> np.ndarr
     return np.array(chosen)
 
 
+def _chunked(function, points: np.ndarray, width: int, rows: int = 4096) -> np.ndarray:
+    """``function`` over blocks of rows, so that no (points x support) array outgrows a few hundred MB."""
+    out = np.empty((len(points), width) if width > 1 else len(points))
+    for start in range(0, len(points), rows):
+        out[start : start + rows] = function(points[start : start + rows])
+    return out
+
+
 def _cubed_distances(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    squared = (a * a).sum(1)[:, None] + (b * b).sum(1)[None, :] - 2 * a @ b.T
-    return np.maximum(squared, 0.0) ** 1.5
+    squared = np.maximum((a * a).sum(1)[:, None] + (b * b).sum(1)[None, :] - 2 * a @ b.T, 0.0)
+    return squared * np.sqrt(squared)
 
 
 def _training_set(points, normals, tree, chosen, offsets):
@@ -66,16 +75,25 @@ class GPImplicitSurface(ImplicitObject):
     name: str = "gp"
 
     def g(self, p: np.ndarray) -> np.ndarray:
-        p = np.atleast_2d(p)
-        return (
-            _cubed_distances(p, self.support) @ self.alpha + self.mean_coefficients[0] + p @ self.mean_coefficients[1:]
-        )
+        return _chunked(self._g, np.atleast_2d(p), 1)
 
     def gradient(self, p: np.ndarray) -> np.ndarray:
-        p = np.atleast_2d(p)
-        diff = p[:, None, :] - self.support[None, :, :]
-        r = np.sqrt((diff**2).sum(axis=2))
-        return 3 * np.einsum("nk,nkd->nd", r * self.alpha, diff) + self.mean_coefficients[1:]
+        return _chunked(self._gradient, np.atleast_2d(p), 3)
+
+    def _g(self, p: np.ndarray) -> np.ndarray:
+        linear = self.mean_coefficients[0] + p @ self.mean_coefficients[1:]
+        return _cubed_distances(p, self.support) @ self.alpha + linear
+
+    def _gradient(self, p: np.ndarray) -> np.ndarray:
+        # grad |p - x|^3 = 3 |p - x| (p - x), summed without forming the (n, K, 3) differences
+        squared = (p * p).sum(1)[:, None] + (self.support**2).sum(1)[None, :] - 2 * p @ self.support.T
+        weights = 3 * np.sqrt(np.maximum(squared, 0.0)) * self.alpha
+        return weights.sum(axis=1)[:, None] * p - weights @ self.support + self.mean_coefficients[1:]
+
+    @cached_property
+    def surface(self) -> SurfaceIndex:
+        # each GP evaluation costs a sum over every support point: sample the surface a little more sparsely
+        return SurfaceIndex.build(self, spacing=1e-3)
 
     def margin(self, p: np.ndarray) -> np.ndarray:
         """First-order distance to the surface, ``g / |grad g|`` (m)."""
@@ -107,7 +125,7 @@ class GPImplicitSurface(ImplicitObject):
         offsets=OFFSETS,
         seed: int = 0,
         name: str = "gp",
-    ) -> "GPImplicitSurface":
+    ) -> GPImplicitSurface:
         """Fit to surface points with outward normals (see the module docstring)."""
         points, normals = np.asarray(points, float), np.asarray(normals, float)
         normals = normals / np.linalg.norm(normals, axis=1, keepdims=True)

@@ -48,19 +48,25 @@ class ImplicitObject:
         return np.asarray(getattr(self, "position", self.bounds().mean(axis=0)), dtype=float)
 
     @cached_property
-    def surface(self) -> "SurfaceIndex":
+    def surface(self) -> SurfaceIndex:
         return SurfaceIndex.build(self)
 
     def signed_distance(self, p: np.ndarray) -> np.ndarray:
         """Euclidean signed distance (m) from ``(N, 3)`` points to the surface, negative inside."""
         return self.surface.signed_distance(np.atleast_2d(p), self)
 
-    def project(self, p: np.ndarray, iterations: int = 6) -> np.ndarray:
+    def project(self, p: np.ndarray, iterations: int = 6, tolerance: float = 1e-10) -> np.ndarray:
         """Newton steps along the gradient onto ``g = 0`` (for points already near the surface)."""
         x = np.array(p, dtype=float, copy=True)
+        active = np.arange(len(x))
         for _ in range(iterations):
-            grad = self.gradient(x)
-            x -= (self.g(x) / np.maximum((grad * grad).sum(axis=1), 1e-300))[:, None] * grad
+            value = self.g(x[active])
+            moving = np.abs(value) > tolerance
+            active, value = active[moving], value[moving]
+            if not len(active):
+                break
+            grad = self.gradient(x[active])
+            x[active] -= (value / np.maximum((grad * grad).sum(axis=1), 1e-300))[:, None] * grad
         return x
 
 
@@ -73,7 +79,7 @@ class SurfaceIndex:
     tree: cKDTree
 
     @classmethod
-    def build(cls, obj: ImplicitObject, grid_cells: int = 250_000, spacing: float = 4e-4, max_points: int = 300_000):
+    def build(cls, obj: ImplicitObject, grid_cells: int = 120_000, spacing: float = 7e-4, max_points: int = 200_000):
         low, high = obj.bounds()
         extent = high - low
         h = float(np.cbrt(np.prod(extent) / grid_cells))
@@ -81,11 +87,10 @@ class SurfaceIndex:
         low, high = low - 2 * h, high + 2 * h
         axes = [np.arange(lo, hi + h, h) for lo, hi in zip(low, high, strict=True)]
         grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
-        values = np.concatenate([obj.g(chunk) for chunk in np.array_split(grid, max(1, len(grid) // 50_000))])
+        values = obj.g(grid)
         volume = values.reshape([len(a) for a in axes])
         verts, faces, _, _ = measure.marching_cubes(volume, level=0.0, spacing=(h, h, h))
-        mesh = trimesh.Trimesh(verts + low, faces, process=True)
-        mesh.vertices = obj.project(np.asarray(mesh.vertices))
+        mesh = trimesh.Trimesh(verts + low, faces, process=True)  # for sampling and pictures, within h
         count = int(min(max_points, max(2000, mesh.area / spacing**2)))
         samples, _ = trimesh.sample.sample_surface(mesh, count, seed=0)
         points = obj.project(np.asarray(samples))
@@ -94,16 +99,13 @@ class SurfaceIndex:
         return cls(points, normals, mesh, actual, cKDTree(points))
 
     def signed_distance(self, p: np.ndarray, obj: ImplicitObject) -> np.ndarray:
-        distance, index = self.tree.query(p)
-        offset = p - self.points[index]
-        along_normal = (offset * self.normals[index]).sum(axis=1)
-        # near the surface the tangent plane of the nearest sample is exact to second order
-        near = distance < 3 * self.spacing
-        far_sign = np.sign(obj.g(p[~near])) if (~near).any() else np.empty(0)
-        out = np.empty(len(p))
-        out[near] = along_normal[near]
-        out[~near] = far_sign * distance[~near]
-        return out
+        """The nearest sample's tangent-plane foot of each point, projected onto ``g = 0``, then the distance
+        to it with the sign of ``g`` (exact for a sphere, second-order accurate in general)."""
+        _, index = self.tree.query(p)
+        normal = self.normals[index]
+        foot = p - ((p - self.points[index]) * normal).sum(axis=1, keepdims=True) * normal
+        closest = obj.project(foot, iterations=4)
+        return np.sign(obj.g(p)) * np.linalg.norm(p - closest, axis=1)
 
     def nearest(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Nearest surface sample and its outward normal for each of ``(N, 3)`` points."""

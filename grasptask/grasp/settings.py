@@ -1,0 +1,30 @@
+"""Contact model and grasp requirements (``configs/grasp.yaml``), read once and shared as plain data."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, fields
+from pathlib import Path
+
+from grasptask.errors import BadInputError
+from grasptask.io.config import load_yaml, reject_unknown
+from grasptask.paths import CONFIG_DIR
+
+DEFAULT_GRASP_SETTINGS = CONFIG_DIR / "grasp.yaml"
+
+
+@dataclass(frozen=True)
+class GraspSettings:
+    friction_coefficient: float = 0.5
+    cone_edges: int = 4
+    pad_angle_max_deg: float = 45.0
+    force_closure_min_weight: float = 1e-3
+
+
+def load_grasp_settings(path: str | Path = DEFAULT_GRASP_SETTINGS) -> GraspSettings:
+    data = load_yaml(path)
+    names = {f.name for f in fields(GraspSettings)}
+    reject_unknown(data, names, path)
+    settings = GraspSettings(**{k: type(getattr(GraspSettings, k))(v) for k, v in data.items()})
+    if settings.friction_coefficient <= 0 or settings.cone_edges < 3 or not 0 < settings.pad_angle_max_deg <= 90:
+        raise BadInputError(path, "need friction_coefficient > 0, cone_edges >= 3 and 0 < pad_angle_max_deg <= 90")
+    return settings

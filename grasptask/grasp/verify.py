@@ -1,0 +1,204 @@
+"""The independent grasp verifier (SPEC section 7): numpy and scipy only, sharing no code with the NLP.
+
+A grasp counts as found only when :func:`verify` accepts it. Distances are Euclidean, measured against a
+dense sampling of the object's surface (:class:`grasptask.objects.surface.SurfaceIndex`), not the implicit
+function the NLP constrains; force closure is judged by the Ferrari-Canny metric (qhull), torque feasibility by
+a linear program over contact forces in the friction cones and tendon activations, and Q is recomputed from
+the contact geometry.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.optimize import linprog
+
+from grasptask.grasp.epsilon import ferrari_canny
+from grasptask.grasp.mechanics import (
+    friction_cone_edges,
+    grasp_matrix,
+    hand_jacobian,
+    internal_forces,
+    primitive_wrenches,
+    task_quality,
+)
+from grasptask.grasp.settings import GraspSettings
+from grasptask.hand.kinematics import forward
+from grasptask.hand.model import Hand
+from grasptask.objects.surface import ImplicitObject
+from grasptask.task.model import TaskModel
+
+
+@dataclass(frozen=True)
+class Tolerances:
+    """Every acceptance threshold of the verifier, in one place."""
+
+    contact_distance_m: float = 1e-3  # |distance from a pad point to the surface|
+    joint_limit_rad: float = 1e-4  # how far a joint may sit beyond a limit
+    coupling_rad: float = 1e-3  # |theta_DIP - k theta_PIP|
+    rotation: float = 1e-6  # |R^T R - I| and |det R - 1|
+    clearance_m: float = -1e-3  # signed distance minus radius, for every hand sample point
+    pad_angle_slack_deg: float = 1.0  # on top of the configured bound
+    epsilon_min: float = 1e-6  # Ferrari-Canny epsilon (torques divided by the characteristic length)
+    rank_rtol: float = 1e-8  # relative singular value threshold for the rank condition of eq. 9
+    effort_max: float = 1.0 + 1e-6  # largest muscle activation needed for the task wrenches
+
+
+@dataclass(frozen=True)
+class Grasp:
+    """A hand pose: palm rotation ``R_h`` and position ``d_h`` in the object frame, and joint angles (rad) of
+    the grasping fingers in the hand's joint order."""
+
+    palm_rotation: np.ndarray
+    palm_position: np.ndarray
+    joint_angles: np.ndarray
+
+
+@dataclass
+class Verification:
+    contact_distance_m: np.ndarray
+    joint_limit_margin_deg: float
+    coupling_error_deg: float
+    rotation_error: float
+    min_clearance_m: float
+    pad_angle_deg: np.ndarray
+    epsilon: float
+    internal_force_rank: int
+    internal_force_dim: int
+    torque_effort: float
+    Q: float
+    contacts: np.ndarray = field(repr=False)
+    normals: np.ndarray = field(repr=False)
+    failures: list[str] = field(default_factory=list)
+
+    @property
+    def ok(self) -> bool:
+        return not self.failures
+
+    def record(self, fingers: list[str]) -> dict:
+        """Flat columns for a table (``verify_*``), one value per finger where there is one per finger."""
+        out = {"verified": self.ok, "verify_failures": ";".join(self.failures)}
+        for key, value in asdict(self).items():
+            if key in ("contacts", "normals", "failures"):
+                continue
+            if isinstance(value, np.ndarray):
+                for name, v in zip(fingers, value, strict=True):
+                    out[f"verify_{key}_{name}"] = float(v)
+            else:
+                out[f"verify_{key}"] = value
+        return out
+
+
+def _torque_effort(edges, points, jacobians, hand: Hand, task: TaskModel) -> float:
+    """Smallest ``t`` such that, for every task axis and both signs, contact forces inside the friction cones
+    apply ``+-gamma_i u_i`` to the object with joint torques ``J^T f = M P a``, ``0 <= a <= t`` (eq. 1, 10).
+
+    One LP over all twelve wrenches (each with its own forces and activations, sharing ``t``); infinite when
+    some wrench cannot be applied at all."""
+    b, m, _ = edges.shape
+    torque_maps = [f.torque_map for f in hand.fingers.values()]
+    n_act = sum(t.shape[1] for t in torque_maps)
+    n_force = b * m
+    # one block: [wrench of the cone edges, 0; J_j^T L_j per finger, -M_j P_j per finger]
+    rows_q = sum(j.shape[1] for j in jacobians)
+    block = np.zeros((6 + rows_q, n_force + n_act))
+    block[:6, :n_force] = primitive_wrenches(points, edges).reshape(n_force, 6).T
+    row, col = 6, n_force
+    for j, (jac, torque_map) in enumerate(zip(jacobians, torque_maps, strict=True)):
+        q_j, m_j = torque_map.shape
+        block[row : row + q_j, j * m : (j + 1) * m] = jac.T @ edges[j].T
+        block[row : row + q_j, col : col + m_j] = -torque_map
+        row, col = row + q_j, col + m_j
+    targets = [s * g * u for g, u in zip(task.lengths, task.axes, strict=True) for s in (1.0, -1.0)]
+    k, width = len(targets), n_force + n_act
+    a_eq = sp.hstack([sp.kron(sp.identity(k), sp.csr_matrix(block)), sp.csr_matrix((k * block.shape[0], 1))])
+    b_eq = np.zeros(k * block.shape[0])
+    for i, w in enumerate(targets):
+        b_eq[i * block.shape[0] : i * block.shape[0] + 6] = w
+    pick = np.hstack([np.zeros((n_act, n_force)), np.eye(n_act)])
+    a_ub = sp.hstack([sp.kron(sp.identity(k), sp.csr_matrix(pick)), -sp.csr_matrix(np.ones((k * n_act, 1)))])
+    cost = np.zeros(k * width + 1)
+    cost[-1] = 1.0
+    # presolve costs more than it saves on an LP this small and this well structured
+    result = linprog(
+        cost,
+        A_ub=a_ub,
+        b_ub=np.zeros(k * n_act),
+        A_eq=a_eq,
+        b_eq=b_eq,
+        bounds=(0, None),
+        method="highs",
+        options={"presolve": False},
+    )
+    return float(result.x[-1]) if result.status == 0 else float("inf")
+
+
+def verify(
+    grasp: Grasp,
+    hand: Hand,
+    obj: ImplicitObject,
+    task: TaskModel,
+    settings: GraspSettings = GraspSettings(),
+    tolerances: Tolerances = Tolerances(),
+) -> Verification:
+    """Check a grasp of ``obj`` by ``hand``'s grasping fingers for ``task``."""
+    tol = tolerances
+    hand = hand.grasping_hand() if set(hand.fingers) != set(hand.grasping) else hand
+    q = np.asarray(grasp.joint_angles, dtype=float)
+    rotation, position = np.asarray(grasp.palm_rotation, float), np.asarray(grasp.palm_position, float)
+    pose = forward(hand, q, rotation, position)
+    pads = pose.contacts()[0]
+    distance = obj.signed_distance(pads)
+    surface_points, outward = obj.surface.nearest(pads)
+    inward = -outward
+    pad_normals = pose.pad_normals()[0]
+    pad_angle = np.degrees(np.arccos(np.clip((pad_normals * inward).sum(axis=1), -1.0, 1.0)))
+    margin = np.minimum(q - hand.lower, hand.upper - q).min()
+    coupling = max((abs(q[d] - r * q[i]) for d, i, r in hand.couplings()), default=0.0)
+    rotation_error = max(np.abs(rotation.T @ rotation - np.eye(3)).max(), abs(np.linalg.det(rotation) - 1.0))
+    spheres, radii = pose.collision_spheres()
+    clearance = float((obj.signed_distance(spheres[0]) - radii).min())
+    jacobians = [f.jacobian[0] for f in pose.fingers.values()]
+    G = grasp_matrix(surface_points)
+    J = hand_jacobian(jacobians)
+    A = internal_forces(G)
+    singular = np.linalg.svd(J.T @ A, compute_uv=False) if A.size else np.zeros(0)
+    rank = int((singular > tol.rank_rtol * max(1.0, singular.max(initial=0.0))).sum())
+    # cones oriented by each distal phalanx's axis, as eq. 24 attaches them to the finger frame
+    distal_axes = np.stack([f.link_rotations[0, -1, :, 0] for f in pose.fingers.values()])
+    edges = friction_cone_edges(inward, settings.friction_coefficient, settings.cone_edges, distal_axes)
+    scale = obj.characteristic_length
+    epsilon = ferrari_canny(primitive_wrenches(surface_points, edges, obj.centre, scale))
+    Q, _ = task_quality(G, J, task.axes, task.weights)
+    effort = _torque_effort(edges, surface_points, jacobians, hand, task)
+
+    checks = {
+        "contact_distance": np.abs(distance).max() <= tol.contact_distance_m,
+        "joint_limits": margin >= -tol.joint_limit_rad,
+        "coupling": coupling <= tol.coupling_rad,
+        "palm_rotation": rotation_error <= tol.rotation,
+        "clearance": clearance >= tol.clearance_m,
+        "pad_angle": pad_angle.max() <= settings.pad_angle_max_deg + tol.pad_angle_slack_deg,
+        "force_closure": epsilon > tol.epsilon_min,
+        "rank_condition": A.size > 0 and rank == A.shape[1],
+        "torque_feasibility": effort <= tol.effort_max,
+        "quality": bool(np.isfinite(Q)),
+    }
+    return Verification(
+        contact_distance_m=distance,
+        joint_limit_margin_deg=float(np.degrees(margin)),
+        coupling_error_deg=float(np.degrees(coupling)),
+        rotation_error=float(rotation_error),
+        min_clearance_m=clearance,
+        pad_angle_deg=pad_angle,
+        epsilon=epsilon,
+        internal_force_rank=rank,
+        internal_force_dim=int(A.shape[1]),
+        torque_effort=effort,
+        Q=float(Q),
+        contacts=surface_points,
+        normals=outward,
+        failures=[name for name, passed in checks.items() if not passed],
+    )

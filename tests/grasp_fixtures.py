@@ -1,0 +1,62 @@
+"""A precision grasp of a ball, found by a small least-squares fit, for testing the verifier and mechanics."""
+
+from __future__ import annotations
+
+from functools import lru_cache
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from grasptask.grasp.verify import Grasp
+from grasptask.hand import forward, load_hand
+from grasptask.objects import Superquadric
+from grasptask.task.ellipsoid import Ellipsoid
+from grasptask.task.model import TaskModel
+
+BALL_RADIUS = 0.03
+
+
+def drawing_like_task(scale: float = 0.2) -> TaskModel:
+    """A drawing-like task, pressing along z with friction and tip torques about x and y; at ``scale=1``
+    the paper's magnitudes (2 N, 0.6 N, 0.04 N.m), by default a light version that the ball grasp can hold."""
+    s = (scale * np.diag([0.6, 0.5, 2.0, 0.04, 0.035, 0.0004])) ** 2
+    return TaskModel("test", 1, Ellipsoid.from_matrix(s))
+
+
+@lru_cache(maxsize=1)
+def ball_grasp() -> tuple[Grasp, Superquadric]:
+    """Thumb, index and middle pads on a ball, pads facing its centre; the ball is placed to fit the hand."""
+    hand = load_hand().grasping_hand()
+    free = [i for i in range(hand.n_joints) if i not in {d for d, _, _ in hand.couplings()}]
+    lower, upper = hand.lower[free], hand.upper[free]
+
+    def unpack(x):
+        q = np.zeros(hand.n_joints)
+        q[free] = x[: len(free)]
+        return hand.apply_coupling(q), x[len(free) :]
+
+    def residuals(x):
+        q, centre = unpack(x)
+        pose = forward(hand, q)
+        pads, normals = pose.contacts()[0], pose.pad_normals()[0]
+        towards = centre - pads
+        dist = np.linalg.norm(towards, axis=1)
+        inward = towards / dist[:, None]
+        align = normals - inward
+        spheres, radii = pose.collision_spheres()
+        gap = np.linalg.norm(spheres[0] - centre, axis=1) - BALL_RADIUS - radii - 0.002
+        mid = (x[: len(free)] - 0.5 * (lower + upper)) / (upper - lower)
+        # inward normals summing to zero: the pads squeeze from around the ball, not from one side
+        return np.concatenate(
+            [(dist - BALL_RADIUS) * 300, 2.0 * align.ravel(), inward.sum(axis=0), 100 * np.minimum(gap, 0), 0.05 * mid]
+        )
+
+    start_q = 0.5 * (lower + upper)
+    centre0 = forward(hand, unpack(np.concatenate([start_q, np.zeros(3)]))[0]).contacts()[0].mean(axis=0)
+    x0 = np.concatenate([start_q, centre0])
+    bounds = (np.concatenate([lower + 1e-3, centre0 - 0.1]), np.concatenate([upper - 1e-3, centre0 + 0.1]))
+    fit = least_squares(residuals, x0, bounds=bounds, xtol=1e-12, ftol=1e-12, gtol=1e-12, max_nfev=2000)
+    q, centre = unpack(fit.x)
+    # express everything in the ball's frame: the object sits at the origin, the palm is moved instead
+    grasp = Grasp(np.eye(3), -centre, q)
+    return grasp, Superquadric(np.full(3, BALL_RADIUS), 1.0, 1.0, name="ball")
