@@ -151,7 +151,7 @@ def verify(
     pose = forward(hand, q, rotation, position)
     pads = pose.contacts()[0]
     distance = obj.signed_distance(pads)
-    surface_points, outward = obj.surface.nearest(pads)
+    surface_points, outward = obj.closest_point(pads)
     inward = -outward
     pad_normals = pose.pad_normals()[0]
     pad_angle = np.degrees(np.arccos(np.clip((pad_normals * inward).sum(axis=1), -1.0, 1.0)))

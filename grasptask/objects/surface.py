@@ -55,6 +55,11 @@ class ImplicitObject:
         """Euclidean signed distance (m) from ``(N, 3)`` points to the surface, negative inside."""
         return self.surface.signed_distance(np.atleast_2d(p), self)
 
+    def closest_point(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The closest surface point to each of ``(N, 3)`` points and the outward normal there."""
+        closest = self.surface.closest(np.atleast_2d(p), self)
+        return closest, self.normal(closest)
+
     def project(self, p: np.ndarray, iterations: int = 6, tolerance: float = 1e-10) -> np.ndarray:
         """Newton steps along the gradient onto ``g = 0`` (for points already near the surface)."""
         x = np.array(p, dtype=float, copy=True)
@@ -98,16 +103,14 @@ class SurfaceIndex:
         actual = float(np.sqrt(mesh.area / count))
         return cls(points, normals, mesh, actual, cKDTree(points))
 
-    def signed_distance(self, p: np.ndarray, obj: ImplicitObject) -> np.ndarray:
-        """The nearest sample's tangent-plane foot of each point, projected onto ``g = 0``, then the distance
-        to it with the sign of ``g`` (exact for a sphere, second-order accurate in general)."""
+    def closest(self, p: np.ndarray, obj: ImplicitObject) -> np.ndarray:
+        """Closest surface points: the nearest sample's tangent-plane foot of each point, projected onto
+        ``g = 0`` (exact for a sphere, second-order accurate in general)."""
         _, index = self.tree.query(p)
         normal = self.normals[index]
         foot = p - ((p - self.points[index]) * normal).sum(axis=1, keepdims=True) * normal
-        closest = obj.project(foot, iterations=4)
-        return np.sign(obj.g(p)) * np.linalg.norm(p - closest, axis=1)
+        return obj.project(foot, iterations=6)
 
-    def nearest(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Nearest surface sample and its outward normal for each of ``(N, 3)`` points."""
-        _, index = self.tree.query(np.atleast_2d(p))
-        return self.points[index], self.normals[index]
+    def signed_distance(self, p: np.ndarray, obj: ImplicitObject) -> np.ndarray:
+        """Euclidean distance to :meth:`closest`, with the sign of ``g``."""
+        return np.sign(obj.g(p)) * np.linalg.norm(p - self.closest(p, obj), axis=1)

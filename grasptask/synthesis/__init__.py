@@ -1,0 +1,1 @@
+"""Task-oriented grasp synthesis: the NLP of Sections 5-6 (Pyomo), solved by IPOPT through CasADi or cyipopt."""

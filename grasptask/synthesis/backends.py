@@ -1,0 +1,170 @@
+"""Solving the grasp NLP: Pyomo's NL writer writes it, CasADi imports it (``NlpBuilder.import_nl``) and IPOPT
+solves it with exact derivatives; the solution is mapped back onto the Pyomo variables in the writer's order.
+
+The default backend runs CasADi's bundled IPOPT (``nlpsol('ipopt', expand=True)``). The ``cyipopt`` backend
+drives the same CasADi-generated objective, constraint, Jacobian and Hessian functions through cyipopt. Both are
+built once per model and then re-solved from each start's initial point.
+"""
+
+from __future__ import annotations
+
+import io
+import os
+import tempfile
+import time
+from dataclasses import dataclass
+
+import casadi
+import numpy as np
+from pyomo.repn.plugins.nl_writer import NLWriter
+
+STATUSES = ("optimal", "acceptable", "infeasible", "max-iter", "time-limit", "error", "crashed", "hung")
+
+_IPOPT_STATUS = {
+    "Solve_Succeeded": "optimal",
+    "Solved_To_Acceptable_Level": "acceptable",
+    "Infeasible_Problem_Detected": "infeasible",
+    "Maximum_Iterations_Exceeded": "max-iter",
+    "Maximum_CpuTime_Exceeded": "time-limit",
+    "Maximum_WallTime_Exceeded": "time-limit",
+}
+# cyipopt reports IPOPT's ApplicationReturnStatus as an integer
+_IPOPT_CODES = {0: "optimal", 1: "acceptable", 2: "infeasible", -1: "max-iter", -4: "time-limit", 5: "time-limit"}
+
+
+@dataclass
+class SolveResult:
+    status: str
+    iterations: int
+    seconds: float
+    x: np.ndarray | None
+    message: str = ""
+
+
+def write_nl(model) -> tuple[str, list]:
+    """The model as NL text (numeric labels only: symbolic ones break CasADi's import) and its variable order."""
+    nl, row, col = io.StringIO(), io.StringIO(), io.StringIO()
+    # no linear presolve: it would eliminate variables (e.g. the coupled DIP angles) from the column list
+    info = NLWriter().write(model, nl, row, col, symbolic_solver_labels=False, linear_presolve=False)
+    return nl.getvalue(), list(info.variables)
+
+
+class CasadiNLP:
+    """The NL model imported into CasADi once: its functions, bounds and variable order."""
+
+    def __init__(self, nl_text: str):
+        with tempfile.TemporaryDirectory() as tmp:
+            path = os.path.join(tmp, "model.nl")
+            with open(path, "w") as handle:
+                handle.write(nl_text)
+            builder = casadi.NlpBuilder()
+            builder.import_nl(path, {"verbose": False})
+        self.x = casadi.vertcat(*builder.x)
+        self.f = builder.f
+        self.g = casadi.vertcat(*builder.g)
+        self.lbx, self.ubx = np.array(builder.x_lb, float), np.array(builder.x_ub, float)
+        self.lbg, self.ubg = np.array(builder.g_lb, float), np.array(builder.g_ub, float)
+
+
+class CasadiBackend:
+    name = "casadi"
+
+    def __init__(self, nl_text: str, ipopt_options: dict):
+        self.nlp = CasadiNLP(nl_text)
+        options = {f"ipopt.{k}": v for k, v in ipopt_options.items()}
+        options.update({"expand": True, "print_time": False, "error_on_fail": False})
+        self.solver = casadi.nlpsol("grasp", "ipopt", {"x": self.nlp.x, "f": self.nlp.f, "g": self.nlp.g}, options)
+
+    def solve(self, x0: np.ndarray) -> SolveResult:
+        start = time.perf_counter()
+        try:
+            out = self.solver(x0=x0, lbx=self.nlp.lbx, ubx=self.nlp.ubx, lbg=self.nlp.lbg, ubg=self.nlp.ubg)
+        except RuntimeError as exc:  # an evaluation error inside IPOPT
+            return SolveResult("error", 0, time.perf_counter() - start, None, str(exc).splitlines()[-1][:200])
+        stats = self.solver.stats()
+        status = _IPOPT_STATUS.get(stats.get("return_status", ""), "error")
+        return SolveResult(
+            status,
+            int(stats.get("iter_count", 0)),
+            time.perf_counter() - start,
+            np.array(out["x"]).ravel(),
+            str(stats.get("return_status", "")),
+        )
+
+
+class CyipoptBackend:
+    """The same CasADi functions (objective, constraints, their Jacobian and the Lagrangian's Hessian) behind
+    cyipopt's interface."""
+
+    name = "cyipopt"
+
+    def __init__(self, nl_text: str, ipopt_options: dict):
+        import cyipopt  # installed by `make setup-cyipopt`
+
+        self.cyipopt = cyipopt
+        nlp = self.nlp = CasadiNLP(nl_text)
+        x, f, g = nlp.x, nlp.f, nlp.g
+        sigma, lam = casadi.SX.sym("sigma"), casadi.SX.sym("lambda", g.shape[0])
+        if isinstance(x, casadi.MX):  # CasADi's import gives MX; expand to SX like nlpsol(expand=True)
+            fg = casadi.Function("fg", [x], [f, g]).expand()
+            x = casadi.SX.sym("x", x.shape[0])
+            f, g = fg(x)
+        jac = casadi.jacobian(g, x)
+        hess = casadi.tril(casadi.hessian(sigma * f + casadi.dot(lam, g), x)[0])
+        self._f = casadi.Function("f", [x], [f])
+        self._grad = casadi.Function("grad", [x], [casadi.gradient(f, x)])
+        self._g = casadi.Function("g", [x], [g])
+        self._jac = casadi.Function("jac", [x], [jac.nz[:]]) if jac.nnz() else None
+        self._jac_rc = jac.sparsity().get_triplet()
+        self._hess = casadi.Function("hess", [x, sigma, lam], [hess.nz[:]])
+        self._hess_rc = hess.sparsity().get_triplet()
+        self.options = ipopt_options
+
+    def solve(self, x0: np.ndarray) -> SolveResult:
+        backend = self
+
+        class Problem:
+            def objective(self, x):
+                return float(backend._f(x))
+
+            def gradient(self, x):
+                return np.array(backend._grad(x)).ravel()
+
+            def constraints(self, x):
+                return np.array(backend._g(x)).ravel()
+
+            def jacobian(self, x):
+                return np.array(backend._jac(x)).ravel()
+
+            def jacobianstructure(self):
+                return tuple(np.array(v) for v in backend._jac_rc)
+
+            def hessian(self, x, lagrange, obj_factor):
+                return np.array(backend._hess(x, obj_factor, lagrange)).ravel()
+
+            def hessianstructure(self):
+                return tuple(np.array(v) for v in backend._hess_rc)
+
+        nlp = self.nlp
+        problem = self.cyipopt.Problem(
+            n=len(x0), m=len(nlp.lbg), problem_obj=Problem(), lb=nlp.lbx, ub=nlp.ubx, cl=nlp.lbg, cu=nlp.ubg
+        )
+        for key, value in self.options.items():
+            problem.add_option(key, value)
+        start = time.perf_counter()
+        try:
+            x, info = problem.solve(np.clip(x0, nlp.lbx, nlp.ubx))
+        except Exception as exc:  # noqa: BLE001 - any failure inside IPOPT is a recorded status
+            return SolveResult("error", 0, time.perf_counter() - start, None, str(exc)[:200])
+        status = _IPOPT_CODES.get(int(info["status"]), "error")
+        iterations = int(getattr(problem, "stats", {}).get("iter_count", 0)) if hasattr(problem, "stats") else 0
+        return SolveResult(
+            status,
+            iterations,
+            time.perf_counter() - start,
+            np.asarray(x),
+            info["status_msg"].decode() if isinstance(info["status_msg"], bytes) else str(info["status_msg"]),
+        )
+
+
+BACKENDS = {"casadi": CasadiBackend, "cyipopt": CyipoptBackend}
