@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import click
@@ -9,7 +10,13 @@ import click
 from grasptask import __version__
 from grasptask.errors import BadInputError
 from grasptask.io.units import FORCE_UNITS, TIME_UNITS, TORQUE_UNITS
-from grasptask.paths import DEFAULT_SIMULATE_CONFIG
+from grasptask.paths import (
+    DEFAULT_GRASP_CONFIG,
+    DEFAULT_HAND,
+    DEFAULT_OBJECT,
+    DEFAULT_SIMULATE_CONFIG,
+    DEFAULT_SOLVER_CONFIG,
+)
 
 
 class _Group(click.Group):
@@ -178,6 +185,135 @@ def distances(ellipsoids, out):
         f" vs between {_number(by_task.get('mean_between_normalised'))}"
     )
     click.echo(f"wrote {out}/distances.parquet, distance_summary.json, distance_heatmap.png, distance_embedding.png")
+
+
+def _model_options(f):
+    """--hand, --object and --grasp-config, shared by synthesize and verify."""
+    f = click.option(
+        "--grasp-config",
+        type=click.Path(path_type=Path),
+        default=DEFAULT_GRASP_CONFIG,
+        show_default=True,
+        help="Friction and pad-angle settings (YAML).",
+    )(f)
+    f = click.option(
+        "--object",
+        "object_path",
+        type=click.Path(path_type=Path),
+        default=DEFAULT_OBJECT,
+        show_default=True,
+        help="Object config (YAML): superquadric or GP.",
+    )(f)
+    f = click.option(
+        "--hand", type=click.Path(path_type=Path), default=DEFAULT_HAND, show_default=True, help="Hand config (YAML)."
+    )(f)
+    return f
+
+
+@main.command()
+@click.option(
+    "--tasks", "tasks_path", required=True, type=click.Path(path_type=Path), help="task_models.json from fit-task."
+)
+@click.option("--task", required=True, help="Task to grasp for, e.g. drawing, cutting, screwdriving.")
+@_out_option
+@_model_options
+@click.option(
+    "--solver-config",
+    type=click.Path(path_type=Path),
+    default=DEFAULT_SOLVER_CONFIG,
+    show_default=True,
+    help="IPOPT options and time limits (YAML).",
+)
+@click.option(
+    "--starts", type=click.IntRange(min=1), default=None, help="Run a deterministic subset of the 126 starts."
+)
+@click.option("--seed", type=int, default=0, show_default=True, help="Seed of the starts' jitter.")
+@click.option("--workers", type=click.IntRange(min=1), default=1, show_default=True, help="Solver processes.")
+@click.option(
+    "--executor",
+    type=click.Choice(["pool", "serial", "dask"]),
+    default="pool",
+    show_default=True,
+    help="pool: local processes (a crashed or hung start is recorded and the sweep goes on); serial: in "
+    "this process; dask: a Dask cluster at --scheduler.",
+)
+@click.option("--scheduler", default=None, help="Dask scheduler address, e.g. tcp://10.0.0.5:8786.")
+@click.option(
+    "--solver",
+    "backend",
+    type=click.Choice(["casadi", "cyipopt"]),
+    default="casadi",
+    show_default=True,
+    help="IPOPT through CasADi's nlpsol, or the same CasADi functions through cyipopt.",
+)
+@click.option("--resume", is_flag=True, help="Keep the starts already in solutions.jsonl and solve only the rest.")
+def synthesize(
+    tasks_path,
+    task,
+    out,
+    hand,
+    object_path,
+    grasp_config,
+    solver_config,
+    starts,
+    seed,
+    workers,
+    executor,
+    scheduler,
+    backend,
+    resume,
+):
+    """Synthesize task-oriented grasps: the NLP of the paper's Sections 5-6 solved from many starts, every
+    solution checked by the independent verifier. Writes OUT/TASK/solutions.parquet (one row per start),
+    optima.parquet (distinct verified optima) and run.json."""
+    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+    from grasptask.synthesis.run import SynthesisOptions, run_synthesize
+
+    options = SynthesisOptions(
+        hand,
+        object_path,
+        tasks_path,
+        task,
+        out,
+        solver_config,
+        grasp_config,
+        starts,
+        seed,
+        workers,
+        executor,
+        scheduler,
+        backend,
+        resume,
+    )
+    try:
+        run = run_synthesize(options, echo=click.echo)
+    except KeyboardInterrupt:
+        click.echo(
+            f"interrupted: finished starts are kept in {out}/{task}/solutions.jsonl; rerun with --resume", err=True
+        )
+        raise click.exceptions.Exit(130) from None
+    seconds = run["seconds_per_start"]
+    click.echo(
+        f"{task}: {run['verified']}/{run['starts']} starts verified, {run['distinct_optima']} distinct optima, "
+        f"best Q {_number(run['best_Q'])}; {seconds['median']:.2f} s per start (median), "
+        f"statuses {', '.join(f'{k} {v}' for k, v in run['status_counts'].items() if v)}"
+    )
+    click.echo(f"wrote {out}/{task}/solutions.parquet, optima.parquet, run.json")
+
+
+@main.command("verify")
+@click.argument("solutions", type=click.Path(path_type=Path))
+@click.option("--tasks", "tasks_path", required=True, type=click.Path(path_type=Path), help="task_models.json.")
+@click.option("--task", required=True, help="The task the solutions were made for.")
+@_out_option
+@_model_options
+def verify_command(solutions, tasks_path, task, out, hand, object_path, grasp_config):
+    """Check every grasp in SOLUTIONS (solutions.parquet) again with the independent verifier; writes
+    OUT/verification.parquet with one row per start and its verification figures."""
+    from grasptask.synthesis.verification import run_verify
+
+    table = run_verify(solutions, tasks_path, task, out, hand, object_path, grasp_config)
+    click.echo(f"{int(table['verified'].sum())}/{len(table)} grasps verified; wrote {out}/verification.parquet")
 
 
 @main.group()

@@ -18,6 +18,7 @@ class GraspSettings:
     cone_edges: int = 4
     pad_angle_max_deg: float = 45.0
     force_closure_min_weight: float = 1e-3
+    activation_margin: float = 0.02
 
 
 def load_grasp_settings(path: str | Path = DEFAULT_GRASP_SETTINGS) -> GraspSettings:

@@ -29,7 +29,9 @@ _IPOPT_STATUS = {
     "Maximum_WallTime_Exceeded": "time-limit",
 }
 # cyipopt reports IPOPT's ApplicationReturnStatus as an integer
-_IPOPT_CODES = {0: "optimal", 1: "acceptable", 2: "infeasible", -1: "max-iter", -4: "time-limit", 5: "time-limit"}
+_IPOPT_CODES = {0: "optimal", 1: "acceptable", 2: "infeasible", -1: "max-iter", -4: "time-limit", -5: "time-limit"}
+# IPOPT catches Ctrl-C during a solve and stops with this status; it is the user's interrupt, not a result
+_USER_STOP_STATUS, _USER_STOP_CODE = "User_Requested_Stop", 5
 
 
 @dataclass
@@ -79,9 +81,13 @@ class CasadiBackend:
         start = time.perf_counter()
         try:
             out = self.solver(x0=x0, lbx=self.nlp.lbx, ubx=self.nlp.ubx, lbg=self.nlp.lbg, ubg=self.nlp.ubg)
-        except RuntimeError as exc:  # an evaluation error inside IPOPT
+        except RuntimeError as exc:  # an evaluation error inside IPOPT, or CasADi's own report of Ctrl-C
+            if "interrupt" in str(exc).lower():
+                raise KeyboardInterrupt from exc
             return SolveResult("error", 0, time.perf_counter() - start, None, str(exc).splitlines()[-1][:200])
         stats = self.solver.stats()
+        if stats.get("return_status") == _USER_STOP_STATUS:
+            raise KeyboardInterrupt
         status = _IPOPT_STATUS.get(stats.get("return_status", ""), "error")
         return SolveResult(
             status,
@@ -156,6 +162,8 @@ class CyipoptBackend:
             x, info = problem.solve(np.clip(x0, nlp.lbx, nlp.ubx))
         except Exception as exc:  # noqa: BLE001 - any failure inside IPOPT is a recorded status
             return SolveResult("error", 0, time.perf_counter() - start, None, str(exc)[:200])
+        if int(info["status"]) == _USER_STOP_CODE:
+            raise KeyboardInterrupt
         status = _IPOPT_CODES.get(int(info["status"]), "error")
         iterations = int(getattr(problem, "stats", {}).get("iter_count", 0)) if hasattr(problem, "stats") else 0
         return SolveResult(

@@ -11,7 +11,8 @@ feasibility, contact forces and tendon activations per task wrench. Component na
     eq5             primitive wrenches w_i^j = (l_i^j, p^j x l_i^j), as expressions
     eq8_task_force  G f_i = u_i (the G^R u_i + A x of eq. 8, without a matrix inverse)
     eq10_*          torque feasibility: for each axis and sign, forces in the friction cones apply +-gamma_i u_i
-                    with joint torques J^T f = M P a, 0 <= a <= 1 (eq. 1)
+                    with joint torques J^T f = M P a, 0 <= a <= 1 - margin (eq. 1; the margin keeps the
+                    verifier's own LP from reading a hair over 1 at an active bound)
     eq12_objective  Q = sum_i gamma_i tau_i^T tau_i with tau_i = J^T f_i (eq. 12-13)
     eq14_collision  hand sample points stay out of the object by their radius
     eq16_23_*       palm rotation orthonormal; joint limits as bounds (eq. 20-21); DIP-PIP coupling
@@ -337,7 +338,8 @@ def build_model(hand: Hand, obj, task: TaskModel, settings: GraspSettings = Gras
     blocks = [(a, s) for a in range(n_axes) for s in (0, 1)]
     m.lam = pyo.Var(blocks, cells, bounds=(0, None), doc="cone-edge force magnitudes per task wrench")
     muscles = [(j, q) for j, f in enumerate(fingers) for q in range(len(f.muscles))]
-    m.act = pyo.Var(blocks, muscles, bounds=(0, 1), doc="tendon activations per task wrench")
+    cap = 1.0 - settings.activation_margin
+    m.act = pyo.Var(blocks, muscles, bounds=(0, cap), doc="tendon activations per task wrench (eq. 1)")
     m.eq10_wrench = pyo.ConstraintList()
     m.eq10_torque = pyo.ConstraintList()
     for a, s in blocks:

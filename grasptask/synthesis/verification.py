@@ -1,0 +1,58 @@
+"""``grasptask verify``: the independent verifier run again over a solutions table."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from grasptask.errors import BadInputError
+from grasptask.grasp.settings import load_grasp_settings
+from grasptask.grasp.verify import Grasp, verify
+from grasptask.hand import load_hand
+from grasptask.io.artifacts import Provenance, StagedOutput
+from grasptask.objects import load_object
+from grasptask.task.model import load_task_models
+
+
+def grasp_from_row(row: pd.Series, joint_names: list[str]) -> Grasp:
+    rotation = np.array([[row[f"palm_r{i}{j}"] for j in range(3)] for i in range(3)], dtype=float)
+    position = np.array([row[f"palm_{a}"] for a in "xyz"], dtype=float)
+    return Grasp(rotation, position, np.array([row[f"q_{n}"] for n in joint_names], dtype=float))
+
+
+def run_verify(solutions_path, tasks_path, task, out, hand_path, object_path, grasp_config) -> pd.DataFrame:
+    solutions_path = Path(solutions_path)
+    if not solutions_path.is_file():
+        raise BadInputError(solutions_path, "file not found")
+    try:
+        solutions = pd.read_parquet(solutions_path)
+    except Exception as exc:  # pyarrow raises several types for a file that is not Parquet
+        raise BadInputError(solutions_path, f"not a readable Parquet file ({type(exc).__name__})") from exc
+    models = load_task_models(tasks_path)
+    if task not in models:
+        raise BadInputError(tasks_path, f"no task '{task}'")
+    hand = load_hand(hand_path).grasping_hand()
+    obj = load_object(object_path)
+    settings = load_grasp_settings(grasp_config)
+    needed = [f"q_{n}" for n in hand.joint_names] + ["palm_x", "palm_r00", "start_id"]
+    for column in needed:
+        if column not in solutions.columns:
+            raise BadInputError(solutions_path, "missing column", column=column)
+    rows = []
+    for _, row in solutions.iterrows():
+        record = {"start_id": int(row["start_id"])}
+        if pd.isna(row["palm_x"]):
+            record.update({"verified": False, "verify_failures": "no solution"})
+        else:
+            check = verify(grasp_from_row(row, hand.joint_names), hand, obj, models[task], settings)
+            record.update(check.record(list(hand.fingers)))
+        rows.append(record)
+    table = pd.DataFrame(rows)
+    provenance = Provenance.of(
+        "verify", {"task": task}, [solutions_path, tasks_path, hand_path, object_path, grasp_config]
+    )
+    with StagedOutput(out, provenance) as staged:
+        staged.write_parquet("verification.parquet", table)
+    return table

@@ -1,0 +1,206 @@
+"""Grasp synthesis: the model, the starts, and sweeps that survive crashes, interruptions and restarts.
+
+Solver runs use a short per-start time limit (tests/data/solver_fast.yaml) so that the suite stays quick; a
+start that needs longer is recorded as time-limit, which the sweep must handle anyway.
+"""
+
+import json
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pyomo.environ as pyo
+import pytest
+
+from grasptask.hand import load_hand
+from grasptask.objects import load_object
+from grasptask.synthesis.backends import STATUSES
+from grasptask.synthesis.model import build_model
+from grasptask.synthesis.starts import make_starts, palm_directions, subset
+from grasptask.task.model import load_task_models
+
+FAST = Path("tests/data/solver_fast.yaml")
+
+
+@pytest.fixture(scope="module")
+def tasks(simulated):
+    root, _, _ = simulated
+    return root / "tasks" / "task_models.json"
+
+
+def synthesize(cli, tasks, out, *extra):
+    return cli("synthesize", "--tasks", tasks, "--task", "drawing", "--out", out, "--solver-config", FAST, *extra)
+
+
+def test_model_components_cite_the_paper_and_size_is_recorded(tasks):
+    nlp = build_model(load_hand(), load_object("configs/objects/tool.yaml"), load_task_models(tasks)["drawing"])
+    names = {c.local_name for c in nlp.model.component_objects((pyo.Constraint, pyo.Objective), active=True)}
+    for expected in (
+        "eq2_frame",
+        "eq3_contact",
+        "eq4_force_closure",
+        "eq8_task_force",
+        "eq10_torque",
+        "eq12_objective",
+        "eq14_collision",
+        "eq16_23_palm_orthonormal",
+        "eq22_coupling",
+    ):
+        assert expected in names
+    size = nlp.size()
+    assert 400 < size["variables"] < 900 and 300 < size["constraints"] < 900
+
+
+def test_model_initialisation_reproduces_the_hand_kinematics(tasks):
+    """The NLP's own kinematics (Pyomo) and the verifier's (numpy) agree at a start, written independently."""
+    from grasptask.hand import forward
+
+    hand = load_hand()
+    nlp = build_model(hand, load_object("configs/objects/tool.yaml"), load_task_models(tasks)["drawing"])
+    start = make_starts(np.array([[-0.01, -0.01, -0.1], [0.01, 0.01, 0.1]]))[17]
+    q = nlp.hand.mid_range()
+    nlp.initialise(start.palm_rotation, start.palm_position, q)
+    expected = forward(hand.grasping_hand(), q, start.palm_rotation, start.palm_position).contacts()[0]
+    np.testing.assert_allclose(nlp.read()["contacts"], expected, atol=1e-12)
+
+
+def test_126_starts_from_42_orientations_and_3_positions():
+    directions = palm_directions()
+    assert directions.shape == (42, 3) and np.allclose(np.linalg.norm(directions, axis=1), 1)
+    starts = make_starts(np.array([[-0.01, -0.01, -0.1], [0.01, 0.01, 0.1]]), seed=3)
+    assert len(starts) == 126 and len({s.position_name for s in starts}) == 3
+    for s in starts:
+        np.testing.assert_allclose(s.palm_rotation.T @ s.palm_rotation, np.eye(3), atol=1e-12)
+        assert np.linalg.norm(s.palm_position) > 0.09  # away from the object
+    again = make_starts(np.array([[-0.01, -0.01, -0.1], [0.01, 0.01, 0.1]]), seed=3)
+    assert all(np.array_equal(a.palm_rotation, b.palm_rotation) for a, b in zip(starts, again, strict=True))
+    assert [s.start_id for s in subset(starts, 4)] == [0, 42, 83, 125]
+
+
+def test_sweep_writes_rows_verifies_and_clusters(cli, tasks, tmp_path):
+    result = synthesize(cli, tasks, tmp_path, "--starts", "4", "--workers", "2")
+    assert result.exit_code == 0, result.output
+    solutions = pd.read_parquet(tmp_path / "drawing" / "solutions.parquet")
+    assert list(solutions["start_id"]) == [0, 42, 83, 125]
+    assert set(solutions["status"]) <= set(STATUSES)
+    for column in ("iterations", "seconds", "Q", "verified", "contact_index_x", "normal_thumb_z", "palm_r22"):
+        assert column in solutions.columns
+    run = json.loads((tmp_path / "drawing" / "run.json").read_text())
+    assert run["model_size"]["variables"] > 0 and run["paper"]["variables"] == 579
+    assert sum(run["status_counts"].values()) == 4
+    verified = solutions[solutions["verified"]]
+    # a verified row's Q is the verifier's own recomputation, and it agrees with the NLP's
+    np.testing.assert_allclose(verified["Q"], verified["verify_Q"], rtol=1e-3)
+    optima = pd.read_parquet(tmp_path / "drawing" / "optima.parquet")
+    assert len(optima) <= len(verified) and optima["members"].sum() == len(verified)
+
+
+def test_a_crashed_worker_is_recorded_and_the_sweep_goes_on(cli, tasks, tmp_path, monkeypatch):
+    monkeypatch.setenv("GRASPTASK_CRASH_STARTS", "62")  # the middle one of the 3-start subset 0, 62, 125
+    result = synthesize(cli, tasks, tmp_path, "--starts", "3", "--workers", "1")
+    assert result.exit_code == 0, result.output
+    solutions = pd.read_parquet(tmp_path / "drawing" / "solutions.parquet").set_index("start_id")
+    assert solutions.loc[62, "status"] == "crashed" and not solutions.loc[62, "verified"]
+    assert solutions.loc[0, "status"] != "crashed" and solutions.loc[125, "status"] != "crashed"
+
+
+def test_resume_keeps_finished_starts(cli, tasks, tmp_path):
+    assert synthesize(cli, tasks, tmp_path, "--starts", "2", "--executor", "serial").exit_code == 0
+    log = tmp_path / "drawing" / "solutions.jsonl"
+    first = [json.loads(line) for line in log.read_text().splitlines()]
+    assert [r["start_id"] for r in first] == [0, 125]
+    result = synthesize(cli, tasks, tmp_path, "--starts", "3", "--executor", "serial", "--resume")
+    assert result.exit_code == 0 and "2 already done" in result.output
+    rows = [json.loads(line) for line in log.read_text().splitlines()]
+    assert rows[:2] == first and [r["start_id"] for r in rows] == [0, 125, 62]
+
+
+def test_ctrl_c_then_resume(tasks, tmp_path):
+    """SIGINT mid-sweep keeps what finished; --resume completes the rest without redoing it."""
+    command = [
+        sys.executable,
+        "-m",
+        "grasptask.cli",
+        "synthesize",
+        "--tasks",
+        str(tasks),
+        "--task",
+        "drawing",
+        "--out",
+        str(tmp_path),
+        "--solver-config",
+        str(FAST),
+        "--starts",
+        "3",
+        "--executor",
+        "serial",
+    ]
+    process = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    log = tmp_path / "drawing" / "solutions.jsonl"
+    deadline = time.time() + 120
+    while time.time() < deadline and not (log.exists() and log.read_text().count("\n") >= 1):
+        time.sleep(0.2)
+    process.send_signal(signal.SIGINT)
+    _, err = process.communicate(timeout=60)
+    assert process.returncode == 130 and "--resume" in err
+    kept = [json.loads(line)["start_id"] for line in log.read_text().splitlines()]
+    assert 1 <= len(kept) < 3
+    assert not (tmp_path / "drawing" / "solutions.parquet").exists()
+    finished = subprocess.run(command + ["--resume"], capture_output=True, text=True, timeout=300)
+    assert finished.returncode == 0, finished.stderr
+    rows = [json.loads(line)["start_id"] for line in log.read_text().splitlines()]
+    assert rows[: len(kept)] == kept and sorted(rows) == [0, 62, 125]
+
+
+def test_dask_local_cluster(tasks, tmp_path):
+    from dask.distributed import LocalCluster
+
+    from grasptask.synthesis.run import SynthesisOptions, run_synthesize
+
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+        options = SynthesisOptions(
+            Path("configs/hands/human.yaml"),
+            Path("configs/objects/tool.yaml"),
+            tasks,
+            "drawing",
+            tmp_path,
+            FAST,
+            Path("configs/grasp.yaml"),
+            starts=2,
+            executor="dask",
+            scheduler=cluster.scheduler_address,
+        )
+        run = run_synthesize(options, echo=lambda _: None)
+    assert run["starts"] == 2
+    assert len(pd.read_parquet(tmp_path / "drawing" / "solutions.parquet")) == 2
+
+
+def test_verify_command_recomputes_the_columns(cli, tasks, tmp_path):
+    assert synthesize(cli, tasks, tmp_path, "--starts", "2", "--executor", "serial").exit_code == 0
+    result = cli(
+        "verify",
+        tmp_path / "drawing" / "solutions.parquet",
+        "--tasks",
+        tasks,
+        "--task",
+        "drawing",
+        "--out",
+        tmp_path / "check",
+    )
+    assert result.exit_code == 0, result.output
+    again = pd.read_parquet(tmp_path / "check" / "verification.parquet")
+    before = pd.read_parquet(tmp_path / "drawing" / "solutions.parquet")
+    assert list(again["verified"]) == list(before["verified"])
+
+
+def test_synthesize_bad_input(cli, tasks, tmp_path):
+    result = synthesize(cli, tasks, tmp_path / "o", "--task", "juggling")
+    assert result.exit_code == 2 and "juggling" in result.output
+    assert (
+        cli("synthesize", "--tasks", tmp_path / "none.json", "--task", "drawing", "--out", tmp_path / "o").exit_code
+        == 2
+    )
