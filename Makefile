@@ -3,14 +3,15 @@ PYTHON ?= python3
 VENV ?= .venv
 BIN := $(VENV)/bin
 INSTALLED := $(VENV)/.installed
+CYIPOPT := $(VENV)/.cyipopt
 export OPENBLAS_NUM_THREADS ?= 1
 
-.PHONY: demo test install lint format bench clean
+.PHONY: demo test install setup-cyipopt lint format bench clean
 
 demo: $(INSTALLED)
 	$(BIN)/grasptask pipeline run pipelines/demo.yaml
 
-test: $(INSTALLED)
+test: $(INSTALLED) $(CYIPOPT)
 	$(BIN)/ruff check grasptask tests benchmarks
 	$(BIN)/ruff format --check grasptask tests benchmarks
 	$(BIN)/python -m pytest
@@ -25,14 +26,23 @@ $(INSTALLED): pyproject.toml | $(BIN)/python
 	$(BIN)/python -m pip install --quiet -e '.[test]'
 	touch $@
 
+# the second solver backend: cyipopt built against the IPOPT that CasADi's wheel ships (pip only)
+setup-cyipopt: $(CYIPOPT)
+
+$(CYIPOPT): $(INSTALLED) tools/setup_cyipopt.sh
+	tools/setup_cyipopt.sh $(BIN)/python
+	touch $@
+
 lint: $(INSTALLED)
 	$(BIN)/ruff check grasptask tests benchmarks
 
 format: $(INSTALLED)
 	$(BIN)/ruff format grasptask tests benchmarks
 
-bench: $(INSTALLED)
+bench: $(INSTALLED) $(CYIPOPT)
 	$(BIN)/python benchmarks/task_modelling.py
+	$(BIN)/python benchmarks/mechanics.py
+	$(BIN)/python benchmarks/synthesis.py
 
 clean:
 	rm -rf results $(VENV) *.egg-info

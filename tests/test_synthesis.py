@@ -204,3 +204,38 @@ def test_synthesize_bad_input(cli, tasks, tmp_path):
         cli("synthesize", "--tasks", tmp_path / "none.json", "--task", "drawing", "--out", tmp_path / "o").exit_code
         == 2
     )
+
+
+def _toy_nl():
+    """A small NLP with one optimum, through the same NL writer: min (x0-2)^2 + x1^4 + exp(y) + x2^2 on the unit
+    sphere, with x2 - y >= 0.1."""
+    from grasptask.synthesis.backends import write_nl
+
+    m = pyo.ConcreteModel()
+    m.x = pyo.Var(range(3), initialize=1.0, bounds=(-5, 5))
+    m.y = pyo.Var(initialize=0.5)
+    m.sphere = pyo.Constraint(expr=m.x[0] ** 2 + m.x[1] ** 2 + m.y**2 == 1)
+    m.gap = pyo.Constraint(expr=m.x[2] - m.y >= 0.1)
+    m.objective = pyo.Objective(expr=(m.x[0] - 2) ** 2 + m.x[1] ** 4 + pyo.exp(m.y) + m.x[2] ** 2)
+    text, order = write_nl(m)
+    return text, np.array([v.value for v in order])
+
+
+def test_both_backends_reach_the_same_optimum_on_a_test_problem():
+    from grasptask.synthesis.backends import CasadiBackend, CyipoptBackend
+
+    pytest.importorskip("cyipopt", reason="make setup-cyipopt builds it; `make test` does so first")
+    text, x0 = _toy_nl()
+    options = {"tol": 1e-10, "print_level": 0, "sb": "yes"}
+    a, b = CasadiBackend(text, options).solve(x0), CyipoptBackend(text, options).solve(x0)
+    assert a.status == b.status == "optimal"
+    np.testing.assert_allclose(a.x, b.x, atol=1e-7)
+    assert b.iterations > 0
+
+
+def test_cyipopt_backend_on_the_grasp_nlp(cli, tasks, tmp_path):
+    pytest.importorskip("cyipopt", reason="make setup-cyipopt builds it; `make test` does so first")
+    result = synthesize(cli, tasks, tmp_path, "--starts", "2", "--executor", "serial", "--solver", "cyipopt")
+    assert result.exit_code == 0, result.output
+    run = json.loads((tmp_path / "drawing" / "run.json").read_text())
+    assert run["backend"] == "cyipopt" and run["starts"] == 2 and run["status_counts"]["error"] == 0

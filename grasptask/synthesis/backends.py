@@ -117,19 +117,24 @@ class CyipoptBackend:
             f, g = fg(x)
         jac = casadi.jacobian(g, x)
         hess = casadi.tril(casadi.hessian(sigma * f + casadi.dot(lam, g), x)[0])
-        self._f = casadi.Function("f", [x], [f])
-        self._grad = casadi.Function("grad", [x], [casadi.gradient(f, x)])
-        self._g = casadi.Function("g", [x], [g])
-        self._jac = casadi.Function("jac", [x], [jac.nz[:]]) if jac.nnz() else None
+        self._f = casadi.Function("objective", [x], [f])
+        self._grad = casadi.Function("objective_gradient", [x], [casadi.gradient(f, x)])
+        self._g = casadi.Function("constraints", [x], [g])
+        self._jac = casadi.Function("constraint_jacobian", [x], [jac.nz[:]]) if jac.nnz() else None
         self._jac_rc = jac.sparsity().get_triplet()
-        self._hess = casadi.Function("hess", [x, sigma, lam], [hess.nz[:]])
+        self._hess = casadi.Function("lagrangian_hessian", [x, sigma, lam], [hess.nz[:]])
         self._hess_rc = hess.sparsity().get_triplet()
         self.options = ipopt_options
 
     def solve(self, x0: np.ndarray) -> SolveResult:
         backend = self
+        iterations = [0]
 
         class Problem:
+            def intermediate(self, alg_mod, iter_count, *args):
+                iterations[0] = int(iter_count)
+                return True
+
             def objective(self, x):
                 return float(backend._f(x))
 
@@ -165,14 +170,9 @@ class CyipoptBackend:
         if int(info["status"]) == _USER_STOP_CODE:
             raise KeyboardInterrupt
         status = _IPOPT_CODES.get(int(info["status"]), "error")
-        iterations = int(getattr(problem, "stats", {}).get("iter_count", 0)) if hasattr(problem, "stats") else 0
-        return SolveResult(
-            status,
-            iterations,
-            time.perf_counter() - start,
-            np.asarray(x),
-            info["status_msg"].decode() if isinstance(info["status_msg"], bytes) else str(info["status_msg"]),
-        )
+        message = info["status_msg"]
+        message = message.decode() if isinstance(message, bytes) else str(message)
+        return SolveResult(status, iterations[0], time.perf_counter() - start, np.asarray(x), message)
 
 
 BACKENDS = {"casadi": CasadiBackend, "cyipopt": CyipoptBackend}

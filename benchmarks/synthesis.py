@@ -1,0 +1,142 @@
+"""Grasp synthesis (issue 4): for drawing, cutting and screw driving on the sensorized-tool cylinder, 126 starts
+each on 2 workers: seconds per start (median, p90), the fraction of starts ending in a verified grasp, distinct
+optima and the wall time of the whole sweep; the cyipopt backend's median on a subset of the same starts, as a
+ratio; and whether the optima differ between tasks as the paper's Section 7.3 describes.
+
+    python benchmarks/synthesis.py [--starts N] [--cyipopt-starts N]   # writes benchmarks/results/synthesis.json
+
+Targets: median <= 1 s per start (paper: 459 +- 186 s), >= 80% verified, whole 3 x 126 sweep < 10 minutes.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path[:0] = [str(ROOT / "benchmarks"), str(ROOT)]
+from common import save  # noqa: E402
+
+from grasptask.stages import run_fit_task, run_simulate  # noqa: E402
+from grasptask.synthesis.run import SynthesisOptions, run_synthesize  # noqa: E402
+
+TASKS = ("drawing", "cutting", "screwdriving")
+CONFIGS = ROOT / "configs"
+
+
+def grasp_shape(optima: pd.DataFrame) -> dict:
+    """Section 7.3 descriptors of the best (lowest-Q) optimum: where along the handle the fingers hold it, how
+    far around the axis they spread, and how parallel the palm is to the handle."""
+    if optima.empty:
+        return {}
+    best = optima.iloc[0]
+    fingers = ("thumb", "index", "middle")
+    contacts = np.array([[best[f"contact_{f}_{a}"] for a in "xyz"] for f in fingers])
+    azimuth = np.sort(np.arctan2(contacts[:, 1], contacts[:, 0]))
+    gaps = np.diff(np.concatenate([azimuth, azimuth[:1] + 2 * np.pi]))
+    palm_normal = np.array([best[f"palm_r{i}2"] for i in range(3)])
+    return {
+        "Q": float(best["Q"]),
+        "mean_abs_contact_z_m": float(np.abs(contacts[:, 2]).mean()),
+        "contact_spread_around_axis_deg": float(np.degrees(2 * np.pi - gaps.max())),
+        "palm_normal_along_axis": float(abs(palm_normal[2])),
+    }
+
+
+def main(n_starts: int | None, cyipopt_starts: int) -> dict:
+    results: dict = {"tasks": {}}
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        run_simulate(CONFIGS / "simulate.yaml", tmp / "rec", seed=0, fmt="parquet")
+        run_fit_task([tmp / "rec" / "manifest.csv"], tmp / "tasks")
+        tasks = tmp / "tasks" / "task_models.json"
+
+        def options(task, out, backend="casadi", starts=n_starts, workers=2):
+            return SynthesisOptions(
+                CONFIGS / "hands" / "human.yaml", CONFIGS / "objects" / "tool.yaml", tasks, task, out,
+                CONFIGS / "solver.yaml", CONFIGS / "grasp.yaml", starts=starts, workers=workers, backend=backend,
+            )  # fmt: skip
+
+        sweep_start = time.perf_counter()
+        for task in TASKS:
+            run = run_synthesize(options(task, tmp / "grasps"), echo=print)
+            optima = pd.read_parquet(tmp / "grasps" / task / "optima.parquet")
+            results["tasks"][task] = {
+                "starts": run["starts"],
+                "median_s_per_start": run["seconds_per_start"]["median"],
+                "p90_s_per_start": run["seconds_per_start"]["p90"],
+                "verified_fraction": run["verified_fraction"],
+                "distinct_optima": run["distinct_optima"],
+                "status_counts": run["status_counts"],
+                "sweep_wall_s": run["sweep_wall_seconds_this_run"],
+                "best_optimum": grasp_shape(optima),
+            }
+        results["whole_sweep_wall_s"] = time.perf_counter() - sweep_start
+        for task in TASKS:
+            casadi_rows = pd.read_parquet(tmp / "grasps" / task / "solutions.parquet")
+            run = run_synthesize(options(task, tmp / "cyipopt", "cyipopt", cyipopt_starts, 2), echo=print)
+            cy_rows = pd.read_parquet(tmp / "cyipopt" / task / "solutions.parquet")
+            same = casadi_rows[casadi_rows["start_id"].isin(cy_rows["start_id"])]
+            results["tasks"][task]["cyipopt"] = {
+                "starts": run["starts"],
+                "median_s_per_start": run["seconds_per_start"]["median"],
+                "casadi_median_same_starts_s": float(same["seconds"].median()),
+                "ratio_cyipopt_vs_casadi": run["seconds_per_start"]["median"] / float(same["seconds"].median()),
+                "verified_fraction": run["verified_fraction"],
+            }
+    shapes = {t: results["tasks"][t]["best_optimum"] for t in TASKS}
+    if all(shapes.values()):
+        results["section_7_3"] = {
+            "screwdriving_holds_nearer_the_middle_than_drawing": shapes["screwdriving"]["mean_abs_contact_z_m"]
+            < shapes["drawing"]["mean_abs_contact_z_m"],
+            "cutting_palm_more_parallel_to_the_handle_than_screwdriving": shapes["cutting"]["palm_normal_along_axis"]
+            < shapes["screwdriving"]["palm_normal_along_axis"],
+            "drawing_grasp_near_one_end": shapes["drawing"]["mean_abs_contact_z_m"] > 0.04,
+        }
+    medians = [results["tasks"][t]["median_s_per_start"] for t in TASKS]
+    verified = [results["tasks"][t]["verified_fraction"] for t in TASKS]
+    results["targets"] = {
+        "median_s_per_start": 1.0,
+        "median_met": max(medians) <= 1.0,
+        "verified_fraction": 0.8,
+        "verified_met": min(verified) >= 0.8,
+        "whole_sweep_s": 600,
+        "whole_sweep_met": results["whole_sweep_wall_s"] < 600,
+        "paper_seconds_per_solution": "459 +- 186",
+        "ratio_paper_mean_vs_our_median": 459 / float(np.median(medians)),
+    }
+    return results
+
+
+def report(r: dict) -> str:
+    lines = []
+    for task, t in r["tasks"].items():
+        cy = t.get("cyipopt", {})
+        lines.append(
+            f"{task}: {t['starts']} starts, median {t['median_s_per_start']:.2f} s (p90 {t['p90_s_per_start']:.2f}), "
+            f"{t['verified_fraction']:.0%} verified, {t['distinct_optima']} distinct optima; cyipopt median "
+            f"{cy.get('median_s_per_start', float('nan')):.2f} s on {cy.get('starts', 0)} of the starts "
+            f"(x{cy.get('ratio_cyipopt_vs_casadi', float('nan')):.2f} CasADi's)"
+        )
+    lines.append(f"whole sweep on 2 workers: {r['whole_sweep_wall_s'] / 60:.1f} min (target < 10 min)")
+    lines.append(f"Section 7.3: {r.get('section_7_3')}")
+    lines.append(
+        f"paper: 459 s per solution, ours x{r['targets']['ratio_paper_mean_vs_our_median']:.0f} faster (median)"
+    )
+    return "\n".join(lines)
+
+
+if __name__ == "__main__":
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--starts", type=int, default=None, help="starts per task (default: all 126)")
+    parser.add_argument("--cyipopt-starts", type=int, default=12, help="starts per task for the cyipopt comparison")
+    args = parser.parse_args()
+    results = main(args.starts, args.cyipopt_starts)
+    print(report(results))
+    print(f"saved {save('synthesis', results)}")
