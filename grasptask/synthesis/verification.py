@@ -12,6 +12,7 @@ from grasptask.grasp.settings import load_grasp_settings
 from grasptask.grasp.verify import Grasp, verify
 from grasptask.hand import load_hand
 from grasptask.io.artifacts import Provenance, StagedOutput
+from grasptask.io.tables import read_table
 from grasptask.objects import load_object
 from grasptask.task.model import load_task_models
 
@@ -24,20 +25,14 @@ def grasp_from_row(row: pd.Series, joint_names: list[str]) -> Grasp:
 
 def run_verify(solutions_path, tasks_path, task, out, hand_path, object_path, grasp_config) -> pd.DataFrame:
     solutions_path = Path(solutions_path)
-    if not solutions_path.is_file():
-        raise BadInputError(solutions_path, "file not found")
-    try:
-        solutions = pd.read_parquet(solutions_path)
-    except Exception as exc:  # pyarrow raises several types for a file that is not Parquet
-        raise BadInputError(solutions_path, f"not a readable Parquet file ({type(exc).__name__})") from exc
+    solutions = read_table(solutions_path, ("start_id", "palm_x", "palm_r00"))
     models = load_task_models(tasks_path)
     if task not in models:
         raise BadInputError(tasks_path, f"no task '{task}'")
     hand = load_hand(hand_path).grasping_hand()
     obj = load_object(object_path)
     settings = load_grasp_settings(grasp_config)
-    needed = [f"q_{n}" for n in hand.joint_names] + ["palm_x", "palm_r00", "start_id"]
-    for column in needed:
+    for column in (f"q_{n}" for n in hand.joint_names):
         if column not in solutions.columns:
             raise BadInputError(solutions_path, "missing column", column=column)
     rows = []

@@ -12,6 +12,7 @@ import pandas as pd
 from grasptask.errors import BadInputError
 from grasptask.io.manifest import RecordingEntry
 from grasptask.io.recordings import MIN_SAMPLES, read_recording
+from grasptask.io.tables import read_table
 from grasptask.io.tool import ToolConfig, load_tool
 from grasptask.io.units import UNIT_TABLES
 from grasptask.task import preprocess
@@ -122,15 +123,7 @@ def ellipsoid_matrices(frame: pd.DataFrame) -> np.ndarray:
 def read_ellipsoids(path: str | Path) -> pd.DataFrame:
     """Read ``ellipsoids.parquet``, checking it has what later stages need."""
     path = Path(path)
-    if not path.is_file():
-        raise BadInputError(path, "file not found")
-    try:
-        frame = pd.read_parquet(path)
-    except Exception as exc:  # pyarrow raises several types for a file that is not Parquet
-        raise BadInputError(path, f"not a readable Parquet file ({type(exc).__name__})") from exc
-    for column in ("id", "task", "group", "S"):
-        if column not in frame.columns:
-            raise BadInputError(path, "missing column", column=column)
+    frame = read_table(path, ("id", "task", "group", "S"))
     if frame.empty:
         raise BadInputError(path, "no ellipsoids")
     for row, s in enumerate(frame["S"], start=1):
