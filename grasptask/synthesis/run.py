@@ -65,6 +65,7 @@ def _jsonable(row: dict) -> dict:
 
 
 def run_synthesize(options: SynthesisOptions, echo=print) -> dict:
+    from grasptask.grasp.settings import load_grasp_settings
     from grasptask.hand import load_hand
     from grasptask.objects import load_object
     from grasptask.synthesis.model import build_model
@@ -88,8 +89,6 @@ def run_synthesize(options: SynthesisOptions, echo=print) -> dict:
         ipopt,
         str(options.grasp_config),
     )
-    from grasptask.grasp.settings import load_grasp_settings
-
     size = build_model(hand, obj, models[options.task], load_grasp_settings(options.grasp_config)).size()
     starts = subset(make_starts(obj.bounds(), options.seed), options.starts)
     folder = options.out / options.task
