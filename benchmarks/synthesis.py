@@ -24,6 +24,7 @@ sys.path[:0] = [str(ROOT / "benchmarks"), str(ROOT)]
 from common import save  # noqa: E402
 
 from grasptask.stages import run_fit_task, run_simulate  # noqa: E402
+from grasptask.synthesis.columns import contacts_from_row, palm_normal_from_row  # noqa: E402
 from grasptask.synthesis.run import SynthesisOptions, run_synthesize  # noqa: E402
 
 TASKS = ("drawing", "cutting", "screwdriving")
@@ -37,10 +38,10 @@ def grasp_shape(optima: pd.DataFrame) -> dict:
         return {}
     best = optima.iloc[0]
     fingers = ("thumb", "index", "middle")
-    contacts = np.array([[best[f"contact_{f}_{a}"] for a in "xyz"] for f in fingers])
+    contacts = contacts_from_row(best, list(fingers))
     azimuth = np.sort(np.arctan2(contacts[:, 1], contacts[:, 0]))
     gaps = np.diff(np.concatenate([azimuth, azimuth[:1] + 2 * np.pi]))
-    palm_normal = np.array([best[f"palm_r{i}2"] for i in range(3)])
+    palm_normal = palm_normal_from_row(best)
     return {
         "Q": float(best["Q"]),
         "mean_abs_contact_z_m": float(np.abs(contacts[:, 2]).mean()),

@@ -6,6 +6,8 @@ import numpy as np
 import pandas as pd
 from scipy.cluster.hierarchy import fcluster, linkage
 
+from grasptask.synthesis.columns import contacts_from_row, palm_normal_from_row, palm_position_from_row
+
 #: solutions closer than this (contacts and palm position in metres, palm normal x 0.05 m) are one optimum
 THRESHOLD = 0.01
 
@@ -41,9 +43,9 @@ def cluster(solutions: pd.DataFrame, fingers: list[str], symmetry: dict | None) 
     vectors = np.stack(
         [
             descriptor(
-                np.array([[row[f"contact_{f}_{a}"] for a in "xyz"] for f in fingers]),
-                np.array([row[f"palm_{a}"] for a in "xyz"]),
-                np.array([row[f"palm_r{i}2"] for i in range(3)]),
+                contacts_from_row(row, fingers),
+                palm_position_from_row(row),
+                palm_normal_from_row(row),
                 symmetry,
             )
             for _, row in verified.iterrows()

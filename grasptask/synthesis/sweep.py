@@ -88,6 +88,7 @@ class SolverContext:
 
     def solve(self, start: Start) -> dict:
         from grasptask.grasp.verify import Grasp, verify
+        from grasptask.synthesis.columns import grasp_columns
 
         if str(start.start_id) in os.environ.get(CRASH_ENV, "").split(","):
             os._exit(13)
@@ -103,17 +104,8 @@ class SolverContext:
             var.set_value(float(value), skip_validation=True)
         solution = self.nlp.read()
         row["Q"] = float(solution["Q"])
-        for i in range(3):
-            row[f"palm_{'xyz'[i]}"] = float(solution["palm_position"][i])
-            for j in range(3):
-                row[f"palm_r{i}{j}"] = float(solution["palm_rotation"][i, j])
-        for name, value in zip(self.joint_names, solution["joint_angles"], strict=True):
-            row[f"q_{name}"] = float(value)
-        for f, finger in enumerate(self.fingers):
-            for i, axis in enumerate("xyz"):
-                row[f"contact_{finger}_{axis}"] = float(solution["contacts"][f, i])
-                row[f"normal_{finger}_{axis}"] = float(solution["normals"][f, i])
         grasp = Grasp(solution["palm_rotation"], solution["palm_position"], solution["joint_angles"])
+        row.update(grasp_columns(grasp, self.joint_names, self.fingers, solution["contacts"], solution["normals"]))
         check = verify(grasp, self.hand, self.obj, self.task, self.settings)
         row.update(check.record(self.fingers))
         return row

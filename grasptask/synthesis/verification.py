@@ -4,23 +4,17 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import numpy as np
 import pandas as pd
 
 from grasptask.errors import BadInputError
 from grasptask.grasp.settings import load_grasp_settings
-from grasptask.grasp.verify import Grasp, verify
+from grasptask.grasp.verify import verify
 from grasptask.hand import load_hand
 from grasptask.io.artifacts import Provenance, StagedOutput
 from grasptask.io.tables import read_table
 from grasptask.objects import load_object
+from grasptask.synthesis.columns import grasp_from_row, joint_columns
 from grasptask.task.model import load_task_models
-
-
-def grasp_from_row(row: pd.Series, joint_names: list[str]) -> Grasp:
-    rotation = np.array([[row[f"palm_r{i}{j}"] for j in range(3)] for i in range(3)], dtype=float)
-    position = np.array([row[f"palm_{a}"] for a in "xyz"], dtype=float)
-    return Grasp(rotation, position, np.array([row[f"q_{n}"] for n in joint_names], dtype=float))
 
 
 def run_verify(solutions_path, tasks_path, task, out, hand_path, object_path, grasp_config) -> pd.DataFrame:
@@ -32,7 +26,7 @@ def run_verify(solutions_path, tasks_path, task, out, hand_path, object_path, gr
     hand = load_hand(hand_path).grasping_hand()
     obj = load_object(object_path)
     settings = load_grasp_settings(grasp_config)
-    for column in (f"q_{n}" for n in hand.joint_names):
+    for column in joint_columns(hand.joint_names):
         if column not in solutions.columns:
             raise BadInputError(solutions_path, "missing column", column=column)
     rows = []
