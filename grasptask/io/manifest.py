@@ -134,23 +134,3 @@ def _entry(path: Path, row_number: int, row: dict[str, str]) -> RecordingEntry:
         bias_window_s=bias_window,
         source=f"{path}: row {row_number}",
     )
-
-
-def write_manifest(path: Path, entries: list[RecordingEntry], relative_to: Path) -> None:
-    rows = []
-    for e in entries:
-        rows.append(
-            {
-                "path": e.path.relative_to(relative_to).as_posix(),
-                "task": e.task,
-                "subject": e.subject,
-                "trial": e.trial,
-                "grasp": e.grasp,
-                "id": e.id,
-                "frame": e.frame,
-                "torque_unit": e.units.get("torque_unit", "N.m"),
-                "tool": e.tool.relative_to(relative_to).as_posix() if e.tool else "",
-                "bias_window_s": e.bias_window_s,
-            }
-        )
-    pd.DataFrame(rows).to_csv(path, index=False)
