@@ -316,6 +316,49 @@ def verify_command(solutions, tasks_path, task, out, hand, object_path, grasp_co
     click.echo(f"{int(table['verified'].sum())}/{len(table)} grasps verified; wrote {out}/verification.parquet")
 
 
+@main.command()
+@click.option(
+    "--results",
+    "results_dir",
+    required=True,
+    type=click.Path(path_type=Path),
+    help="Results folder: recordings/, tasks/ and grasps/<task>/ as the pipelines write them.",
+)
+@click.option("--out", type=click.Path(path_type=Path), default=None, help="Report folder [default: RESULTS/report].")
+@click.option(
+    "--check-browser",
+    is_flag=True,
+    help="Open the page in headless Chromium: every image must load and the console must stay free of errors.",
+)
+@click.option(
+    "--screenshot", type=click.Path(path_type=Path), default=None, help="With --check-browser: save the page top."
+)
+def report(results_dir, out, check_browser, screenshot):
+    """Write a self-contained HTML report (OUT/index.html, images embedded), OUT/figures/*.png and
+    OUT/tables/*.md: Tables 1-10 beside the paper, ellipsoid figures, distances, synthesis statistics and a
+    rendering of every distinct optimum. Parts whose inputs are missing become notes."""
+    from grasptask.report.build import build_report
+
+    out = out or results_dir / "report"
+    summary = build_report(results_dir, out)
+    for note in summary.notes:
+        click.echo(f"note: {note}")
+    click.echo(f"{summary.figures} figures, {summary.tables} tables in {summary.seconds:.1f} s")
+    if check_browser:
+        from grasptask.report.browser import check_page
+
+        check = check_page(summary.index, screenshot)
+        click.echo(
+            f"chromium: {check.images - len(check.broken_images)}/{check.images} images loaded, "
+            f"{len(check.console_errors)} console errors"
+        )
+        for problem in [*check.broken_images, *check.console_errors]:
+            click.echo(f"  {problem}", err=True)
+        if not check.ok:
+            raise click.exceptions.Exit(1)
+    click.echo(f"report: {summary.index}")
+
+
 @main.group()
 def pipeline():
     """Run declarative pipelines (pipelines/*.yaml)."""

@@ -2,6 +2,7 @@
 
 import shutil
 
+import pytest
 import yaml
 
 from grasptask.pipeline.runner import load_pipeline, run_pipeline
@@ -67,6 +68,16 @@ def test_pipeline_cli_and_bad_pipeline_file(tmp_path, cli):
     assert result.exit_code == 2 and "outputs" in result.output
 
 
-def test_bundled_demo_pipeline_parses():
-    spec = load_pipeline("pipelines/demo.yaml")
-    assert [s.name for s in spec.stages] == ["simulate", "fit-task", "distances"]
+@pytest.mark.parametrize("name", ["demo", "paper"])
+def test_bundled_pipelines_parse_and_end_with_the_report(name, cli):
+    spec = load_pipeline(f"pipelines/{name}.yaml")
+    assert [s.name for s in spec.stages] == [
+        "simulate", "fit-task", "distances",
+        "synthesize-drawing", "synthesize-cutting", "synthesize-screwdriving", "report",
+    ]  # fmt: skip
+    assert spec.final_message == f"report: results/{name}/report/index.html"
+    starts = [s.args[s.args.index("--starts") + 1] for s in spec.stages if "--starts" in s.args]
+    assert starts == (["4", "4", "4"] if name == "demo" else [])  # the paper runs all 126
+    for stage in spec.stages:  # every stage's arguments are ones its command accepts
+        result = cli(*stage.run, *stage.args, "--help")
+        assert result.exit_code == 0, result.output

@@ -75,6 +75,17 @@ class ImplicitObject:
         return x
 
 
+def surface_mesh(obj: ImplicitObject, h: float) -> trimesh.Trimesh:
+    """The zero level set of ``obj.g`` by marching cubes on a grid of spacing ``h`` (accurate to about ``h``)."""
+    low, high = obj.bounds()
+    low, high = low - 2 * h, high + 2 * h
+    axes = [np.arange(lo, hi + h, h) for lo, hi in zip(low, high, strict=True)]
+    grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
+    volume = obj.g(grid).reshape([len(a) for a in axes])
+    verts, faces, _, _ = measure.marching_cubes(volume, level=0.0, spacing=(h, h, h))
+    return trimesh.Trimesh(verts + low, faces, process=True)
+
+
 @dataclass
 class SurfaceIndex:
     points: np.ndarray
@@ -85,17 +96,9 @@ class SurfaceIndex:
 
     @classmethod
     def build(cls, obj: ImplicitObject, grid_cells: int = 120_000, spacing: float = 7e-4, max_points: int = 200_000):
-        low, high = obj.bounds()
-        extent = high - low
-        h = float(np.cbrt(np.prod(extent) / grid_cells))
-        h = min(h, extent.min() / 12)
-        low, high = low - 2 * h, high + 2 * h
-        axes = [np.arange(lo, hi + h, h) for lo, hi in zip(low, high, strict=True)]
-        grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
-        values = obj.g(grid)
-        volume = values.reshape([len(a) for a in axes])
-        verts, faces, _, _ = measure.marching_cubes(volume, level=0.0, spacing=(h, h, h))
-        mesh = trimesh.Trimesh(verts + low, faces, process=True)  # for sampling and pictures, within h
+        extent = np.diff(obj.bounds(), axis=0)[0]
+        h = min(float(np.cbrt(np.prod(extent) / grid_cells)), extent.min() / 12)
+        mesh = surface_mesh(obj, h)
         count = int(min(max_points, max(2000, mesh.area / spacing**2)))
         samples, _ = trimesh.sample.sample_surface(mesh, count, seed=0)
         points = obj.project(np.asarray(samples))

@@ -7,15 +7,22 @@ from pathlib import Path
 
 import matplotlib.pyplot as plt
 import numpy as np
+import trimesh
 from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
 from grasptask.grasp.mechanics import friction_cone_edges
 from grasptask.hand.kinematics import forward
 from grasptask.hand.model import Hand
-from grasptask.objects.surface import ImplicitObject
+from grasptask.objects.surface import ImplicitObject, surface_mesh
 from grasptask.report.style import apply_style
 
 FINGER_COLOURS = {"thumb": "#d95f02", "index": "#1b9e77", "middle": "#7570b3", "ring": "#e7298a", "little": "#66a61e"}
+
+
+def display_mesh(obj: ImplicitObject, faces: int = 5000) -> trimesh.Trimesh:
+    """A mesh of about ``faces`` triangles for pictures: a full surface is cheap to draw and has no holes."""
+    spacing = float(np.sqrt(2 * obj.surface.mesh.area / faces))
+    return surface_mesh(obj, spacing)
 
 
 def _capsule_line(ax, a, b, radius, colour):
@@ -35,15 +42,15 @@ def draw_grasp(
     normals=None,
     mu: float = 0.5,
     task_axis=None,
-    max_faces: int = 4000,
+    mesh: trimesh.Trimesh | None = None,
 ):
-    """Draw one grasp on a 3D axis; ``contacts``/``normals`` (outward) add contact points and friction cones."""
-    mesh = obj.surface.mesh
-    faces = mesh.faces
-    if len(faces) > max_faces:
-        faces = faces[np.random.default_rng(0).choice(len(faces), max_faces, replace=False)]
+    """Draw one grasp on a 3D axis; ``contacts``/``normals`` (outward) add contact points and friction cones.
+    ``mesh`` is the object's picture (made by :func:`display_mesh` when not given)."""
+    mesh = display_mesh(obj) if mesh is None else mesh
     ax.add_collection3d(
-        Poly3DCollection(mesh.vertices[faces], facecolor="#c8c8c8", edgecolor="none", alpha=0.35, zorder=0)
+        Poly3DCollection(
+            mesh.vertices[mesh.faces], facecolor="#a0a0a0", edgecolor="#8a8a8a", linewidth=0.1, alpha=0.45, zorder=0
+        )
     )
     pose = forward(hand, joint_angles, palm_rotation, palm_position)
     for name, finger in pose.fingers.items():

@@ -19,6 +19,12 @@ def task_colour(task: str, known: list[str] | None = None) -> str:
     return FALLBACK_COLOURS[others.index(task) % len(FALLBACK_COLOURS)] if task in others else FALLBACK_COLOURS[0]
 
 
+def task_order(task: str) -> tuple[int, str]:
+    """Sort key: the paper's tasks in its order (drawing, cutting, screw driving), then the rest by name."""
+    known = list(TASK_COLOURS)
+    return (known.index(task) if task in known else len(known), task)
+
+
 def apply_style() -> None:
     matplotlib.rcParams.update(
         {"font.size": FONT_SIZE, "axes.titlesize": FONT_SIZE + 1, "figure.dpi": 110, "savefig.bbox": "tight"}

@@ -150,6 +150,7 @@ def _summarise(options: SynthesisOptions, rows: list[dict], size: dict, wall: fl
         "task": options.task,
         "object": str(options.object),
         "hand": str(options.hand),
+        "grasp_config": str(options.grasp_config),
         "backend": options.backend,
         "executor": options.executor,
         "workers": options.workers,

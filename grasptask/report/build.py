@@ -1,0 +1,325 @@
+"""``grasptask report``: one page with the task ellipsoids, distances and synthesized grasps of a results folder,
+each beside the paper's figures. A part whose inputs are missing becomes a note saying what to run."""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from grasptask import __version__
+from grasptask.io.artifacts import Provenance, StagedOutput
+from grasptask.paths import PAPER_ELLIPSOID_TABLES, REFERENCE_DIR, ROOT
+from grasptask.progress import progress
+from grasptask.report import paper_tables
+from grasptask.report.inputs import ResultsFolder, SweepResult, find_results, read_sweep
+from grasptask.report.page import Figure, Note, Section, Table, markdown, render_html
+from grasptask.report.style import task_order
+
+PAPER_SYNTHESIS = REFERENCE_DIR / "paper_synthesis_results.csv"
+
+
+@dataclass(frozen=True)
+class ReportSummary:
+    index: Path
+    figures: int
+    tables: int
+    notes: list[str]
+    seconds: float
+
+
+class _Writer:
+    """Names figures and tables inside the staged report folder."""
+
+    def __init__(self, staged: StagedOutput):
+        self.staged = staged
+        self.figures: list[str] = []
+        self.tables: list[str] = []
+
+    def figure(self, name: str) -> Path:
+        self.figures.append(name)
+        return self.staged.path(f"figures/{name}.png")
+
+    def table(self, name: str, caption: str, frame) -> Table:
+        table = Table(name, caption, frame)
+        self.staged.write_with(f"tables/{name}.md", lambda p: p.write_text(markdown(table)))
+        self.tables.append(name)
+        return table
+
+
+def _run_missing(what: str, command: str) -> Note:
+    return Note(f"{what} not found; run `{command}` to add this section.")
+
+
+def ellipsoid_tables_section(results: ResultsFolder, writer: _Writer) -> Section:
+    from grasptask.task.stats import read_reference
+
+    section = Section(
+        "tables",
+        "Task ellipsoids beside the paper (Tables 1-10)",
+        "Recomputed from the recordings; each statistic is shown with the paper's value and the difference "
+        "(ours minus paper). Axes 1-3 are the axes of the 3D force or torque ellipsoid, shortest first.",
+    )
+    if not results.stats.is_file():
+        section.blocks.append(_run_missing(str(results.stats), "grasptask fit-task MANIFEST --out DIR/tasks"))
+        return section
+    stats = read_reference(results.stats)
+    reference = read_reference(PAPER_ELLIPSOID_TABLES)
+    for table in paper_tables.PAPER_TABLES:
+        frame = paper_tables.comparison(stats, reference, table)
+        caption = f"Table {table.number}: {table.title}"
+        if frame.empty:
+            section.blocks.append(Note(f"{caption}: none of the groups {', '.join(table.groups)} in {results.stats}"))
+            continue
+        missing = sorted(set(table.groups) - set(frame["group"]))
+        section.blocks.append(writer.table(f"table_{table.number:02d}", caption, frame))
+        if missing:
+            section.blocks.append(Note(f"Table {table.number}: no results for {', '.join(missing)}"))
+    summary = paper_tables.largest_differences(stats, reference)
+    section.summary = (
+        f"Tables 1-10: {summary['compared_values']} values compared with the paper; largest difference of a "
+        f"normalised value {summary['max_abs_diff_normalised']:.3f}, largest relative difference of a raw mean "
+        f"axis length {summary['max_rel_diff_raw_mu']:.0%}"
+    )
+    return section
+
+
+def ellipsoid_figures_section(results: ResultsFolder, writer: _Writer) -> Section:
+    from grasptask.report.ellipsoid_plots import load_samples_or_note, plot_task_ellipsoids
+    from grasptask.task.fit import read_ellipsoids
+    from grasptask.task.model import load_task_models
+
+    section = Section("ellipsoids", "Force and torque ellipsoids (Figures 2, 7, 10)")
+    if not results.ellipsoids.is_file() or not results.task_models.is_file():
+        section.blocks.append(
+            _run_missing(f"{results.ellipsoids} or {results.task_models}", "grasptask fit-task ... --out DIR/tasks")
+        )
+        return section
+    ellipsoids = read_ellipsoids(results.ellipsoids)
+    models = load_task_models(results.task_models)
+    samples, note = load_samples_or_note(results.manifest, ellipsoids["id"])
+    if note:
+        section.blocks.append(Note(note))
+    tasks = list(models)
+    for task in progress(tasks, desc="report: ellipsoid figures", unit="task"):
+        members = ellipsoids[ellipsoids["task"] == task]
+        if members.empty:
+            continue
+        path = writer.figure(f"ellipsoids_{task}")
+        plot_task_ellipsoids(task, members, models[task].ellipsoid.S, path, samples, tasks)
+        lengths = models[task].lengths
+        section.blocks.append(
+            Figure(
+                path,
+                f"{task}: shadows of the force (top, N) and torque (bottom, N.cm) ellipsoids of its {len(members)} "
+                f"recordings on the object's coordinate planes, with sampled data points; the thick outline is the "
+                f"task model (Log-Euclidean mean), black its main axis. Task-model axis lengths gamma: "
+                + ", ".join(f"{v:.3g}" for v in lengths)
+                + " (SI).",
+            )
+        )
+    return section
+
+
+def distances_section(results: ResultsFolder, writer: _Writer) -> Section:
+    from grasptask.report.distance_plots import plot_embedding, plot_heatmap
+    from grasptask.task.distances import compute_distances
+    from grasptask.task.fit import read_ellipsoids
+
+    section = Section("distances", "Distances between task ellipsoids (Figure 9)")
+    if not results.ellipsoids.is_file():
+        section.blocks.append(_run_missing(str(results.ellipsoids), "grasptask fit-task ... --out DIR/tasks"))
+        return section
+    distances = compute_distances(read_ellipsoids(results.ellipsoids))
+    summary = distances.summary()
+    by_task = summary.get("by_task", {})
+    section.summary = (
+        f"Distances: leave-one-out nearest-neighbour task accuracy {by_task.get('loo_1nn_accuracy', 0):.2f}"
+    )
+    section.intro = (
+        "Log-Euclidean distance ||log S_a - log S_b||_F normalised by the largest in the set, ordered by task and "
+        "grasp type as in the paper. Leave-one-out nearest-neighbour task accuracy "
+        f"{by_task.get('loo_1nn_accuracy', 0):.2f}; "
+        f"mean normalised distance within tasks {by_task.get('mean_within_normalised', float('nan')):.2f}, between "
+        f"tasks {by_task.get('mean_between_normalised', float('nan')):.2f}."
+    )
+    heatmap, embedding = writer.figure("distance_heatmap"), writer.figure("distance_embedding")
+    plot_heatmap(distances, heatmap)
+    plot_embedding(distances, embedding)
+    section.blocks += [
+        Figure(heatmap, "Normalised Log-Euclidean distances between all ellipsoids (cf. Figure 9)."),
+        Figure(embedding, "Classical MDS of the distances: each point is one recording's ellipsoid."),
+    ]
+    return section
+
+
+def _reference_path(path: str, fallback: Path) -> Path:
+    """A config path recorded in run.json, relative to where the sweep ran or to the project."""
+    for candidate in (Path(path), ROOT / path):
+        if candidate.is_file():
+            return candidate
+    return fallback
+
+
+def sweeps_section(results: ResultsFolder, sweeps: dict[str, SweepResult], writer: _Writer) -> Section:
+    from grasptask.report.sweep_plots import plot_sweeps
+
+    section = Section(
+        "sweeps",
+        "Synthesis sweeps: convergence and time per start",
+        "Every start is an IPOPT solve of the grasp NLP from one of the 126 starting palm poses; a start counts "
+        "as a grasp only when the independent verifier accepts it. The paper reports 459 +- 186 s per solution "
+        "(AMPL + IPOPT on a 2.4 GHz Opteron) and 7 / 20 / 3 local optima for drawing / cutting / screw driving.",
+    )
+    for folder in results.unfinished_sweeps():
+        section.blocks.append(
+            Note(f"{folder}: solutions.jsonl but no run.json (interrupted?); finish it with synthesize --resume")
+        )
+    if not sweeps:
+        section.blocks.append(
+            _run_missing(f"synthesis results under {results.grasps}", "grasptask synthesize ... --out DIR/grasps")
+        )
+        return section
+    reference = paper_tables.read_synthesis_reference(PAPER_SYNTHESIS)
+    optima = reference[reference["quantity"] == "distinct_local_optima"].set_index("task")["value"].to_dict()
+    mean = float(reference.loc[reference["quantity"] == "mean_seconds_per_solution", "value"].iloc[0])
+    sd = float(reference.loc[reference["quantity"] == "sd_seconds_per_solution", "value"].iloc[0])
+    section.blocks.append(
+        writer.table(
+            "synthesis_sweeps", "Sweep statistics beside the paper", paper_tables.sweep_table(sweeps, reference)
+        )
+    )
+    path = writer.figure("synthesis_sweeps")
+    plot_sweeps(sweeps, mean, sd, optima, path)
+    section.blocks.append(
+        Figure(path, "Statuses, time per start (the paper's mean +- sd shaded) and verified fraction per task.")
+    )
+    size = next(iter(sweeps.values())).run.get("model_size", {})
+    if size:
+        variables, constraints = size.get("variables"), size.get("constraints")
+        section.intro += f" Our NLP: {variables} variables x {constraints} constraints (paper: 579 x 653)."
+    return section
+
+
+def grasps_section(results: ResultsFolder, sweeps: dict[str, SweepResult], writer: _Writer) -> Section:
+    from grasptask.grasp.settings import load_grasp_settings
+    from grasptask.hand import load_hand
+    from grasptask.objects import load_object
+    from grasptask.paths import DEFAULT_GRASP_CONFIG, DEFAULT_HAND, DEFAULT_OBJECT
+    from grasptask.report.render import display_mesh, render_grasp
+    from grasptask.synthesis.columns import contacts_from_row, grasp_from_row
+    from grasptask.task.model import load_task_models
+
+    section = Section(
+        "grasps",
+        "Synthesized grasps: every distinct optimum (Tables 11-12, Figure 11)",
+        "Each distinct verified optimum from two viewpoints: thumb orange, index green, middle purple; red crosses "
+        "and lines are the contact points and their friction cones; the arrows from the object's centre show the "
+        "task's main wrench axis (force magenta, torque black). Q is eq. 12 (lower is better).",
+    )
+    if not sweeps:
+        section.blocks.append(
+            _run_missing(f"synthesis results under {results.grasps}", "grasptask synthesize ... --out DIR/grasps")
+        )
+        return section
+    reference = paper_tables.read_synthesis_reference(PAPER_SYNTHESIS)
+    section.blocks.append(
+        writer.table(
+            "grasp_quality",
+            "Q of every distinct optimum, beside the values the paper's Tables 11-12 show",
+            paper_tables.quality_table(sweeps, reference),
+        )
+    )
+    task_models = load_task_models(results.task_models) if results.task_models.is_file() else {}
+    objects, hands = {}, {}
+    for task, sweep in sweeps.items():
+        if sweep.optima.empty:
+            section.blocks.append(Note(f"{task}: no verified grasp among {len(sweep.solutions)} starts"))
+            continue
+        run = sweep.run
+        hand_path = _reference_path(run.get("hand", ""), DEFAULT_HAND)
+        object_path = _reference_path(run.get("object", ""), DEFAULT_OBJECT)
+        settings = load_grasp_settings(_reference_path(run.get("grasp_config", ""), DEFAULT_GRASP_CONFIG))
+        hand = hands.get(hand_path) or hands.setdefault(hand_path, load_hand(hand_path))
+        if object_path not in objects:
+            objects[object_path] = (obj := load_object(object_path)), display_mesh(obj)
+        obj, mesh = objects[object_path]
+        fingers = list(hand.grasping)
+        task_axis = task_models[task].axes[0] if task in task_models else None
+        rows = list(sweep.optima.iterrows())
+        for _, optimum in progress(rows, desc=f"report: {task} grasps", unit="grasp"):
+            grasp = grasp_from_row(optimum, hand.grasping_hand().joint_names)
+            number = int(optimum["optimum_id"])
+            path = writer.figure(f"grasp_{task}_{number:02d}")
+            contacts = contacts_from_row(optimum, fingers)
+            normals = np.array([[optimum[f"normal_{f}_{a}"] for a in "xyz"] for f in fingers], dtype=float)
+            title = f"{task}, optimum {number}: Q = {optimum['Q']:.4g} ({int(optimum['members'])} starts)"
+            render_grasp(
+                path,
+                title,
+                hand=hand.grasping_hand(),
+                obj=obj,
+                palm_rotation=grasp.palm_rotation,
+                palm_position=grasp.palm_position,
+                joint_angles=grasp.joint_angles,
+                contacts=contacts,
+                normals=normals,
+                mu=settings.friction_coefficient,
+                task_axis=task_axis,
+                mesh=mesh,
+            )
+            section.blocks.append(Figure(path, title))
+    return section
+
+
+def build_report(results_dir: str | Path, out: str | Path) -> ReportSummary:
+    """Write ``out/index.html`` (self-contained), ``out/figures/*.png`` and ``out/tables/*.md``."""
+    start = time.perf_counter()
+    results = find_results(results_dir)
+    sweeps: dict[str, SweepResult] = {}
+    for folder in results.sweep_folders():
+        sweep = read_sweep(folder)
+        sweeps[sweep.task] = sweep
+    sweeps = {task: sweeps[task] for task in sorted(sweeps, key=task_order)}
+    inputs = [p for p in (results.stats, results.ellipsoids, results.task_models) if p.is_file()]
+    inputs += [s.folder / "run.json" for s in sweeps.values()]
+    provenance = Provenance.of("report", {"results": str(results_dir)}, inputs)
+    with StagedOutput(out, provenance) as staged:
+        writer = _Writer(staged)
+        sections = []
+        for make in (ellipsoid_tables_section, ellipsoid_figures_section, distances_section):
+            sections.append(make(results, writer))
+        sections.append(sweeps_section(results, sweeps, writer))
+        sections.append(grasps_section(results, sweeps, writer))
+        notes = [f"{s.title}: {n}" for s in sections for n in s.notes]
+        summary_lines = _summary_lines(sweeps, sections)
+        page = render_html(
+            "grasptask report",
+            f"results: {Path(results_dir).resolve()}; grasptask {__version__}; built {time.strftime('%Y-%m-%d %H:%M')}",
+            summary_lines,
+            sections,
+        )
+        staged.write_with("index.html", lambda p: p.write_text(page))
+        staged.write_json(
+            "report.json",
+            {"figures": writer.figures, "tables": writer.tables, "notes": notes, "summary": summary_lines},
+        )
+    index = Path(out) / "index.html"
+    return ReportSummary(index, len(writer.figures), len(writer.tables), notes, time.perf_counter() - start)
+
+
+def _summary_lines(sweeps: dict[str, SweepResult], sections: list[Section]) -> list[str]:
+    lines = [s.summary for s in sections if s.summary]
+    for task, sweep in sweeps.items():
+        solutions = sweep.solutions
+        lines.append(
+            f"{task}: {int(solutions['verified'].sum())}/{len(solutions)} starts verified, {len(sweep.optima)} "
+            f"distinct optima, best Q {sweep.optima['Q'].min() if len(sweep.optima) else float('nan'):.4g}, "
+            f"median {solutions['seconds'].median():.1f} s per start (paper: 459 +- 186 s)"
+        )
+    missing = [s.title for s in sections if not s.made]
+    if missing:
+        lines.append("Not made (inputs missing): " + "; ".join(missing))
+    return lines

@@ -1,0 +1,85 @@
+"""What a results folder holds, found by the layout the pipelines write:
+
+    DIR/recordings/manifest.csv          simulate (or your own recordings' manifest)
+    DIR/tasks/stats.csv, ellipsoids.parquet, task_models.json      fit-task
+    DIR/grasps/<task>/run.json, solutions.parquet, optima.parquet  synthesize
+
+Any part may be missing; the report makes what it can from the rest.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+import pandas as pd
+
+from grasptask.errors import BadInputError
+from grasptask.io.tables import read_table
+
+
+@dataclass(frozen=True)
+class SweepResult:
+    """One task's synthesis output: ``run.json`` and its solutions and optima tables."""
+
+    task: str
+    folder: Path
+    run: dict
+    solutions: pd.DataFrame
+    optima: pd.DataFrame
+
+
+@dataclass(frozen=True)
+class ResultsFolder:
+    root: Path
+
+    @property
+    def manifest(self) -> Path:
+        return self.root / "recordings" / "manifest.csv"
+
+    @property
+    def stats(self) -> Path:
+        return self.root / "tasks" / "stats.csv"
+
+    @property
+    def ellipsoids(self) -> Path:
+        return self.root / "tasks" / "ellipsoids.parquet"
+
+    @property
+    def task_models(self) -> Path:
+        return self.root / "tasks" / "task_models.json"
+
+    @property
+    def grasps(self) -> Path:
+        return self.root / "grasps"
+
+    def sweep_folders(self) -> list[Path]:
+        """Task folders under ``grasps/`` that a sweep has finished (they have ``run.json``)."""
+        if not self.grasps.is_dir():
+            return []
+        return sorted(p.parent for p in self.grasps.glob("*/run.json"))
+
+    def unfinished_sweeps(self) -> list[Path]:
+        """Task folders with a per-start log but no summary: a sweep interrupted or still running."""
+        if not self.grasps.is_dir():
+            return []
+        return sorted(p.parent for p in self.grasps.glob("*/solutions.jsonl") if not (p.parent / "run.json").exists())
+
+
+def find_results(root: str | Path) -> ResultsFolder:
+    root = Path(root)
+    if not root.is_dir():
+        raise BadInputError(root, "results folder not found")
+    return ResultsFolder(root)
+
+
+def read_sweep(folder: Path) -> SweepResult:
+    run_path = folder / "run.json"
+    try:
+        run = json.loads(run_path.read_text())
+    except (OSError, json.JSONDecodeError) as exc:
+        raise BadInputError(run_path, f"not a readable run summary ({type(exc).__name__})") from exc
+    solutions = read_table(folder / "solutions.parquet", ("start_id", "status", "seconds", "verified"))
+    optima = read_table(folder / "optima.parquet")
+    return SweepResult(str(run.get("task", folder.name)), folder, run, solutions, optima)

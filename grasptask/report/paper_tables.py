@@ -1,0 +1,145 @@
+"""The paper's Tables 1-10 recomputed beside the published values, and the synthesis figures beside
+Section 7.3 and Tables 11-12."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+
+from grasptask.task.stats import compare_with_reference
+
+DRAWING_GROUPS = ("drawing_tripod", "drawing_cylindrical", "drawing_power")
+#: Tables 6-10 compare the tasks; their drawing rows are the tripod-grasp group
+TASK_GROUPS = ("drawing_tripod", "cutting", "screwdriving")
+RAW = ("mu", "sigma", "cv")
+NORMALISED = ("mu_n", "sigma_n", "cv_n")
+UNITS = {"force": "N", "torque": "N.cm"}
+
+
+@dataclass(frozen=True)
+class PaperTable:
+    number: int
+    title: str
+    groups: tuple[str, ...]
+    domains: tuple[str, ...]
+    stats: tuple[str, ...]
+
+
+def _tables() -> list[PaperTable]:
+    tables = []
+    for first, groups, subject in ((1, DRAWING_GROUPS, "circles drawing, 3 grasp types"), (6, TASK_GROUPS, "3 tasks")):
+        tables += [
+            PaperTable(first, f"Force ellipsoid axis lengths (N), {subject}", groups, ("force",), RAW),
+            PaperTable(first + 1, f"Torque ellipsoid axis lengths (N.cm), {subject}", groups, ("torque",), RAW),
+            PaperTable(
+                first + 2, f"Normalised force ellipsoid axis lengths, {subject}", groups, ("force",), NORMALISED
+            ),
+            PaperTable(
+                first + 3, f"Normalised torque ellipsoid axis lengths, {subject}", groups, ("torque",), NORMALISED
+            ),
+            PaperTable(
+                first + 4,
+                f"Normalised extent of the ellipsoids along the object axes x, y, z, {subject}",
+                groups,
+                ("force", "torque"),
+                ("proj",),
+            ),
+        ]
+    return tables
+
+
+PAPER_TABLES = _tables()
+
+
+def comparison(stats: pd.DataFrame, reference: pd.DataFrame, table: PaperTable) -> pd.DataFrame:
+    """One row per (group, domain, axis); per statistic the recomputed value, the paper's and the difference.
+    Groups the run did not produce are left out (the caller says so)."""
+    joined = compare_with_reference(stats, reference)
+    joined = joined[
+        joined["group"].isin(table.groups) & joined["domain"].isin(table.domains) & joined["stat"].isin(table.stats)
+    ]
+    if joined.empty:
+        return pd.DataFrame()
+    long = joined.melt(
+        id_vars=["group", "domain", "axis", "stat"],
+        value_vars=["value", "paper", "difference"],
+        var_name="kind",
+        value_name="number",
+    )
+    wide = long.pivot_table(index=["group", "domain", "axis"], columns=["stat", "kind"], values="number")
+    labels = {"value": "", "paper": " paper", "difference": " diff"}
+    wide = wide.reindex(columns=[(s, k) for s in table.stats for k in labels if (s, k) in wide.columns])
+    wide.columns = [f"{s}{labels[k]}" for s, k in wide.columns]
+    order = {g: i for i, g in enumerate(table.groups)}
+    wide = wide.reset_index()
+    wide = wide.sort_values(["group", "domain", "axis"], key=lambda c: c.map(order) if c.name == "group" else c)
+    if len(table.domains) == 1:
+        wide = wide.drop(columns="domain")
+    return wide.round(3).reset_index(drop=True)
+
+
+def largest_differences(stats: pd.DataFrame, reference: pd.DataFrame) -> dict:
+    """A summary for the page: the largest absolute differences of normalised values and of raw means."""
+    joined = compare_with_reference(stats, reference)
+    normalised = joined[joined["stat"].isin(["mu_n", "proj"])]
+    raw = joined[joined["stat"] == "mu"]
+    relative = (raw["difference"].abs() / raw["paper"].abs()).replace(np.inf, np.nan)
+    return {
+        "compared_values": int(len(joined)),
+        "max_abs_diff_normalised": float(normalised["difference"].abs().max()) if len(normalised) else None,
+        "max_rel_diff_raw_mu": float(relative.max()) if len(relative) else None,
+    }
+
+
+def read_synthesis_reference(path) -> pd.DataFrame:
+    return pd.read_csv(path, comment="#")
+
+
+def sweep_table(sweeps: dict, reference: pd.DataFrame) -> pd.DataFrame:
+    """Per task: starts, statuses, verified fraction, distinct optima and time per start, beside the paper."""
+    paper_optima = reference[reference["quantity"] == "distinct_local_optima"].set_index("task")["value"]
+    paper_mean = float(reference.loc[reference["quantity"] == "mean_seconds_per_solution", "value"].iloc[0])
+    paper_sd = float(reference.loc[reference["quantity"] == "sd_seconds_per_solution", "value"].iloc[0])
+    rows = []
+    for task, sweep in sweeps.items():
+        seconds = sweep.solutions["seconds"].astype(float)
+        statuses = sweep.solutions["status"].value_counts()
+        rows.append(
+            {
+                "task": task,
+                "starts": len(sweep.solutions),
+                "statuses": ", ".join(f"{s} {n}" for s, n in statuses.items()),
+                "verified": f"{int(sweep.solutions['verified'].sum())} ({sweep.solutions['verified'].mean():.0%})",
+                "distinct optima": len(sweep.optima),
+                "paper optima": int(paper_optima[task]) if task in paper_optima else None,
+                "median s/start": round(float(seconds.median()), 2),
+                "p90 s/start": round(float(np.percentile(seconds, 90)), 2),
+                "mean +- sd s/start": f"{seconds.mean():.1f} +- {seconds.std(ddof=1) if len(seconds) > 1 else 0:.1f}",
+                "paper s/solution": f"{paper_mean:.0f} +- {paper_sd:.0f}",
+                "paper mean / our median": round(paper_mean / float(seconds.median()), 1),
+            }
+        )
+    return pd.DataFrame(rows)
+
+
+def quality_table(sweeps: dict, reference: pd.DataFrame) -> pd.DataFrame:
+    """Tables 11-12: the Q of every distinct optimum (best first), with the values the paper shows."""
+    shown = reference[reference["quantity"] == "quality_shown"]
+    rows = []
+    for task, sweep in sweeps.items():
+        paper = ", ".join(f"{v:g}" for v in shown.loc[shown["task"] == task, "value"]) or "-"
+        for _, optimum in sweep.optima.iterrows():
+            rows.append(
+                {
+                    "task": task,
+                    "optimum": int(optimum["optimum_id"]),
+                    "Q": round(float(optimum["Q"]), 4),
+                    "starts reaching it": int(optimum["members"]),
+                    "epsilon": round(float(optimum.get("verify_epsilon", np.nan)), 4),
+                    "torque effort": round(float(optimum.get("verify_torque_effort", np.nan)), 3),
+                    "Q shown in the paper": paper,
+                }
+            )
+    return pd.DataFrame(rows)

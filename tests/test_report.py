@@ -1,0 +1,142 @@
+"""The report: it builds from whatever a results folder holds, says what is missing, and opens in Chromium."""
+
+from __future__ import annotations
+
+import json
+import re
+import shutil
+
+import pandas as pd
+import pytest
+from grasp_fixtures import BALL_RADIUS, ball_grasp, drawing_like_task
+
+from grasptask.grasp.verify import verify
+from grasptask.hand import load_hand
+from grasptask.paths import DEFAULT_GRASP_CONFIG, DEFAULT_HAND, DEFAULT_SOLVER_CONFIG
+from grasptask.report.browser import check_page, find_chromium
+from grasptask.report.build import build_report
+from grasptask.report.paper_tables import PAPER_TABLES
+from grasptask.synthesis.columns import grasp_columns
+from grasptask.synthesis.run import SynthesisOptions, _summarise
+
+
+def _results_with_tasks(simulated, root):
+    """A results folder with the simulated recordings and fit-task's output (copied, so tests may add to it)."""
+    source = simulated[0]
+    root.mkdir()
+    (root / "recordings").symlink_to(source / "recordings", target_is_directory=True)
+    shutil.copytree(source / "tasks", root / "tasks")
+    return root
+
+
+def _ball_sweep(results, task="drawing"):
+    """A finished sweep folder for ``task``: the verified ball grasp (twice, one optimum) and a failed start,
+    written by the same summary code as ``synthesize``."""
+    ball_config = results / "ball.yaml"
+    ball_config.write_text(
+        f"type: superquadric\nname: ball\nsize_m: [{BALL_RADIUS}, {BALL_RADIUS}, {BALL_RADIUS}]\n"
+        "exponents: [1.0, 1.0]\nsymmetry: {rotation_axis: any}\n"
+    )
+    grasp, ball = ball_grasp()
+    hand = load_hand().grasping_hand()
+    check = verify(grasp, hand, ball, drawing_like_task())
+    assert check.ok, check.failures
+    fingers = list(hand.fingers)
+    good = {"status": "optimal", "iterations": 40, "Q": check.Q}
+    good.update(grasp_columns(grasp, hand.joint_names, fingers, check.contacts, check.normals))
+    good.update(check.record(fingers))
+    rows = [
+        {"start_id": 0, "seconds": 1.5, **good},
+        {"start_id": 1, "seconds": 2.5, **good},
+        {"start_id": 2, "status": "max-iter", "iterations": 400, "seconds": 4.0, "Q": float("nan"), "verified": False},
+    ]
+    options = SynthesisOptions(
+        DEFAULT_HAND, ball_config, results / "tasks" / "task_models.json", task, results / "grasps",
+        DEFAULT_SOLVER_CONFIG, DEFAULT_GRASP_CONFIG,
+    )  # fmt: skip
+    size = {"variables": 643, "constraints": 462}
+    return _summarise(options, rows, size, 5.0, None, fingers)
+
+
+@pytest.fixture(scope="module")
+def full_report(simulated, tmp_path_factory):
+    results = _results_with_tasks(simulated, tmp_path_factory.mktemp("report") / "results")
+    run = _ball_sweep(results)
+    assert run["verified"] == 2 and run["distinct_optima"] == 1
+    # an interrupted sweep: a per-start log but no summary
+    (results / "grasps" / "cutting").mkdir(parents=True)
+    (results / "grasps" / "cutting" / "solutions.jsonl").write_text('{"start_id": 0}\n')
+    summary = build_report(results, results / "report")
+    return results, summary
+
+
+def test_report_from_task_results_only(simulated, tmp_path):
+    results = _results_with_tasks(simulated, tmp_path / "results")
+    summary = build_report(results, tmp_path / "out")
+    out = tmp_path / "out"
+    figures = sorted(p.name for p in (out / "figures").iterdir())
+    assert figures == [
+        "distance_embedding.png",
+        "distance_heatmap.png",
+        "ellipsoids_cutting.png",
+        "ellipsoids_drawing.png",
+        "ellipsoids_screwdriving.png",
+    ]
+    assert sorted(p.name for p in (out / "tables").iterdir()) == [f"table_{t.number:02d}.md" for t in PAPER_TABLES]
+    page = (out / "index.html").read_text()
+    # self-contained: every figure inline, nothing fetched from elsewhere
+    assert len(re.findall(r'<img src="data:image/png;base64,', page)) == len(figures)
+    assert not re.search(r'src="(?!data:)', page) and "<link" not in page
+    # the missing synthesis is a note that says what to run, in the page and in the summary
+    assert any("grasptask synthesize" in note for note in summary.notes)
+    assert "Not made (inputs missing)" in page and "grasptask synthesize" in page
+
+
+def test_tables_put_each_value_beside_the_paper(simulated, tmp_path):
+    build_report(_results_with_tasks(simulated, tmp_path / "results"), tmp_path / "out")
+    table5 = (tmp_path / "out" / "tables" / "table_05.md").read_text()
+    assert "Table 5:" in table5 and "proj paper" in table5 and "proj diff" in table5
+    ours = pd.read_csv(simulated[0] / "tasks" / "stats.csv", dtype={"axis": str})
+    value = ours.query("group == 'drawing_tripod' and domain == 'force' and stat == 'proj' and axis == 'z'")["value"]
+    row = next(line for line in table5.splitlines() if "drawing_tripod" in line and "| force" in line and "| z" in line)
+    cells = [c.strip() for c in row.strip("|").split("|")]
+    # group, domain, axis, ours, paper (0.59 in the paper's Table 5), difference
+    assert float(cells[3]) == pytest.approx(float(value.iloc[0]), abs=1e-3)
+    assert float(cells[4]) == pytest.approx(0.59)
+    assert float(cells[5]) == pytest.approx(float(cells[3]) - 0.59, abs=2e-3)
+
+
+def test_report_with_a_sweep_renders_every_optimum(full_report):
+    results, summary = full_report
+    out = results / "report"
+    figures = {p.name for p in (out / "figures").iterdir()}
+    assert {"grasp_drawing_00.png", "synthesis_sweeps.png"} <= figures
+    quality = (out / "tables" / "grasp_quality.md").read_text()
+    assert "drawing" in quality and "0.37, 9.7" in quality  # the paper's Table 11 values beside ours
+    sweeps = (out / "tables" / "synthesis_sweeps.md").read_text()
+    assert "459 +- 186" in sweeps and "2 (67%)" in sweeps
+    assert any("cutting" in note and "--resume" in note for note in summary.notes)
+    report = json.loads((out / "report.json").read_text())
+    assert len(report["figures"]) == summary.figures == len(figures)
+
+
+@pytest.mark.skipif(find_chromium() is None, reason="Debian's chromium and chromium-driver are not installed")
+def test_report_opens_in_headless_chromium(full_report, tmp_path):
+    results, summary = full_report
+    check = check_page(summary.index, tmp_path / "top.png")
+    assert check.ok, (check.broken_images, check.console_errors)
+    assert check.images == summary.figures and check.title == "grasptask report"
+    assert (tmp_path / "top.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_report_bad_input(cli, simulated, tmp_path):
+    result = cli("report", "--results", tmp_path / "nowhere")
+    assert result.exit_code == 2 and "results folder not found" in result.output
+    assert len(result.output.strip().splitlines()) == 1
+    results = _results_with_tasks(simulated, tmp_path / "results")
+    _ball_sweep(results)
+    broken = results / "grasps" / "drawing" / "solutions.parquet"
+    broken.write_text("not parquet")
+    result = cli("report", "--results", results)
+    assert result.exit_code == 2 and str(broken) in result.output and "Parquet" in result.output
+    assert not (results / "report").exists()
