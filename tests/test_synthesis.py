@@ -68,6 +68,40 @@ def test_model_initialisation_reproduces_the_hand_kinematics(tasks):
     np.testing.assert_allclose(nlp.read()["contacts"], expected, atol=1e-12)
 
 
+def test_two_phase_approach_model_and_warm_start(tasks):
+    """The approach model is the full one without eq. 10 (and is restored after); the warm start gives
+    forces and activations within their bounds that apply the task wrenches better than the default guess."""
+    nlp = build_model(load_hand(), load_object("configs/objects/tool.yaml"), load_task_models(tasks)["drawing"])
+    full = nlp.size()
+    with nlp.approach():
+        smaller = nlp.size()
+    assert nlp.size() == full
+    n_eq10 = len(nlp.model.eq10_wrench) + len(nlp.model.eq10_torque)
+    assert smaller["constraints"] == full["constraints"] - n_eq10
+    assert smaller["variables"] == full["variables"] - len(nlp.model.lam) - len(nlp.model.act)
+
+    start = make_starts(np.array([[-0.01, -0.01, -0.1], [0.01, 0.01, 0.1]]))[5]
+    nlp.initialise(start.palm_rotation, start.palm_position, nlp.hand.mid_range())
+
+    def wrench_residual():
+        return sum(abs(pyo.value(c.body) - pyo.value(c.upper)) for c in nlp.model.eq10_wrench.values())
+
+    before = wrench_residual()
+    nlp.warm_start_feasibility(0.98)
+    assert wrench_residual() < before
+    assert all(v.value >= 0 for v in nlp.model.lam.values())
+    assert all(0 <= v.value <= 0.98 + 1e-12 for v in nlp.model.act.values())
+
+
+def test_two_phase_sweep_records_the_approach(cli, tasks, tmp_path):
+    config = tmp_path / "two_phase.yaml"
+    config.write_text(FAST.read_text() + "two_phase: true\n")
+    result = synthesize(cli, tasks, tmp_path, "--starts", "2", "--executor", "serial", "--solver-config", config)
+    assert result.exit_code == 0, result.output
+    rows = pd.read_parquet(tmp_path / "drawing" / "solutions.parquet")
+    assert set(rows["approach_status"]) <= set(STATUSES) and rows["iterations"].min() > 0
+
+
 def test_126_starts_from_42_orientations_and_3_positions():
     directions = palm_directions()
     assert directions.shape == (42, 3) and np.allclose(np.linalg.norm(directions, axis=1), 1)

@@ -314,10 +314,10 @@ def _summary_lines(sweeps: dict[str, SweepResult], sections: list[Section]) -> l
     lines = [s.summary for s in sections if s.summary]
     for task, sweep in sweeps.items():
         solutions = sweep.solutions
+        best = f"best Q {sweep.optima['Q'].min():.4g}" if len(sweep.optima) else "no grasp found"
         lines.append(
             f"{task}: {int(solutions['verified'].sum())}/{len(solutions)} starts verified, {len(sweep.optima)} "
-            f"distinct optima, best Q {sweep.optima['Q'].min() if len(sweep.optima) else float('nan'):.4g}, "
-            f"median {solutions['seconds'].median():.1f} s per start (paper: 459 +- 186 s)"
+            f"distinct optima, {best}, median {solutions['seconds'].median():.1f} s per start (paper: 459 +- 186 s)"
         )
     missing = [s.title for s in sections if not s.made]
     if missing:

@@ -29,10 +29,12 @@ because the radial distance beside a long thin cylinder overstates the true clea
 
 from __future__ import annotations
 
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 
 import numpy as np
 import pyomo.environ as pyo
+from scipy.optimize import lsq_linear, nnls
 
 from grasptask.grasp.settings import GraspSettings
 from grasptask.hand.model import Hand
@@ -147,9 +149,15 @@ class GraspNLP:
     model: pyo.ConcreteModel
     hand: Hand
     definitions: list = field(default_factory=list)  # (variable, expression) pairs, in dependency order
+    #: eq. 10's data for the warm start: per block (axis, sign) the target wrench; the cone edges and primitive
+    #: wrenches as expressions; and tau^j = J^j^T f as a function of a finger and its force
+    targets: dict = field(default_factory=dict)
+    edges: list = field(default_factory=list)
+    wrenches: list = field(default_factory=list)
+    joint_torques: object = None
 
     def size(self) -> dict[str, int]:
-        n_vars = sum(1 for _ in self.model.component_data_objects(pyo.Var, active=True))
+        n_vars = sum(1 for v in self.model.component_data_objects(pyo.Var, active=True) if not v.fixed)
         n_cons = sum(1 for _ in self.model.component_data_objects(pyo.Constraint, active=True))
         return {"variables": n_vars, "constraints": n_cons}
 
@@ -172,6 +180,48 @@ class GraspNLP:
             var.set_value(0.1)
         for var in m.act.values():
             var.set_value(0.2)
+
+    @contextmanager
+    def approach(self):
+        """The model without torque feasibility (eq. 1, 10): the grasp's geometry, force closure and Q only.
+
+        Inside the ``with`` block eq. 10 is deactivated and its forces and activations are fixed, so a model
+        written there is the smaller first phase of a two-phase solve."""
+        m = self.model
+        m.eq10_wrench.deactivate()
+        m.eq10_torque.deactivate()
+        m.lam.fix()
+        m.act.fix()
+        try:
+            yield self
+        finally:
+            m.eq10_wrench.activate()
+            m.eq10_torque.activate()
+            m.lam.unfix()
+            m.act.unfix()
+
+    def warm_start_feasibility(self, activation_cap: float) -> None:
+        """Eq. 10's forces and activations for the current grasp by bounded least squares: per task wrench the
+        cone-edge magnitudes ``lam >= 0`` closest to applying it, then per finger the activations in
+        ``[0, cap]`` closest to the joint torques those forces need. A starting point for the second phase."""
+        m = self.model
+        b, m_edges = len(self.edges), len(self.edges[0])
+        wrench_matrix = (
+            np.array([[[pyo.value(c) for c in self.wrenches[j][e]] for e in range(m_edges)] for j in range(b)])
+            .reshape(b * m_edges, 6)
+            .T
+        )
+        edge_values = np.array([[[pyo.value(c) for c in self.edges[j][e]] for e in range(m_edges)] for j in range(b)])
+        fingers = list(self.hand.fingers.values())
+        for (a, s), target in self.targets.items():
+            lam = nnls(wrench_matrix, target, maxiter=50 * b * m_edges)[0].reshape(b, m_edges)
+            for j, e in np.ndindex(b, m_edges):
+                m.lam[a, s, j, e].set_value(float(lam[j, e]))
+            for j, finger in enumerate(fingers):
+                tau = np.array([pyo.value(t) for t in self.joint_torques(j, list(lam[j] @ edge_values[j]))])
+                act = lsq_linear(finger.torque_map, tau, bounds=(0.0, activation_cap)).x
+                for q, value in enumerate(act):
+                    m.act[a, s, j, q].set_value(float(value))
 
     def read(self) -> dict:
         """The current variable values as arrays: palm pose, joints, contacts and normals."""
@@ -343,8 +393,7 @@ def build_model(hand: Hand, obj, task: TaskModel, settings: GraspSettings = Gras
     m.eq10_wrench = pyo.ConstraintList()
     m.eq10_torque = pyo.ConstraintList()
     for a, s in blocks:
-        sign = 1.0 if s == 0 else -1.0
-        target = sign * lengths[a] * axes[a]
+        target = (1.0 if s == 0 else -1.0) * lengths[a] * axes[a]
         for r in range(6):
             m.eq10_wrench.add(sum(m.lam[a, s, j, e] * wrenches[j][e][r] for j, e in cells) == float(target[r]))
         for j, finger in enumerate(fingers):
@@ -353,4 +402,5 @@ def build_model(hand: Hand, obj, task: TaskModel, settings: GraspSettings = Gras
             for k, tau in enumerate(joint_torques(j, force)):
                 produced = sum(float(torque_map[k, q]) * m.act[a, s, j, q] for q in range(len(finger.muscles)))
                 m.eq10_torque.add(tau == produced)
-    return GraspNLP(m, hand, definitions)
+    targets = {(a, s): (1.0 if s == 0 else -1.0) * lengths[a] * axes[a] for a, s in blocks}
+    return GraspNLP(m, hand, definitions, targets, edges, wrenches, joint_torques)

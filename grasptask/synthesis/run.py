@@ -88,6 +88,7 @@ def run_synthesize(options: SynthesisOptions, echo=print) -> dict:
         options.backend,
         ipopt,
         str(options.grasp_config),
+        bool(solver_config.get("two_phase", False)),
     )
     size = build_model(hand, obj, models[options.task], load_grasp_settings(options.grasp_config)).size()
     starts = subset(make_starts(obj.bounds(), options.seed), options.starts)
@@ -124,13 +125,11 @@ def run_synthesize(options: SynthesisOptions, echo=print) -> dict:
             if options.executor == "dask":
                 if not options.scheduler:
                     raise BadInputError("synthesize", "--executor dask needs --scheduler ADDRESS")
-                sweep.run_dask(job, todo, options.scheduler, on_result, ipopt.get("max_wall_time", 60) + hang_grace)
+                sweep.run_dask(job, todo, options.scheduler, on_result, job.time_limit + hang_grace)
             elif options.workers <= 1 and options.executor == "serial":
                 sweep.run_serial(job, todo, on_result)
             else:
-                sweep.run_pool(
-                    job, todo, max(1, options.workers), on_result, ipopt.get("max_wall_time", 60) + hang_grace
-                )
+                sweep.run_pool(job, todo, max(1, options.workers), on_result, job.time_limit + hang_grace)
         finally:
             bar.close()
     wall = time.perf_counter() - wall_start

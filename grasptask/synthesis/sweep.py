@@ -62,6 +62,13 @@ class Job:
     backend: str = "casadi"
     ipopt_options: dict = field(default_factory=dict)
     settings_path: str = ""
+    #: first solve without torque feasibility, then the full NLP from there (solver.yaml ``two_phase``)
+    two_phase: bool = False
+
+    @property
+    def time_limit(self) -> float:
+        """The longest a start's solves may take, by IPOPT's own wall-time limit."""
+        return float(self.ipopt_options.get("max_wall_time", 60.0)) * (2 if self.two_phase else 1)
 
 
 class SolverContext:
@@ -83,8 +90,32 @@ class SolverContext:
         self.nlp = build_model(self.hand, self.obj, self.task, self.settings)
         text, self.order = write_nl(self.nlp.model)
         self.backend = BACKENDS[job.backend](text, job.ipopt_options)
+        self.approach = None
+        if job.two_phase:
+            with self.nlp.approach():
+                text, self.approach_order = write_nl(self.nlp.model)
+            self.approach = BACKENDS[job.backend](text, job.ipopt_options)
         self.fingers = list(self.nlp.hand.fingers)
         self.joint_names = self.nlp.hand.joint_names
+
+    def _run(self):
+        """IPOPT from the initialised point: on the full NLP, or (two-phase) on the approach NLP first and then
+        on the full NLP from its solution. The last result, its variable order, and the counts over both."""
+        if self.approach is None:
+            result = self.backend.solve(_values(self.order))
+            return result, self.order, {"iterations": result.iterations, "seconds": result.seconds}
+        first = self.approach.solve(_values(self.approach_order))
+        totals = {"approach_status": first.status, "iterations": first.iterations, "seconds": first.seconds}
+        if first.status not in ("optimal", "acceptable"):
+            # a start whose grasp geometry is locally infeasible was never rescued by the full NLP (it only spent
+            # its time limit there), so it ends with the first phase's status and point
+            return first, self.approach_order, totals
+        _assign(self.approach_order, first.x)
+        self.nlp.warm_start_feasibility(1.0 - self.settings.activation_margin)
+        result = self.backend.solve(_values(self.order))
+        totals["iterations"] += result.iterations
+        totals["seconds"] += result.seconds
+        return result, self.order, totals
 
     def solve(self, start: Start) -> dict:
         from grasptask.grasp.verify import Grasp, verify
@@ -93,15 +124,13 @@ class SolverContext:
         if str(start.start_id) in os.environ.get(CRASH_ENV, "").split(","):
             os._exit(13)
         self.nlp.initialise(start.palm_rotation, start.palm_position, self.nlp.hand.mid_range())
-        x0 = np.array([v.value if v.value is not None else 0.0 for v in self.order], dtype=float)
-        result = self.backend.solve(x0)
         row = {"start_id": start.start_id, "orientation": start.orientation, "position": start.position_name}
-        row.update({"status": result.status, "iterations": result.iterations, "seconds": result.seconds})
+        result, order, totals = self._run()
+        row.update({"status": result.status, **totals})
         row["message"] = result.message
         if result.x is None:
             return {**row, "Q": float("nan"), "verified": False}
-        for var, value in zip(self.order, result.x, strict=True):
-            var.set_value(float(value), skip_validation=True)
+        _assign(order, result.x)
         solution = self.nlp.read()
         row["Q"] = float(solution["Q"])
         grasp = Grasp(solution["palm_rotation"], solution["palm_position"], solution["joint_angles"])
@@ -109,6 +138,15 @@ class SolverContext:
         check = verify(grasp, self.hand, self.obj, self.task, self.settings)
         row.update(check.record(self.fingers))
         return row
+
+
+def _values(order: list) -> np.ndarray:
+    return np.array([v.value if v.value is not None else 0.0 for v in order], dtype=float)
+
+
+def _assign(order: list, x: np.ndarray) -> None:
+    for var, value in zip(order, x, strict=True):
+        var.set_value(float(value), skip_validation=True)
 
 
 def failed_row(start: Start, status: str, seconds: float, message: str) -> dict:
