@@ -392,15 +392,14 @@ def build_model(hand: Hand, obj, task: TaskModel, settings: GraspSettings = Gras
     m.act = pyo.Var(blocks, muscles, bounds=(0, cap), doc="tendon activations per task wrench (eq. 1)")
     m.eq10_wrench = pyo.ConstraintList()
     m.eq10_torque = pyo.ConstraintList()
+    targets = {(a, s): (1.0 if s == 0 else -1.0) * lengths[a] * axes[a] for a, s in blocks}
     for a, s in blocks:
-        target = (1.0 if s == 0 else -1.0) * lengths[a] * axes[a]
         for r in range(6):
-            m.eq10_wrench.add(sum(m.lam[a, s, j, e] * wrenches[j][e][r] for j, e in cells) == float(target[r]))
+            m.eq10_wrench.add(sum(m.lam[a, s, j, e] * wrenches[j][e][r] for j, e in cells) == float(targets[a, s][r]))
         for j, finger in enumerate(fingers):
             force = [sum(m.lam[a, s, j, e] * edges[j][e][i] for e in range(m_edges)) for i in XYZ]
             torque_map = finger.torque_map
             for k, tau in enumerate(joint_torques(j, force)):
                 produced = sum(float(torque_map[k, q]) * m.act[a, s, j, q] for q in range(len(finger.muscles)))
                 m.eq10_torque.add(tau == produced)
-    targets = {(a, s): (1.0 if s == 0 else -1.0) * lengths[a] * axes[a] for a, s in blocks}
     return GraspNLP(m, hand, definitions, targets, edges, wrenches, joint_torques)
