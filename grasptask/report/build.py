@@ -163,47 +163,51 @@ def _reference_path(path: str, fallback: Path) -> Path:
     return fallback
 
 
-def sweeps_section(results: ResultsFolder, sweeps: dict[str, SweepResult], writer: _Writer) -> Section:
+def _no_sweeps(results: ResultsFolder) -> Note:
+    return _run_missing(f"synthesis results under {results.grasps}", "grasptask synthesize ... --out DIR/grasps")
+
+
+def sweeps_section(
+    results: ResultsFolder, sweeps: dict[str, SweepResult], paper: paper_tables.PaperSynthesis, writer: _Writer
+) -> Section:
     from grasptask.report.sweep_plots import plot_sweeps
 
+    optima = " / ".join(str(paper.optima.get(t, "?")) for t in ("drawing", "cutting", "screwdriving"))
     section = Section(
         "sweeps",
         "Synthesis sweeps: convergence and time per start",
         "Every start is an IPOPT solve of the grasp NLP from one of the 126 starting palm poses; a start counts "
-        "as a grasp only when the independent verifier accepts it. The paper reports 459 +- 186 s per solution "
-        "(AMPL + IPOPT on a 2.4 GHz Opteron) and 7 / 20 / 3 local optima for drawing / cutting / screw driving.",
+        f"as a grasp only when the independent verifier accepts it. The paper reports {paper.seconds} per "
+        f"solution (AMPL + IPOPT on a 2.4 GHz Opteron) and {optima} local optima for drawing / cutting / screw "
+        "driving.",
     )
     for folder in results.unfinished_sweeps():
         section.blocks.append(
             Note(f"{folder}: solutions.jsonl but no run.json (interrupted?); finish it with synthesize --resume")
         )
     if not sweeps:
-        section.blocks.append(
-            _run_missing(f"synthesis results under {results.grasps}", "grasptask synthesize ... --out DIR/grasps")
-        )
+        section.blocks.append(_no_sweeps(results))
         return section
-    reference = paper_tables.read_synthesis_reference(PAPER_SYNTHESIS)
-    optima = reference[reference["quantity"] == "distinct_local_optima"].set_index("task")["value"].to_dict()
-    mean = float(reference.loc[reference["quantity"] == "mean_seconds_per_solution", "value"].iloc[0])
-    sd = float(reference.loc[reference["quantity"] == "sd_seconds_per_solution", "value"].iloc[0])
     section.blocks.append(
-        writer.table(
-            "synthesis_sweeps", "Sweep statistics beside the paper", paper_tables.sweep_table(sweeps, reference)
-        )
+        writer.table("synthesis_sweeps", "Sweep statistics beside the paper", paper_tables.sweep_table(sweeps, paper))
     )
     path = writer.figure("synthesis_sweeps")
-    plot_sweeps(sweeps, mean, sd, optima, path)
+    plot_sweeps(sweeps, paper.mean_s, paper.sd_s, paper.optima, path)
     section.blocks.append(
         Figure(path, "Statuses, time per start (the paper's mean +- sd shaded) and verified fraction per task.")
     )
     size = next(iter(sweeps.values())).run.get("model_size", {})
     if size:
-        variables, constraints = size.get("variables"), size.get("constraints")
-        section.intro += f" Our NLP: {variables} variables x {constraints} constraints (paper: 579 x 653)."
+        section.intro += (
+            f" Our NLP: {size.get('variables')} variables x {size.get('constraints')} constraints "
+            f"(paper: {paper.variables} x {paper.constraints})."
+        )
     return section
 
 
-def grasps_section(results: ResultsFolder, sweeps: dict[str, SweepResult], writer: _Writer) -> Section:
+def grasps_section(
+    results: ResultsFolder, sweeps: dict[str, SweepResult], paper: paper_tables.PaperSynthesis, writer: _Writer
+) -> Section:
     from grasptask.grasp.settings import load_grasp_settings
     from grasptask.hand import load_hand
     from grasptask.objects import load_object
@@ -220,16 +224,13 @@ def grasps_section(results: ResultsFolder, sweeps: dict[str, SweepResult], write
         "task's main wrench axis (force magenta, torque black). Q is eq. 12 (lower is better).",
     )
     if not sweeps:
-        section.blocks.append(
-            _run_missing(f"synthesis results under {results.grasps}", "grasptask synthesize ... --out DIR/grasps")
-        )
+        section.blocks.append(_no_sweeps(results))
         return section
-    reference = paper_tables.read_synthesis_reference(PAPER_SYNTHESIS)
     section.blocks.append(
         writer.table(
             "grasp_quality",
             "Q of every distinct optimum, beside the values the paper's Tables 11-12 show",
-            paper_tables.quality_table(sweeps, reference),
+            paper_tables.quality_table(sweeps, paper),
         )
     )
     task_models = load_task_models(results.task_models) if results.task_models.is_file() else {}
@@ -291,10 +292,11 @@ def build_report(results_dir: str | Path, out: str | Path) -> ReportSummary:
         sections = []
         for make in (ellipsoid_tables_section, ellipsoid_figures_section, distances_section):
             sections.append(make(results, writer))
-        sections.append(sweeps_section(results, sweeps, writer))
-        sections.append(grasps_section(results, sweeps, writer))
+        paper = paper_tables.read_paper_synthesis(PAPER_SYNTHESIS)
+        sections.append(sweeps_section(results, sweeps, paper, writer))
+        sections.append(grasps_section(results, sweeps, paper, writer))
         notes = [f"{s.title}: {n}" for s in sections for n in s.notes]
-        summary_lines = _summary_lines(sweeps, sections)
+        summary_lines = _summary_lines(sweeps, sections, paper)
         page = render_html(
             "grasptask report",
             f"results: {Path(results_dir).resolve()}; grasptask {__version__}; built {time.strftime('%Y-%m-%d %H:%M')}",
@@ -310,14 +312,16 @@ def build_report(results_dir: str | Path, out: str | Path) -> ReportSummary:
     return ReportSummary(index, len(writer.figures), len(writer.tables), notes, time.perf_counter() - start)
 
 
-def _summary_lines(sweeps: dict[str, SweepResult], sections: list[Section]) -> list[str]:
+def _summary_lines(
+    sweeps: dict[str, SweepResult], sections: list[Section], paper: paper_tables.PaperSynthesis
+) -> list[str]:
     lines = [s.summary for s in sections if s.summary]
     for task, sweep in sweeps.items():
         solutions = sweep.solutions
         best = f"best Q {sweep.optima['Q'].min():.4g}" if len(sweep.optima) else "no grasp found"
         lines.append(
             f"{task}: {int(solutions['verified'].sum())}/{len(solutions)} starts verified, {len(sweep.optima)} "
-            f"distinct optima, {best}, median {solutions['seconds'].median():.1f} s per start (paper: 459 +- 186 s)"
+            f"distinct optima, {best}, median {solutions['seconds'].median():.1f} s per start (paper: {paper.seconds})"
         )
     missing = [s.title for s in sections if not s.made]
     if missing:

@@ -11,11 +11,10 @@ import pandas as pd
 
 from grasptask.errors import BadInputError
 from grasptask.io.manifest import read_manifest
-from grasptask.io.tool import load_tool
 from grasptask.io.units import PAPER_TORQUE_UNIT, TORQUE_UNITS
 from grasptask.report.style import apply_style, task_colour
 from grasptask.task.ellipsoid import FORCE, TORQUE
-from grasptask.task.fit import ellipsoid_matrices, load_wrenches
+from grasptask.task.fit import ellipsoid_matrices, entry_tool, load_wrenches
 
 PLANES = ((0, 1), (0, 2), (1, 2))
 AXIS_NAMES = "xyz"
@@ -35,10 +34,7 @@ def recording_samples(manifest: Path, ids, per_recording: int = 150, seed: int =
     for entry in read_manifest(manifest):
         if entry.id not in wanted:
             continue
-        tool = None
-        if entry.tool is not None:
-            tool = tools.get(entry.tool) or tools.setdefault(entry.tool, load_tool(entry.tool))
-        _, wrenches = load_wrenches(entry, tool)
+        _, wrenches = load_wrenches(entry, entry_tool(entry, tools))
         pick = rng.choice(len(wrenches), min(per_recording, len(wrenches)), replace=False)
         samples[entry.id] = wrenches[np.sort(pick)]
     return samples

@@ -93,15 +93,44 @@ def largest_differences(stats: pd.DataFrame, reference: pd.DataFrame) -> dict:
     }
 
 
-def read_synthesis_reference(path) -> pd.DataFrame:
-    return pd.read_csv(path, comment="#")
+@dataclass(frozen=True)
+class PaperSynthesis:
+    """What the paper reports of its synthesis (Section 7.3, Tables 11-12), read from the reference CSV."""
+
+    variables: int
+    constraints: int
+    optima: dict[str, int]
+    mean_s: float
+    sd_s: float
+    quality_shown: dict[str, list[float]]
+
+    @property
+    def seconds(self) -> str:
+        return f"{self.mean_s:.0f} +- {self.sd_s:.0f} s"
 
 
-def sweep_table(sweeps: dict, reference: pd.DataFrame) -> pd.DataFrame:
+def read_paper_synthesis(path) -> PaperSynthesis:
+    table = pd.read_csv(path, comment="#")
+
+    def rows(quantity):
+        return table[table["quantity"] == quantity]
+
+    def single(quantity):
+        return float(rows(quantity)["value"].iloc[0])
+
+    shown = rows("quality_shown")
+    return PaperSynthesis(
+        variables=int(single("nlp_variables")),
+        constraints=int(single("nlp_constraints")),
+        optima={t: int(v) for t, v in zip(*rows("distinct_local_optima")[["task", "value"]].T.values, strict=True)},
+        mean_s=single("mean_seconds_per_solution"),
+        sd_s=single("sd_seconds_per_solution"),
+        quality_shown={t: list(g["value"]) for t, g in shown.groupby("task", sort=False)},
+    )
+
+
+def sweep_table(sweeps: dict, paper: PaperSynthesis) -> pd.DataFrame:
     """Per task: starts, statuses, verified fraction, distinct optima and time per start, beside the paper."""
-    paper_optima = reference[reference["quantity"] == "distinct_local_optima"].set_index("task")["value"]
-    paper_mean = float(reference.loc[reference["quantity"] == "mean_seconds_per_solution", "value"].iloc[0])
-    paper_sd = float(reference.loc[reference["quantity"] == "sd_seconds_per_solution", "value"].iloc[0])
     rows = []
     for task, sweep in sweeps.items():
         seconds = sweep.solutions["seconds"].astype(float)
@@ -113,23 +142,22 @@ def sweep_table(sweeps: dict, reference: pd.DataFrame) -> pd.DataFrame:
                 "statuses": ", ".join(f"{s} {n}" for s, n in statuses.items()),
                 "verified": f"{int(sweep.solutions['verified'].sum())} ({sweep.solutions['verified'].mean():.0%})",
                 "distinct optima": len(sweep.optima),
-                "paper optima": int(paper_optima[task]) if task in paper_optima else None,
+                "paper optima": paper.optima.get(task),
                 "median s/start": round(float(seconds.median()), 2),
                 "p90 s/start": round(float(np.percentile(seconds, 90)), 2),
                 "mean +- sd s/start": f"{seconds.mean():.1f} +- {seconds.std(ddof=1) if len(seconds) > 1 else 0:.1f}",
-                "paper s/solution": f"{paper_mean:.0f} +- {paper_sd:.0f}",
-                "paper mean / our median": round(paper_mean / float(seconds.median()), 1),
+                "paper s/solution": f"{paper.mean_s:.0f} +- {paper.sd_s:.0f}",
+                "paper mean / our median": round(paper.mean_s / float(seconds.median()), 1),
             }
         )
     return pd.DataFrame(rows)
 
 
-def quality_table(sweeps: dict, reference: pd.DataFrame) -> pd.DataFrame:
+def quality_table(sweeps: dict, paper: PaperSynthesis) -> pd.DataFrame:
     """Tables 11-12: the Q of every distinct optimum (best first), with the values the paper shows."""
-    shown = reference[reference["quantity"] == "quality_shown"]
     rows = []
     for task, sweep in sweeps.items():
-        paper = ", ".join(f"{v:g}" for v in shown.loc[shown["task"] == task, "value"]) or "-"
+        shown = ", ".join(f"{v:g}" for v in paper.quality_shown.get(task, [])) or "-"
         for _, optimum in sweep.optima.iterrows():
             rows.append(
                 {
@@ -139,7 +167,7 @@ def quality_table(sweeps: dict, reference: pd.DataFrame) -> pd.DataFrame:
                     "starts reaching it": int(optimum["members"]),
                     "epsilon": round(float(optimum.get("verify_epsilon", np.nan)), 4),
                     "torque effort": round(float(optimum.get("verify_torque_effort", np.nan)), 3),
-                    "Q shown in the paper": paper,
+                    "Q shown in the paper": shown,
                 }
             )
     return pd.DataFrame(rows)

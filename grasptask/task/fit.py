@@ -74,6 +74,15 @@ class FitResult:
         return ellipsoid_matrices(self.ellipsoids)
 
 
+def entry_tool(entry: RecordingEntry, cache: dict[Path, ToolConfig]) -> ToolConfig | None:
+    """The entry's tool config, read once per file into ``cache``; None when the entry names none."""
+    if entry.tool is None:
+        return None
+    if entry.tool not in cache:
+        cache[entry.tool] = load_tool(entry.tool)
+    return cache[entry.tool]
+
+
 def fit_recordings(
     entries: Iterable[RecordingEntry],
     options: FitOptions = FitOptions(),
@@ -85,9 +94,7 @@ def fit_recordings(
     rows, skipped = [], []
     for entry in progress(list(entries)):
         try:
-            tool = None
-            if entry.tool is not None:
-                tool = tools.get(entry.tool) or tools.setdefault(entry.tool, load_tool(entry.tool))
+            tool = entry_tool(entry, tools)
             ellipsoid, n, duration = fit_entry(entry, tool, options)
         except BadInputError as exc:
             if not skip_bad:
