@@ -1,9 +1,11 @@
 """Grasp synthesis (issue 4): for drawing, cutting and screw driving on the sensorized-tool cylinder, 126 starts
 each on 2 workers: seconds per start (median, p90), the fraction of starts ending in a verified grasp, distinct
 optima and the wall time of the whole sweep; the cyipopt backend's median on a subset of the same starts, as a
-ratio; and whether the optima differ between tasks as the paper's Section 7.3 describes.
+ratio; an in-run baseline, the same starts solved without placement (IPOPT from the far-away start), as ratios;
+and whether the optima differ between tasks as the paper's Section 7.3 describes.
 
-    python benchmarks/synthesis.py [--starts N] [--cyipopt-starts N]   # writes benchmarks/results/synthesis.json
+    python benchmarks/synthesis.py [--starts N] [--cyipopt-starts N] [--baseline-starts N] [--solver YAML]
+                                   [--name NAME]     # writes benchmarks/results/NAME.json (default: synthesis)
 
 Targets: median <= 1 s per start (paper: 459 +- 186 s), >= 80% verified, whole 3 x 126 sweep < 10 minutes.
 """
@@ -18,6 +20,7 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+import yaml
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT / "benchmarks"), str(ROOT)]
@@ -50,18 +53,20 @@ def grasp_shape(optima: pd.DataFrame) -> dict:
     }
 
 
-def main(n_starts: int | None, cyipopt_starts: int) -> dict:
-    results: dict = {"tasks": {}}
+def main(n_starts: int | None, cyipopt_starts: int, baseline_starts: int, solver: Path) -> dict:
+    results: dict = {"solver_config": str(solver), "tasks": {}}
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
         run_simulate(CONFIGS / "simulate.yaml", tmp / "rec", seed=0, fmt="parquet")
         run_fit_task([tmp / "rec" / "manifest.csv"], tmp / "tasks")
         tasks = tmp / "tasks" / "task_models.json"
+        unplaced = tmp / "solver_unplaced.yaml"
+        unplaced.write_text(yaml.safe_dump({**yaml.safe_load(solver.read_text()), "placement": False}))
 
-        def options(task, out, backend="casadi", starts=n_starts, workers=2):
+        def options(task, out, backend="casadi", starts=n_starts, workers=2, config=solver):
             return SynthesisOptions(
                 CONFIGS / "hands" / "human.yaml", CONFIGS / "objects" / "tool.yaml", tasks, task, out,
-                CONFIGS / "solver.yaml", CONFIGS / "grasp.yaml", starts=starts, workers=workers, backend=backend,
+                config, CONFIGS / "grasp.yaml", starts=starts, workers=workers, backend=backend,
             )  # fmt: skip
 
         sweep_start = time.perf_counter()
@@ -80,6 +85,23 @@ def main(n_starts: int | None, cyipopt_starts: int) -> dict:
             }
         results["whole_sweep_wall_s"] = time.perf_counter() - sweep_start
         for task in TASKS:
+            if not baseline_starts:
+                break
+            rows = pd.read_parquet(tmp / "grasps" / task / "solutions.parquet")
+            run = run_synthesize(options(task, tmp / "unplaced", starts=baseline_starts, config=unplaced), echo=print)
+            base = pd.read_parquet(tmp / "unplaced" / task / "solutions.parquet")
+            same = rows[rows["start_id"].isin(base["start_id"])]
+            results["tasks"][task]["baseline_without_placement"] = {
+                "starts": run["starts"],
+                "median_s_per_start": run["seconds_per_start"]["median"],
+                "verified_fraction": run["verified_fraction"],
+                "placed_median_same_starts_s": float(same["seconds"].median()),
+                "placed_verified_fraction_same_starts": float(same["verified"].mean()),
+                "speedup_placed_vs_unplaced": run["seconds_per_start"]["median"] / float(same["seconds"].median()),
+            }
+        for task in TASKS:
+            if not cyipopt_starts:
+                break
             casadi_rows = pd.read_parquet(tmp / "grasps" / task / "solutions.parquet")
             run = run_synthesize(options(task, tmp / "cyipopt", "cyipopt", cyipopt_starts, 2), echo=print)
             cy_rows = pd.read_parquet(tmp / "cyipopt" / task / "solutions.parquet")
@@ -118,12 +140,16 @@ def main(n_starts: int | None, cyipopt_starts: int) -> dict:
 def report(r: dict) -> str:
     lines = []
     for task, t in r["tasks"].items():
-        cy = t.get("cyipopt", {})
+        cy, base = t.get("cyipopt", {}), t.get("baseline_without_placement", {})
+        nan = float("nan")
         lines.append(
             f"{task}: {t['starts']} starts, median {t['median_s_per_start']:.2f} s (p90 {t['p90_s_per_start']:.2f}), "
             f"{t['verified_fraction']:.0%} verified, {t['distinct_optima']} distinct optima; cyipopt median "
-            f"{cy.get('median_s_per_start', float('nan')):.2f} s on {cy.get('starts', 0)} of the starts "
-            f"(x{cy.get('ratio_cyipopt_vs_casadi', float('nan')):.2f} CasADi's)"
+            f"{cy.get('median_s_per_start', nan):.2f} s on {cy.get('starts', 0)} of the starts "
+            f"(x{cy.get('ratio_cyipopt_vs_casadi', nan):.2f} CasADi's); without placement on {base.get('starts', 0)} "
+            f"starts: median {base.get('median_s_per_start', nan):.2f} s, {base.get('verified_fraction', nan):.0%} "
+            f"verified (placed, same starts: {base.get('placed_median_same_starts_s', nan):.2f} s, "
+            f"{base.get('placed_verified_fraction_same_starts', nan):.0%})"
         )
     lines.append(f"whole sweep on 2 workers: {r['whole_sweep_wall_s'] / 60:.1f} min (target < 10 min)")
     lines.append(f"Section 7.3: {r.get('section_7_3')}")
@@ -137,7 +163,10 @@ if __name__ == "__main__":
     parser = argparse.ArgumentParser()
     parser.add_argument("--starts", type=int, default=None, help="starts per task (default: all 126)")
     parser.add_argument("--cyipopt-starts", type=int, default=12, help="starts per task for the cyipopt comparison")
+    parser.add_argument("--baseline-starts", type=int, default=24, help="starts per task solved without placement")
+    parser.add_argument("--solver", type=Path, default=CONFIGS / "solver.yaml", help="solver settings (YAML)")
+    parser.add_argument("--name", default="synthesis", help="results file name, without .json")
     args = parser.parse_args()
-    results = main(args.starts, args.cyipopt_starts)
+    results = main(args.starts, args.cyipopt_starts, args.baseline_starts, args.solver)
     print(report(results))
-    print(f"saved {save('synthesis', results)}")
+    print(f"saved {save(args.name, results)}")

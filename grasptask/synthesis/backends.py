@@ -24,12 +24,23 @@ _IPOPT_STATUS = {
     "Solve_Succeeded": "optimal",
     "Solved_To_Acceptable_Level": "acceptable",
     "Infeasible_Problem_Detected": "infeasible",
+    # the restoration phase found no feasible point near the iterate: locally infeasible in effect (the message
+    # column keeps IPOPT's own words)
+    "Restoration_Failed": "infeasible",
     "Maximum_Iterations_Exceeded": "max-iter",
     "Maximum_CpuTime_Exceeded": "time-limit",
     "Maximum_WallTime_Exceeded": "time-limit",
 }
 # cyipopt reports IPOPT's ApplicationReturnStatus as an integer
-_IPOPT_CODES = {0: "optimal", 1: "acceptable", 2: "infeasible", -1: "max-iter", -4: "time-limit", -5: "time-limit"}
+_IPOPT_CODES = {
+    0: "optimal",
+    1: "acceptable",
+    2: "infeasible",
+    -2: "infeasible",  # Restoration_Failed, as above
+    -1: "max-iter",
+    -4: "time-limit",
+    -5: "time-limit",
+}
 # IPOPT catches Ctrl-C during a solve and stops with this status; it is the user's interrupt, not a result
 _USER_STOP_STATUS, _USER_STOP_CODE = "User_Requested_Stop", 5
 

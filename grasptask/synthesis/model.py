@@ -40,6 +40,7 @@ from grasptask.grasp.settings import GraspSettings
 from grasptask.hand.model import Hand
 from grasptask.objects.gp import GPImplicitSurface
 from grasptask.objects.superquadric import Superquadric
+from grasptask.synthesis.config import SearchBounds
 from grasptask.task.model import TaskModel
 
 XYZ = (0, 1, 2)
@@ -55,6 +56,16 @@ def _dot(a, b):
 
 def _matvec(rows, v):
     return [_dot(row, v) for row in rows]
+
+
+def _power(x, exponent: float):
+    """``x ** exponent``, written out for the exponents 0 and 1: the derivative of ``x ** 0`` is
+    ``0 * x ** -1``, NaN at ``x = 0``, and a cylinder (e2 = 1) puts that on every contact on its axis plane."""
+    if exponent == 0:
+        return 1.0
+    if exponent == 1:
+        return x
+    return x**exponent
 
 
 def _axis_rotation(axis: np.ndarray, c, s):
@@ -81,7 +92,7 @@ class _SuperquadricSurface:
         v = (x[1] / a[1]) ** 2
         w = (x[2] / a[2]) ** 2
         p_, r_, s_ = 1 / self.e2, self.e2 / self.e1, 1 / self.e1
-        return (u**p_ + v**p_) ** r_ + w**s_
+        return _power(_power(u, p_) + _power(v, p_), r_) + _power(w, s_)
 
     def contact(self, p):
         """``F^(e1/2) - 1``: zero on the surface, well scaled near it."""
@@ -97,13 +108,14 @@ class _SuperquadricSurface:
         a = self.a
         u, v, w = ((x[i] / a[i]) ** 2 for i in XYZ)
         p_, r_, s_ = 1 / self.e2, self.e2 / self.e1, 1 / self.e1
-        base = u**p_ + v**p_
-        big_f = base**r_ + w**s_
-        outer = (self.e1 / 2) * big_f ** (self.e1 / 2 - 1)
+        base = _power(u, p_) + _power(v, p_)
+        big_f = _power(base, r_) + _power(w, s_)
+        outer = (self.e1 / 2) * _power(big_f, self.e1 / 2 - 1)
+        radial = outer * r_ * _power(base, r_ - 1) * p_
         local = [
-            outer * r_ * base ** (r_ - 1) * p_ * u ** (p_ - 1) * 2 * x[0] / a[0] ** 2,
-            outer * r_ * base ** (r_ - 1) * p_ * v ** (p_ - 1) * 2 * x[1] / a[1] ** 2,
-            outer * s_ * w ** (s_ - 1) * 2 * x[2] / a[2] ** 2,
+            radial * _power(u, p_ - 1) * 2 * x[0] / a[0] ** 2,
+            radial * _power(v, p_ - 1) * 2 * x[1] / a[1] ** 2,
+            outer * s_ * _power(w, s_ - 1) * 2 * x[2] / a[2] ** 2,
         ]
         return [sum(self.rotation[i, j] * local[j] for j in XYZ) for i in XYZ]
 
@@ -223,6 +235,15 @@ class GraspNLP:
                 for q, value in enumerate(act):
                     m.act[a, s, j, q].set_value(float(value))
 
+    def min_clearance(self, palm_position: np.ndarray | None = None) -> float:
+        """The smallest eq. 14 margin (negative: a hand point is inside the object) at the current values, or
+        with the palm moved to ``palm_position`` first. Only the palm moves (the link frames do not depend on
+        it); the contacts and normals keep their old values until the next :meth:`initialise`."""
+        if palm_position is not None:
+            for i in XYZ:
+                self.model.d_h[i].set_value(float(palm_position[i]))
+        return min(pyo.value(c.body) - pyo.value(c.lower) for c in self.model.eq14_collision.values())
+
     def read(self) -> dict:
         """The current variable values as arrays: palm pose, joints, contacts and normals."""
         m = self.model
@@ -237,8 +258,14 @@ class GraspNLP:
         }
 
 
-def build_model(hand: Hand, obj, task: TaskModel, settings: GraspSettings = GraspSettings()) -> GraspNLP:
-    """The NLP for ``hand``'s grasping fingers on ``obj`` for ``task``."""
+def build_model(
+    hand: Hand,
+    obj,
+    task: TaskModel,
+    settings: GraspSettings = GraspSettings(),
+    bounds: SearchBounds = SearchBounds(),
+) -> GraspNLP:
+    """The NLP for ``hand``'s grasping fingers on ``obj`` for ``task``, its forces searched within ``bounds``."""
     hand = hand.grasping_hand()
     fingers = list(hand.fingers.values())
     b, m_edges = len(fingers), settings.cone_edges
@@ -371,7 +398,10 @@ def build_model(hand: Hand, obj, task: TaskModel, settings: GraspSettings = Gras
         ]
 
     # eq. 8 and 12-13: task forces for each unit axis, and the objective
-    m.force = pyo.Var(range(n_axes), range(b), XYZ, doc="task contact forces f_i")
+    f_max = bounds.task_force_n
+    m.force = pyo.Var(
+        range(n_axes), range(b), XYZ, bounds=(None if f_max is None else -f_max, f_max), doc="task contact forces f_i"
+    )
     m.eq8_task_force = pyo.ConstraintList()
     objective = 0
     for a in range(n_axes):
@@ -386,7 +416,7 @@ def build_model(hand: Hand, obj, task: TaskModel, settings: GraspSettings = Gras
 
     # eq. 1 and 10: every task wrench +-gamma_i u_i applied with cone forces and activations in [0, 1]
     blocks = [(a, s) for a in range(n_axes) for s in (0, 1)]
-    m.lam = pyo.Var(blocks, cells, bounds=(0, None), doc="cone-edge force magnitudes per task wrench")
+    m.lam = pyo.Var(blocks, cells, bounds=(0, bounds.edge_force_n), doc="cone-edge force magnitudes per task wrench")
     muscles = [(j, q) for j, f in enumerate(fingers) for q in range(len(f.muscles))]
     cap = 1.0 - settings.activation_margin
     m.act = pyo.Var(blocks, muscles, bounds=(0, cap), doc="tendon activations per task wrench (eq. 1)")

@@ -24,6 +24,7 @@ from grasptask.io.config import load_yaml
 from grasptask.synthesis import sweep
 from grasptask.synthesis.backends import STATUSES
 from grasptask.synthesis.clustering import cluster
+from grasptask.synthesis.config import load_solver_config
 from grasptask.synthesis.starts import make_starts, subset
 
 PAPER = {"variables": 579, "constraints": 653, "seconds_per_solution_mean": 459, "seconds_per_solution_sd": 186}
@@ -74,9 +75,7 @@ def run_synthesize(options: SynthesisOptions, echo=print) -> dict:
     models = load_task_models(options.tasks)
     if options.task not in models:
         raise BadInputError(options.tasks, f"no task '{options.task}' (has: {', '.join(models)})")
-    solver_config = load_yaml(options.solver_config)
-    ipopt = dict(solver_config.get("ipopt", {}))
-    hang_grace = float(solver_config.get("hang_grace_s", 30.0))
+    solver = load_solver_config(options.solver_config)
     hand = load_hand(options.hand)
     obj = load_object(options.object)
     object_config = load_yaml(options.object)
@@ -86,11 +85,11 @@ def run_synthesize(options: SynthesisOptions, echo=print) -> dict:
         str(options.tasks),
         options.task,
         options.backend,
-        ipopt,
+        solver,
         str(options.grasp_config),
-        bool(solver_config.get("two_phase", False)),
     )
-    size = build_model(hand, obj, models[options.task], load_grasp_settings(options.grasp_config)).size()
+    grasp_settings = load_grasp_settings(options.grasp_config)
+    size = build_model(hand, obj, models[options.task], grasp_settings, solver.bounds).size()
     starts = subset(make_starts(obj.bounds(), options.seed), options.starts)
     folder = options.out / options.task
     folder.mkdir(parents=True, exist_ok=True)
@@ -125,11 +124,11 @@ def run_synthesize(options: SynthesisOptions, echo=print) -> dict:
             if options.executor == "dask":
                 if not options.scheduler:
                     raise BadInputError("synthesize", "--executor dask needs --scheduler ADDRESS")
-                sweep.run_dask(job, todo, options.scheduler, on_result, job.time_limit + hang_grace)
+                sweep.run_dask(job, todo, options.scheduler, on_result, solver.time_limit + solver.hang_grace_s)
             elif options.workers <= 1 and options.executor == "serial":
                 sweep.run_serial(job, todo, on_result)
             else:
-                sweep.run_pool(job, todo, max(1, options.workers), on_result, job.time_limit + hang_grace)
+                sweep.run_pool(job, todo, max(1, options.workers), on_result, solver.time_limit + solver.hang_grace_s)
         finally:
             bar.close()
     wall = time.perf_counter() - wall_start

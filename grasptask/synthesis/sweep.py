@@ -17,10 +17,11 @@ import threading
 import time
 import traceback
 from collections.abc import Callable, Iterable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
+from grasptask.synthesis.config import SolverConfig
 from grasptask.synthesis.starts import Start
 
 # a test hook: a start whose id is listed here makes its worker exit abruptly (to exercise crash handling)
@@ -60,15 +61,8 @@ class Job:
     tasks_path: str
     task: str
     backend: str = "casadi"
-    ipopt_options: dict = field(default_factory=dict)
+    solver: SolverConfig = SolverConfig()
     settings_path: str = ""
-    #: first solve without torque feasibility, then the full NLP from there (solver.yaml ``two_phase``)
-    two_phase: bool = False
-
-    @property
-    def time_limit(self) -> float:
-        """The longest a start's solves may take, by IPOPT's own wall-time limit."""
-        return float(self.ipopt_options.get("max_wall_time", 60.0)) * (2 if self.two_phase else 1)
 
 
 class SolverContext:
@@ -87,14 +81,15 @@ class SolverContext:
         self.obj = load_object(job.object_path)
         self.task = load_task_models(job.tasks_path)[job.task]
         self.settings = load_grasp_settings(job.settings_path) if job.settings_path else GraspSettings()
-        self.nlp = build_model(self.hand, self.obj, self.task, self.settings)
+        self.nlp = build_model(self.hand, self.obj, self.task, self.settings, job.solver.bounds)
         text, self.order = write_nl(self.nlp.model)
-        self.backend = BACKENDS[job.backend](text, job.ipopt_options)
+        self.backend = BACKENDS[job.backend](text, job.solver.ipopt)
         self.approach = None
-        if job.two_phase:
+        if job.solver.two_phase:
             with self.nlp.approach():
                 text, self.approach_order = write_nl(self.nlp.model)
-            self.approach = BACKENDS[job.backend](text, job.ipopt_options)
+            self.approach = BACKENDS[job.backend](text, job.solver.ipopt)
+        self.bounds = self.obj.bounds()
         self.fingers = list(self.nlp.hand.fingers)
         self.joint_names = self.nlp.hand.joint_names
 
@@ -120,11 +115,16 @@ class SolverContext:
     def solve(self, start: Start) -> dict:
         from grasptask.grasp.verify import Grasp, verify
         from grasptask.synthesis.columns import grasp_columns
+        from grasptask.synthesis.placement import place
 
         if str(start.start_id) in os.environ.get(CRASH_ENV, "").split(","):
             os._exit(13)
-        self.nlp.initialise(start.palm_rotation, start.palm_position, self.nlp.hand.mid_range())
         row = {"start_id": start.start_id, "orientation": start.orientation, "position": start.position_name}
+        joints = self.nlp.hand.mid_range()
+        if self.job.solver.placement:
+            row["placement_backoff_m"] = place(self.nlp, start, self.bounds, joints)
+        else:
+            self.nlp.initialise(start.palm_rotation, start.palm_position, joints)
         result, order, totals = self._run()
         row.update({"status": result.status, **totals})
         row["message"] = result.message
