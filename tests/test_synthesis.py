@@ -123,8 +123,12 @@ def test_sweep_writes_rows_verifies_and_clusters(cli, tasks, tmp_path):
     assert set(solutions["status"]) <= set(STATUSES)
     for column in ("iterations", "seconds", "Q", "verified", "contact_index_x", "normal_thumb_z", "palm_r22"):
         assert column in solutions.columns
+    # placed starts (the bundled default): the placement's time is part of each start's seconds
+    assert (solutions["placement_backoff_m"].between(0, 0.08)).all()
+    assert (solutions["seconds"] > solutions["placement_seconds"]).all() and (solutions["placement_seconds"] > 0).all()
     run = json.loads((tmp_path / "drawing" / "run.json").read_text())
     assert run["model_size"]["variables"] > 0 and run["paper"]["variables"] == 579
+    assert run["paper"]["distinct_optima"] == 7
     assert sum(run["status_counts"].values()) == 4
     verified = solutions[solutions["verified"]]
     # a verified row's Q is the verifier's own recomputation, and it agrees with the NLP's

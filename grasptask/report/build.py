@@ -11,14 +11,13 @@ import numpy as np
 
 from grasptask import __version__
 from grasptask.io.artifacts import Provenance, StagedOutput
-from grasptask.paths import PAPER_ELLIPSOID_TABLES, REFERENCE_DIR, ROOT
+from grasptask.io.reference import PaperSynthesis, read_paper_synthesis
+from grasptask.paths import PAPER_ELLIPSOID_TABLES, ROOT
 from grasptask.progress import progress
 from grasptask.report import paper_tables
 from grasptask.report.inputs import ResultsFolder, SweepResult, find_results, read_sweep
 from grasptask.report.page import Figure, Note, Section, Table, markdown, render_html
 from grasptask.report.style import task_order
-
-PAPER_SYNTHESIS = REFERENCE_DIR / "paper_synthesis_results.csv"
 
 
 @dataclass(frozen=True)
@@ -168,7 +167,7 @@ def _no_sweeps(results: ResultsFolder) -> Note:
 
 
 def sweeps_section(
-    results: ResultsFolder, sweeps: dict[str, SweepResult], paper: paper_tables.PaperSynthesis, writer: _Writer
+    results: ResultsFolder, sweeps: dict[str, SweepResult], paper: PaperSynthesis, writer: _Writer
 ) -> Section:
     from grasptask.report.sweep_plots import plot_sweeps
 
@@ -206,7 +205,7 @@ def sweeps_section(
 
 
 def grasps_section(
-    results: ResultsFolder, sweeps: dict[str, SweepResult], paper: paper_tables.PaperSynthesis, writer: _Writer
+    results: ResultsFolder, sweeps: dict[str, SweepResult], paper: PaperSynthesis, writer: _Writer
 ) -> Section:
     from grasptask.grasp.settings import load_grasp_settings
     from grasptask.hand import load_hand
@@ -292,7 +291,7 @@ def build_report(results_dir: str | Path, out: str | Path) -> ReportSummary:
         sections = []
         for make in (ellipsoid_tables_section, ellipsoid_figures_section, distances_section):
             sections.append(make(results, writer))
-        paper = paper_tables.read_paper_synthesis(PAPER_SYNTHESIS)
+        paper = read_paper_synthesis()
         sections.append(sweeps_section(results, sweeps, paper, writer))
         sections.append(grasps_section(results, sweeps, paper, writer))
         notes = [f"{s.title}: {n}" for s in sections for n in s.notes]
@@ -312,9 +311,7 @@ def build_report(results_dir: str | Path, out: str | Path) -> ReportSummary:
     return ReportSummary(index, len(writer.figures), len(writer.tables), notes, time.perf_counter() - start)
 
 
-def _summary_lines(
-    sweeps: dict[str, SweepResult], sections: list[Section], paper: paper_tables.PaperSynthesis
-) -> list[str]:
+def _summary_lines(sweeps: dict[str, SweepResult], sections: list[Section], paper: PaperSynthesis) -> list[str]:
     lines = [s.summary for s in sections if s.summary]
     for task, sweep in sweeps.items():
         solutions = sweep.solutions

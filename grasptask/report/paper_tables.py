@@ -8,6 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
+from grasptask.io.reference import PaperSynthesis
 from grasptask.task.stats import compare_with_reference
 
 DRAWING_GROUPS = ("drawing_tripod", "drawing_cylindrical", "drawing_power")
@@ -91,42 +92,6 @@ def largest_differences(stats: pd.DataFrame, reference: pd.DataFrame) -> dict:
         "max_abs_diff_normalised": float(normalised["difference"].abs().max()) if len(normalised) else None,
         "max_rel_diff_raw_mu": float(relative.max()) if len(relative) else None,
     }
-
-
-@dataclass(frozen=True)
-class PaperSynthesis:
-    """What the paper reports of its synthesis (Section 7.3, Tables 11-12), read from the reference CSV."""
-
-    variables: int
-    constraints: int
-    optima: dict[str, int]
-    mean_s: float
-    sd_s: float
-    quality_shown: dict[str, list[float]]
-
-    @property
-    def seconds(self) -> str:
-        return f"{self.mean_s:.0f} +- {self.sd_s:.0f} s"
-
-
-def read_paper_synthesis(path) -> PaperSynthesis:
-    table = pd.read_csv(path, comment="#")
-
-    def rows(quantity):
-        return table[table["quantity"] == quantity]
-
-    def single(quantity):
-        return float(rows(quantity)["value"].iloc[0])
-
-    shown = rows("quality_shown")
-    return PaperSynthesis(
-        variables=int(single("nlp_variables")),
-        constraints=int(single("nlp_constraints")),
-        optima={t: int(v) for t, v in zip(*rows("distinct_local_optima")[["task", "value"]].T.values, strict=True)},
-        mean_s=single("mean_seconds_per_solution"),
-        sd_s=single("sd_seconds_per_solution"),
-        quality_shown={t: list(g["value"]) for t, g in shown.groupby("task", sort=False)},
-    )
 
 
 def sweep_table(sweeps: dict, paper: PaperSynthesis) -> pd.DataFrame:

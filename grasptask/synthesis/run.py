@@ -21,13 +21,12 @@ from tqdm import tqdm
 from grasptask.errors import BadInputError
 from grasptask.io.artifacts import Provenance, StagedOutput
 from grasptask.io.config import load_yaml
+from grasptask.io.reference import read_paper_synthesis
 from grasptask.synthesis import sweep
 from grasptask.synthesis.backends import STATUSES
 from grasptask.synthesis.clustering import cluster
 from grasptask.synthesis.config import load_solver_config
 from grasptask.synthesis.starts import make_starts, subset
-
-PAPER = {"variables": 579, "constraints": 653, "seconds_per_solution_mean": 459, "seconds_per_solution_sd": 186}
 
 
 @dataclass
@@ -90,6 +89,7 @@ def run_synthesize(options: SynthesisOptions, echo=print) -> dict:
     )
     grasp_settings = load_grasp_settings(options.grasp_config)
     size = build_model(hand, obj, models[options.task], grasp_settings, solver.bounds).size()
+    paper = read_paper_synthesis()
     starts = subset(make_starts(obj.bounds(), options.seed), options.starts)
     folder = options.out / options.task
     folder.mkdir(parents=True, exist_ok=True)
@@ -101,7 +101,7 @@ def run_synthesize(options: SynthesisOptions, echo=print) -> dict:
     todo = [s for s in starts if s.start_id not in finished]
     echo(
         f"{options.task}: {len(starts)} starts, {len(finished)} already done, model {size['variables']} variables"
-        f" x {size['constraints']} constraints (paper: {PAPER['variables']} x {PAPER['constraints']})"
+        f" x {size['constraints']} constraints (paper: {paper.variables} x {paper.constraints})"
     )
     wall_start = time.perf_counter()
     bar = tqdm(total=len(starts), initial=len(finished), desc=f"synthesize {options.task}", unit="start", disable=None)
@@ -136,6 +136,7 @@ def run_synthesize(options: SynthesisOptions, echo=print) -> dict:
 
 
 def _summarise(options: SynthesisOptions, rows: list[dict], size: dict, wall: float, symmetry, fingers) -> dict:
+    paper = read_paper_synthesis()
     import casadi
     import pyomo.version
 
@@ -166,7 +167,13 @@ def _summarise(options: SynthesisOptions, rows: list[dict], size: dict, wall: fl
         },
         "sweep_wall_seconds_this_run": wall,
         "model_size": size,
-        "paper": PAPER,
+        "paper": {
+            "variables": paper.variables,
+            "constraints": paper.constraints,
+            "seconds_per_solution_mean": paper.mean_s,
+            "seconds_per_solution_sd": paper.sd_s,
+            "distinct_optima": paper.optima.get(options.task),
+        },
         "versions": {"casadi": casadi.__version__, "pyomo": pyomo.version.version},
     }
     folder = options.out / options.task

@@ -121,11 +121,15 @@ class SolverContext:
             os._exit(13)
         row = {"start_id": start.start_id, "orientation": start.orientation, "position": start.position_name}
         joints = self.nlp.hand.mid_range()
+        began = time.perf_counter()
         if self.job.solver.placement:
             row["placement_backoff_m"] = place(self.nlp, start, self.bounds, joints)
         else:
             self.nlp.initialise(start.palm_rotation, start.palm_position, joints)
+        row["placement_seconds"] = time.perf_counter() - began
         result, order, totals = self._run()
+        # a start's seconds are all it took to solve it: placement (or initialisation) and IPOPT
+        totals["seconds"] += row["placement_seconds"]
         row.update({"status": result.status, **totals})
         row["message"] = result.message
         if result.x is None:

@@ -1,0 +1,111 @@
+"""Before IPOPT: placing a start at the object, the solver settings it is read from, and derivatives of the
+NLP's surface that stay finite where a cylinder's exponents meet zero."""
+
+import math
+
+import numpy as np
+import pyomo.environ as pyo
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from pyomo.core.expr.calculus.derivatives import Modes, differentiate
+
+from grasptask.errors import BadInputError
+from grasptask.hand import load_hand
+from grasptask.objects import load_object
+from grasptask.synthesis.config import SearchBounds, load_solver_config
+from grasptask.synthesis.model import build_model, surface_for
+from grasptask.synthesis.placement import anchor_point, place
+from grasptask.synthesis.starts import make_starts
+from grasptask.task.model import load_task_models
+
+TOOL = "configs/objects/tool.yaml"
+
+
+@pytest.fixture(scope="module")
+def nlp(simulated):
+    root, _, _ = simulated
+    task = load_task_models(root / "tasks" / "task_models.json")["drawing"]
+    return build_model(load_hand(), load_object(TOOL), task)
+
+
+def test_anchor_is_the_nearest_point_of_the_shrunken_box():
+    bounds = np.array([[-0.01, -0.01, -0.1], [0.01, 0.01, 0.1]])
+    np.testing.assert_allclose(anchor_point([0.2, 0.0, 0.0], bounds), [0.008, 0.0, 0.0])
+    np.testing.assert_allclose(anchor_point([0.0, 0.0, 0.19], bounds), [0.0, 0.0, 0.08])
+    np.testing.assert_allclose(anchor_point([0.001, -0.002, 0.03], bounds), [0.001, -0.002, 0.03])  # inside: kept
+
+
+@settings(max_examples=12, deadline=None)
+@given(st.integers(min_value=0, max_value=125))
+def test_placed_start_keeps_its_orientation_and_starts_collision_free(nlp, start_id):
+    obj = load_object(TOOL)
+    start = make_starts(obj.bounds(), seed=0)[start_id]
+    joints = nlp.hand.mid_range()
+    backoff = place(nlp, start, obj.bounds(), joints)
+    state = nlp.read()
+    np.testing.assert_allclose(state["palm_rotation"], start.palm_rotation, atol=1e-12)
+    np.testing.assert_allclose(state["joint_angles"], np.clip(joints, nlp.hand.lower, nlp.hand.upper))
+    assert 0.0 <= backoff <= 0.08 + 1e-12
+    if backoff < 0.08:  # it stopped backing off because the hand was clear, not at the limit
+        assert nlp.min_clearance() >= 0
+    # the pads straddle the anchor: their centroid is the anchor, moved back along the palm-to-pads line
+    anchor = anchor_point(start.palm_position, obj.bounds())
+    offset = state["contacts"].mean(axis=0) - anchor
+    assert np.linalg.norm(offset) == pytest.approx(backoff, abs=1e-9)
+
+
+def test_placement_is_deterministic(nlp):
+    obj = load_object(TOOL)
+    start = make_starts(obj.bounds(), seed=0)[40]
+    first = place(nlp, start, obj.bounds(), nlp.hand.mid_range()), nlp.read()["palm_position"]
+    second = place(nlp, start, obj.bounds(), nlp.hand.mid_range()), nlp.read()["palm_position"]
+    assert first[0] == second[0]
+    np.testing.assert_array_equal(first[1], second[1])
+
+
+def test_search_bounds_reach_the_force_variables(simulated):
+    root, _, _ = simulated
+    task = load_task_models(root / "tasks" / "task_models.json")["cutting"]
+    model = build_model(load_hand(), load_object(TOOL), task, bounds=SearchBounds(80.0, None)).model
+    assert all(v.lb == -80.0 and v.ub == 80.0 for v in model.force.values())
+    assert all(v.lb == 0 and v.ub is None for v in model.lam.values())
+
+
+def test_cylinder_contact_has_finite_second_derivatives_on_its_axis_planes():
+    """e2 = 1 makes an exponent of the superquadric 0; written as x ** 0 its derivative is NaN at x = 0."""
+    surface = surface_for(load_object(TOOL))
+    m = pyo.ConcreteModel()
+    m.p = pyo.Var(range(3), initialize={0: 0.0, 1: 0.01, 2: 0.03})
+    p = [m.p[i] for i in range(3)]
+    for expression in (surface.contact(p), *surface.gradient(p)):
+        for wrt in p:
+            first = differentiate(expression, wrt=wrt, mode=Modes.reverse_symbolic)
+            for second in differentiate(first, wrt_list=p, mode=Modes.reverse_numeric):
+                assert math.isfinite(second)
+
+
+@pytest.mark.parametrize(
+    "text, message",
+    [
+        ("ipopt: {}\nplacment: true\n", "unknown field 'placment'"),
+        ("placement: 1\n", "field 'placement' must be true or false"),
+        ("search_bounds: {task_force_n: -5}\n", "search_bounds.task_force_n' must be a positive number"),
+        ("search_bounds: {edge: 5}\n", "unknown field 'search_bounds.edge'"),
+        ("ipopt: [tol]\n", "field 'ipopt' must be a mapping"),
+    ],
+)
+def test_bad_solver_config_is_one_clear_line(tmp_path, text, message):
+    path = tmp_path / "solver.yaml"
+    path.write_text(text)
+    with pytest.raises(BadInputError, match=message.replace("(", r"\(")):
+        load_solver_config(path)
+
+
+def test_solver_config_defaults_and_bundled_files():
+    bundled = load_solver_config("configs/solver.yaml")
+    assert bundled.placement and not bundled.two_phase
+    assert bundled.bounds == SearchBounds(100.0, 50.0)
+    assert bundled.time_limit == bundled.ipopt["max_wall_time"]
+    for path in ("configs/solver_demo.yaml", "tests/data/solver_fast.yaml"):
+        assert load_solver_config(path).placement
