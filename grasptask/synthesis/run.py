@@ -136,10 +136,10 @@ def run_synthesize(options: SynthesisOptions, echo=print) -> dict:
 
 
 def _summarise(options: SynthesisOptions, rows: list[dict], size: dict, wall: float, symmetry, fingers) -> dict:
-    paper = read_paper_synthesis()
     import casadi
     import pyomo.version
 
+    paper = read_paper_synthesis()
     solutions = pd.DataFrame(rows).sort_values("start_id").reset_index(drop=True)
     solutions["verified"] = solutions["verified"].fillna(False).astype(bool)
     optima = cluster(solutions, fingers, symmetry)
