@@ -54,17 +54,17 @@ class ResultsFolder:
     def grasps(self) -> Path:
         return self.root / "grasps"
 
+    def _task_folders_with(self, name: str) -> list[Path]:
+        return sorted(p.parent for p in self.grasps.glob(f"*/{name}")) if self.grasps.is_dir() else []
+
     def sweep_folders(self) -> list[Path]:
         """Task folders under ``grasps/`` that a sweep has finished (they have ``run.json``)."""
-        if not self.grasps.is_dir():
-            return []
-        return sorted(p.parent for p in self.grasps.glob("*/run.json"))
+        return self._task_folders_with("run.json")
 
     def unfinished_sweeps(self) -> list[Path]:
         """Task folders with a per-start log but no summary: a sweep interrupted or still running."""
-        if not self.grasps.is_dir():
-            return []
-        return sorted(p.parent for p in self.grasps.glob("*/solutions.jsonl") if not (p.parent / "run.json").exists())
+        finished = set(self.sweep_folders())
+        return [f for f in self._task_folders_with("solutions.jsonl") if f not in finished]
 
 
 def find_results(root: str | Path) -> ResultsFolder:
