@@ -8,7 +8,10 @@ feasibility, contact forces and tendon activations per task wrench. Component na
     eq2_*           finger kinematics: link frames, joint positions, contact points (eq. 2)
     eq3_contact     g(p^j) = 0, contacts on the surface
     eq4_*           force closure: phi >= eps, sum phi = 1, sum phi w = 0
-    eq5             primitive wrenches w_i^j = (l_i^j, p^j x l_i^j), as expressions
+    eq5_wrench      primitive wrenches w_i^j = (l_i^j, p^j x l_i^j): their torque parts as variables
+    eq7_*           the finger Jacobians J^j (columns a_k x (p^j - P_k)) and the joint torques J^j^T l_i^j of
+                    a unit force along each cone edge, as variables
+    eq24_cone_edge  the friction cone edges l_i^j, as variables
     eq8_task_force  G f_i = u_i (the G^R u_i + A x of eq. 8, without a matrix inverse)
     eq10_*          torque feasibility: for each axis and sign, forces in the friction cones apply +-gamma_i u_i
                     with joint torques J^T f = M P a, 0 <= a <= 1 - margin (eq. 1; the margin keeps the
@@ -20,6 +23,12 @@ feasibility, contact forces and tendon activations per task wrench. Component na
     normal_*, tangent_*  the inward unit normal -grad g/|grad g| at each contact, and the first cone tangent:
                     the distal phalanx's axis projected on the tangent plane (the cone is attached to the finger
                     frame, as in App. 10.3, eq. 24)
+
+Every quantity the task constraints share (cone edges, wrenches, Jacobians, edge torques) is a variable defined
+once by an equality, so that eq. 4, 10 and 12 are bilinear in them: written out inline, eq. 10's 12 task wrenches
+each repeated the whole finger kinematics, and the Lagrangian's Hessian (and IPOPT's KKT factor) was several
+times denser. Variables that are unit vectors or rotation entries carry no bounds: their equalities already
+bound them, and a bound at +-1 that a rotation entry touches made IPOPT's barrier cut most steps short.
 
 Eq. 9 is checked on each solution by the verifier, not imposed. The surface function is written here in Pyomo
 independently of ``grasptask.objects`` (which the verifier uses): for a superquadric the contact constraint uses
@@ -276,7 +285,7 @@ def build_model(
     definitions = []
 
     m = pyo.ConcreteModel(name="task_oriented_grasp")
-    m.R_h = pyo.Var(XYZ, XYZ, bounds=(-1, 1), doc="palm rotation R_h in the object frame")
+    m.R_h = pyo.Var(XYZ, XYZ, doc="palm rotation R_h in the object frame")
     m.d_h = pyo.Var(XYZ, bounds=(-1, 1), doc="palm position d_h in the object frame (m)")
     lower, upper = hand.lower, hand.upper
     m.theta = pyo.Var(range(hand.n_joints), bounds=lambda _, k: (lower[k], upper[k]), doc="joint angles, eq. 20-21")
@@ -294,7 +303,7 @@ def build_model(
 
     # eq. 2: each link's frame in the object frame, then joint positions and the pad contact point
     link_index = [(j, k) for j, f in enumerate(fingers) for k in range(f.n_joints)]
-    m.frame = pyo.Var(link_index, XYZ, XYZ, bounds=(-1.0001, 1.0001), doc="link frames R_k^j (object frame)")
+    m.frame = pyo.Var(link_index, XYZ, XYZ, doc="link frames R_k^j (object frame)")
     m.eq2_frame = pyo.ConstraintList()
     m.p = pyo.Var(range(b), XYZ, bounds=(-1, 1), doc="contact points p^j")
     m.eq2_contact_point = pyo.ConstraintList()
@@ -348,8 +357,8 @@ def build_model(
     )
 
     # contact normals (inward) and the cone tangents attached to the finger (App. 10.3)
-    m.n = pyo.Var(range(b), XYZ, bounds=(-1.0001, 1.0001), doc="inward unit normal at p^j")
-    m.t = pyo.Var(range(b), XYZ, bounds=(-1.0001, 1.0001), doc="first cone tangent at p^j")
+    m.n = pyo.Var(range(b), XYZ, doc="inward unit normal at p^j")
+    m.t = pyo.Var(range(b), XYZ, doc="first cone tangent at p^j")
     m.normal_definition = pyo.ConstraintList()
     m.tangent_definition = pyo.ConstraintList()
     for j in range(b):
@@ -371,19 +380,53 @@ def build_model(
         range(b), rule=lambda _, j: sum(distal[j][i][2] * m.n[j, i] for i in XYZ) >= cos_bound
     )
 
-    # friction cone edges l_i^j (eq. 24) and primitive wrenches (eq. 5)
+    # friction cone edges l_i^j (eq. 24) and the torque parts p^j x l_i^j of the primitive wrenches (eq. 5), each
+    # a variable defined once: the force-closure and eq. 10 constraints are then bilinear in them, which keeps
+    # their Hessian, and IPOPT's KKT factor, sparse
     angles = 2 * np.pi * np.arange(1, m_edges + 1) / m_edges
     scale = 1.0 / np.sqrt(1 + mu**2)
-    edges = []
+    cells = [(j, e) for j in range(b) for e in range(m_edges)]
+    m.l = pyo.Var(cells, XYZ, doc="friction cone edges l_i^j (eq. 24)")
+    m.l_torque = pyo.Var(cells, XYZ, doc="p^j x l_i^j, the torque part of the primitive wrench (eq. 5)")
+    m.eq24_cone_edge = pyo.ConstraintList()
+    m.eq5_wrench = pyo.ConstraintList()
     for j in range(b):
         n_j = [m.n[j, i] for i in XYZ]
         t1 = [m.t[j, i] for i in XYZ]
         t2 = _cross(n_j, t1)
-        edges.append([[scale * (n_j[i] + mu * (np.cos(a) * t1[i] + np.sin(a) * t2[i])) for i in XYZ] for a in angles])
-    wrenches = [[edge + _cross(p[j], edge) for edge in edges[j]] for j in range(b)]
+        for e, angle in enumerate(angles):
+            edge = [scale * (n_j[i] + mu * (np.cos(angle) * t1[i] + np.sin(angle) * t2[i])) for i in XYZ]
+            torque = _cross(p[j], [m.l[j, e, i] for i in XYZ])
+            for i in XYZ:
+                m.eq24_cone_edge.add(m.l[j, e, i] == edge[i])
+                definitions.append((m.l[j, e, i], edge[i]))
+            for i in XYZ:
+                m.eq5_wrench.add(m.l_torque[j, e, i] == torque[i])
+                definitions.append((m.l_torque[j, e, i], torque[i]))
+    edges = [[[m.l[j, e, i] for i in XYZ] for e in range(m_edges)] for j in range(b)]
+    wrenches = [[edges[j][e] + [m.l_torque[j, e, i] for i in XYZ] for e in range(m_edges)] for j in range(b)]
+
+    # eq. 7: the finger Jacobians J^j, columns a_k x (p^j - P_k), as variables shared by eq. 10, 12 and 13
+    joints = [(j, k) for j in range(b) for k in range(fingers[j].n_joints)]
+    m.J = pyo.Var(joints, XYZ, doc="finger Jacobian columns a_k x (p^j - P_k) (eq. 7)")
+    m.eq7_jacobian = pyo.ConstraintList()
+    for j, k in joints:
+        column = _cross(joint_axes[j][k], [p[j][i] - joint_positions[j][k][i] for i in XYZ])
+        for i in XYZ:
+            m.eq7_jacobian.add(m.J[j, k, i] == column[i])
+            definitions.append((m.J[j, k, i], column[i]))
+    # the joint torques of a unit force along each cone edge, J^j^T l_i^j: eq. 10's torques are then linear
+    # combinations of them
+    m.edge_torque = pyo.Var(
+        [(j, e, k) for j, e in cells for k in range(fingers[j].n_joints)], doc="J^j^T l_i^j (eq. 1, 7)"
+    )
+    m.eq7_edge_torque = pyo.ConstraintList()
+    for j, e, k in m.edge_torque.index_set():
+        expr = _dot([m.J[j, k, i] for i in XYZ], edges[j][e])
+        m.eq7_edge_torque.add(m.edge_torque[j, e, k] == expr)
+        definitions.append((m.edge_torque[j, e, k], expr))
 
     # eq. 4: force closure
-    cells = [(j, e) for j in range(b) for e in range(m_edges)]
     m.phi = pyo.Var(cells, bounds=(settings.force_closure_min_weight, 1.0), doc="force-closure weights phi")
     m.eq4_weights_sum = pyo.Constraint(expr=sum(m.phi.values()) == 1)
     m.eq4_force_closure = pyo.Constraint(
@@ -391,11 +434,8 @@ def build_model(
     )
 
     def joint_torques(j, force):
-        """tau^j = J^j^T f^j with J^j's columns a_k x (p^j - P_k) (eq. 7)."""
-        return [
-            _dot(_cross(axis, [p[j][i] - pos[i] for i in XYZ]), force)
-            for axis, pos in zip(joint_axes[j], joint_positions[j], strict=True)
-        ]
+        """tau^j = J^j^T f^j (eq. 7)."""
+        return [_dot([m.J[j, k, i] for i in XYZ], force) for k in range(fingers[j].n_joints)]
 
     # eq. 8 and 12-13: task forces for each unit axis, and the objective
     f_max = bounds.task_force_n
@@ -427,9 +467,9 @@ def build_model(
         for r in range(6):
             m.eq10_wrench.add(sum(m.lam[a, s, j, e] * wrenches[j][e][r] for j, e in cells) == float(targets[a, s][r]))
         for j, finger in enumerate(fingers):
-            force = [sum(m.lam[a, s, j, e] * edges[j][e][i] for e in range(m_edges)) for i in XYZ]
             torque_map = finger.torque_map
-            for k, tau in enumerate(joint_torques(j, force)):
+            for k in range(finger.n_joints):
+                tau = sum(m.lam[a, s, j, e] * m.edge_torque[j, e, k] for e in range(m_edges))
                 produced = sum(float(torque_map[k, q]) * m.act[a, s, j, q] for q in range(len(finger.muscles)))
                 m.eq10_torque.add(tau == produced)
     return GraspNLP(m, hand, definitions, targets, edges, wrenches, joint_torques)
