@@ -284,6 +284,11 @@ def build_model(
     n_axes = len(weights)
     definitions = []
 
+    def define(constraints, var, expr):
+        """``var == expr`` as a constraint, and ``var`` set from ``expr`` by :meth:`GraspNLP.initialise`."""
+        constraints.add(var == expr)
+        definitions.append((var, expr))
+
     m = pyo.ConcreteModel(name="task_oriented_grasp")
     m.R_h = pyo.Var(XYZ, XYZ, doc="palm rotation R_h in the object frame")
     m.d_h = pyo.Var(XYZ, bounds=(-1, 1), doc="palm position d_h in the object frame (m)")
@@ -323,8 +328,7 @@ def build_model(
             for r in XYZ:
                 for c in XYZ:
                     expr = sum(previous[r][q] * rot[q][c] for q in XYZ)
-                    m.eq2_frame.add(m.frame[j, k, r, c] == expr)
-                    definitions.append((m.frame[j, k, r, c], expr))
+                    define(m.eq2_frame, m.frame[j, k, r, c], expr)
             current = [[m.frame[j, k, r, c] for c in XYZ] for r in XYZ]
             if joint.link > 0:
                 is_distal = k == max(i for i, jt in enumerate(finger.joints) if jt.link > 0)
@@ -341,8 +345,7 @@ def build_model(
                 + finger.pad_along * distal_length * distal_frame[i][0]
                 + finger.radius * distal_frame[i][2]
             )
-            m.eq2_contact_point.add(m.p[j, i] == expr)
-            definitions.append((m.p[j, i], expr))
+            define(m.eq2_contact_point, m.p[j, i], expr)
         joint_axes.append(axes_j)
         joint_positions.append(positions_j)
         distal.append(distal_frame)
@@ -398,11 +401,9 @@ def build_model(
             edge = [scale * (n_j[i] + mu * (np.cos(angle) * t1[i] + np.sin(angle) * t2[i])) for i in XYZ]
             torque = _cross(p[j], [m.l[j, e, i] for i in XYZ])
             for i in XYZ:
-                m.eq24_cone_edge.add(m.l[j, e, i] == edge[i])
-                definitions.append((m.l[j, e, i], edge[i]))
+                define(m.eq24_cone_edge, m.l[j, e, i], edge[i])
             for i in XYZ:
-                m.eq5_wrench.add(m.l_torque[j, e, i] == torque[i])
-                definitions.append((m.l_torque[j, e, i], torque[i]))
+                define(m.eq5_wrench, m.l_torque[j, e, i], torque[i])
     edges = [[[m.l[j, e, i] for i in XYZ] for e in range(m_edges)] for j in range(b)]
     wrenches = [[edges[j][e] + [m.l_torque[j, e, i] for i in XYZ] for e in range(m_edges)] for j in range(b)]
 
@@ -413,8 +414,7 @@ def build_model(
     for j, k in joints:
         column = _cross(joint_axes[j][k], [p[j][i] - joint_positions[j][k][i] for i in XYZ])
         for i in XYZ:
-            m.eq7_jacobian.add(m.J[j, k, i] == column[i])
-            definitions.append((m.J[j, k, i], column[i]))
+            define(m.eq7_jacobian, m.J[j, k, i], column[i])
     # the joint torques of a unit force along each cone edge, J^j^T l_i^j: eq. 10's torques are then linear
     # combinations of them
     m.edge_torque = pyo.Var(
@@ -422,9 +422,7 @@ def build_model(
     )
     m.eq7_edge_torque = pyo.ConstraintList()
     for j, e, k in m.edge_torque.index_set():
-        expr = _dot([m.J[j, k, i] for i in XYZ], edges[j][e])
-        m.eq7_edge_torque.add(m.edge_torque[j, e, k] == expr)
-        definitions.append((m.edge_torque[j, e, k], expr))
+        define(m.eq7_edge_torque, m.edge_torque[j, e, k], _dot([m.J[j, k, i] for i in XYZ], edges[j][e]))
 
     # eq. 4: force closure
     m.phi = pyo.Var(cells, bounds=(settings.force_closure_min_weight, 1.0), doc="force-closure weights phi")
