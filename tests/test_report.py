@@ -12,6 +12,7 @@ from grasp_fixtures import BALL_RADIUS, ball_grasp, drawing_like_task
 
 from grasptask.grasp.verify import verify
 from grasptask.hand import load_hand
+from grasptask.io.reference import read_paper_synthesis
 from grasptask.paths import DEFAULT_GRASP_CONFIG, DEFAULT_HAND, DEFAULT_SOLVER_CONFIG
 from grasptask.report.browser import check_page, find_chromium
 from grasptask.report.build import build_report
@@ -55,7 +56,7 @@ def _ball_sweep(results, task="drawing"):
         DEFAULT_SOLVER_CONFIG, DEFAULT_GRASP_CONFIG,
     )  # fmt: skip
     size = {"variables": 643, "constraints": 462}
-    return _summarise(options, rows, size, 5.0, None, fingers)
+    return _summarise(options, rows, size, 5.0, None, fingers, read_paper_synthesis())
 
 
 @pytest.fixture(scope="module")

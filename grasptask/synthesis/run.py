@@ -21,7 +21,7 @@ from tqdm import tqdm
 from grasptask.errors import BadInputError
 from grasptask.io.artifacts import Provenance, StagedOutput
 from grasptask.io.config import load_yaml
-from grasptask.io.reference import read_paper_synthesis
+from grasptask.io.reference import PaperSynthesis, read_paper_synthesis
 from grasptask.synthesis import sweep
 from grasptask.synthesis.backends import STATUSES
 from grasptask.synthesis.clustering import cluster
@@ -132,14 +132,15 @@ def run_synthesize(options: SynthesisOptions, echo=print) -> dict:
         finally:
             bar.close()
     wall = time.perf_counter() - wall_start
-    return _summarise(options, done, size, wall, object_config.get("symmetry"), list(hand.grasping))
+    return _summarise(options, done, size, wall, object_config.get("symmetry"), list(hand.grasping), paper)
 
 
-def _summarise(options: SynthesisOptions, rows: list[dict], size: dict, wall: float, symmetry, fingers) -> dict:
+def _summarise(
+    options: SynthesisOptions, rows: list[dict], size: dict, wall: float, symmetry, fingers, paper: PaperSynthesis
+) -> dict:
     import casadi
     import pyomo.version
 
-    paper = read_paper_synthesis()
     solutions = pd.DataFrame(rows).sort_values("start_id").reset_index(drop=True)
     solutions["verified"] = solutions["verified"].fillna(False).astype(bool)
     optima = cluster(solutions, fingers, symmetry)
