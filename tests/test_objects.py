@@ -60,6 +60,23 @@ def test_tool_cylinder_signs_normals_and_euclidean_distance():
     assert tool.signed_distance(np.array([[0.0, 0.0, 0.103]]))[0] == pytest.approx(0.003, abs=1e-4)
 
 
+@pytest.mark.parametrize("offset", [0.0, 2e-4])
+def test_closest_point_is_exact_on_the_tool_rims(offset):
+    """On the rims of the tool's end caps the surface turns through 90 degrees within about a millimetre,
+    less than two sample spacings: the closest point of a point just off the rim must still be its foot."""
+    tool = load_object("configs/objects/tool.yaml")
+    rng = np.random.default_rng(1)
+    azimuth, z = rng.uniform(0, 2 * np.pi, 300), rng.uniform(0.095, 0.1, 300) * rng.choice([-1, 1], 300)
+    rim = tool.project(np.stack([0.0105 * np.cos(azimuth), 0.0105 * np.sin(azimuth), z], axis=1), iterations=50)
+    assert np.abs(tool.g(rim)).max() < 1e-9
+    normal = tool.normal(rim)
+    points = rim + offset * normal
+    closest, closest_normal = tool.closest_point(points)
+    np.testing.assert_allclose(closest, rim, atol=1e-8)
+    np.testing.assert_allclose(tool.signed_distance(points), offset, atol=1e-8)
+    assert np.degrees(np.arccos(np.clip((closest_normal * normal).sum(axis=1), -1, 1))).max() < 1e-3
+
+
 @pytest.mark.parametrize("name", ["tool", "sphere", "box", "ellipsoid"])
 def test_superquadric_presets_load_and_contain_their_centre(name):
     obj = load_object(f"configs/objects/{name}.yaml")

@@ -106,13 +106,30 @@ class SurfaceIndex:
         actual = float(np.sqrt(mesh.area / count))
         return cls(points, normals, mesh, actual, cKDTree(points))
 
-    def closest(self, p: np.ndarray, obj: ImplicitObject) -> np.ndarray:
-        """Closest surface points: the nearest sample's tangent-plane foot of each point, projected onto
-        ``g = 0`` (exact for a sphere, second-order accurate in general)."""
+    def closest(self, p: np.ndarray, obj: ImplicitObject, passes: int = 8) -> np.ndarray:
+        """Closest surface points: from the nearest sample, repeatedly the foot of each point on the tangent
+        plane there, projected onto ``g = 0``. One pass is exact for a sphere; where the surface turns within a
+        sample spacing (a cylinder's rim has a curvature radius of about a millimetre) a single pass missed the
+        closest point by 0.15 mm and its normal by 4 degrees, so the passes go on until the point settles. Each
+        point keeps its nearest candidate that is on the surface as closely as the first, so a pass that
+        overshoots, or whose projection does not converge, cannot make it worse."""
         _, index = self.tree.query(p)
-        normal = self.normals[index]
-        foot = p - ((p - self.points[index]) * normal).sum(axis=1, keepdims=True) * normal
-        return obj.project(foot, iterations=6)
+        candidate, normal = self.points[index], self.normals[index]
+        best = None
+        for _ in range(passes):
+            foot = p - ((p - candidate) * normal).sum(axis=1, keepdims=True) * normal
+            previous, candidate = candidate, obj.project(foot, iterations=6)
+            normal = obj.normal(candidate)
+            distance = np.linalg.norm(p - candidate, axis=1)
+            if best is None:
+                best, best_distance = candidate.copy(), distance
+                on_surface = np.maximum(np.abs(obj.g(candidate)), 1e-9)
+            else:
+                better = (distance < best_distance) & (np.abs(obj.g(candidate)) <= on_surface)
+                best[better], best_distance[better] = candidate[better], distance[better]
+            if np.abs(candidate - previous).max(initial=0.0) < 1e-12:
+                break
+        return best
 
     def signed_distance(self, p: np.ndarray, obj: ImplicitObject) -> np.ndarray:
         """Euclidean distance to :meth:`closest`, with the sign of ``g``."""
