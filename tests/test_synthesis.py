@@ -151,9 +151,11 @@ def test_sweep_writes_rows_verifies_and_clusters(cli, tasks, tmp_path):
     assert run["model_size"]["variables"] > 0 and run["paper"]["variables"] == 579
     assert run["paper"]["distinct_optima"] == 7
     assert sum(run["status_counts"].values()) == 4
+    # at an optimum the NLP's Q agrees with the verifier's own least-norm recomputation; a start cut off by the
+    # time limit may still be a verified grasp, but its task forces are not yet the least-norm ones
     verified = solutions[solutions["verified"]]
-    # a verified row's Q is the verifier's own recomputation, and it agrees with the NLP's
-    np.testing.assert_allclose(verified["Q"], verified["verify_Q"], rtol=1e-3)
+    converged = verified[verified["status"] == "optimal"]
+    np.testing.assert_allclose(converged["Q"], converged["verify_Q"], rtol=1e-3)
     optima = pd.read_parquet(tmp_path / "drawing" / "optima.parquet")
     assert len(optima) <= len(verified) and optima["members"].sum() == len(verified)
 
