@@ -113,22 +113,22 @@ class SurfaceIndex:
         closest point by 0.15 mm and its normal by 4 degrees, so the passes go on until the point settles. Each
         point keeps its nearest candidate that is on the surface as closely as the first, so a pass that
         overshoots, or whose projection does not converge, cannot make it worse."""
-        _, index = self.tree.query(p)
-        candidate, normal = self.points[index], self.normals[index]
-        best = None
-        for _ in range(passes):
+
+        def step(candidate, normal):
             foot = p - ((p - candidate) * normal).sum(axis=1, keepdims=True) * normal
-            previous, candidate = candidate, obj.project(foot, iterations=6)
-            normal = obj.normal(candidate)
-            distance = np.linalg.norm(p - candidate, axis=1)
-            if best is None:
-                best, best_distance = candidate.copy(), distance
-                on_surface = np.maximum(np.abs(obj.g(candidate)), 1e-9)
-            else:
-                better = (distance < best_distance) & (np.abs(obj.g(candidate)) <= on_surface)
-                best[better], best_distance[better] = candidate[better], distance[better]
+            return obj.project(foot, iterations=6)
+
+        _, index = self.tree.query(p)
+        candidate = step(self.points[index], self.normals[index])
+        best, best_distance = candidate.copy(), np.linalg.norm(p - candidate, axis=1)
+        on_surface = np.maximum(np.abs(obj.g(candidate)), 1e-9)
+        for _ in range(passes - 1):
+            previous, candidate = candidate, step(candidate, obj.normal(candidate))
             if np.abs(candidate - previous).max(initial=0.0) < 1e-12:
                 break
+            distance = np.linalg.norm(p - candidate, axis=1)
+            better = (distance < best_distance) & (np.abs(obj.g(candidate)) <= on_surface)
+            best[better], best_distance[better] = candidate[better], distance[better]
         return best
 
     def signed_distance(self, p: np.ndarray, obj: ImplicitObject) -> np.ndarray:
