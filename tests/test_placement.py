@@ -13,7 +13,7 @@ from pyomo.core.expr.calculus.derivatives import Modes, differentiate
 from grasptask.errors import BadInputError
 from grasptask.hand import load_hand
 from grasptask.objects import load_object
-from grasptask.synthesis.config import SearchBounds, load_solver_config
+from grasptask.synthesis.config import Regularisation, SearchBounds, load_solver_config
 from grasptask.synthesis.model import build_model, surface_for
 from grasptask.synthesis.placement import anchor_point, place
 from grasptask.synthesis.starts import make_starts
@@ -72,6 +72,29 @@ def test_search_bounds_reach_the_force_variables(simulated):
     assert all(v.lb == 0 and v.ub is None for v in model.lam.values())
 
 
+def test_regularisation_leaves_q_as_eq_12_alone(simulated):
+    """The objective IPOPT minimises is Q plus the small terms; the Q a solution reports is eq. 12's alone, and
+    zero weights give eq. 12 exactly."""
+    root, _, _ = simulated
+    task = load_task_models(root / "tasks" / "task_models.json")["cutting"]
+    start = make_starts(load_object(TOOL).bounds(), seed=0)[7]
+    values = {}
+    for name, weights in (("paper", Regularisation(0.0, 0.0, 0.0)), ("default", Regularisation())):
+        nlp = build_model(load_hand(), load_object(TOOL), task, regularisation=weights)
+        nlp.initialise(start.palm_rotation, start.palm_position, nlp.hand.mid_range())
+        for a, j, i in nlp.model.force:
+            nlp.model.force[a, j, i].set_value(0.1 * (i + 1))  # Q > 0
+        values[name] = (pyo.value(nlp.model.eq12_Q), pyo.value(nlp.model.eq12_objective), nlp.read()["Q"])
+    q, objective, reported = values["paper"]
+    assert q > 0 and objective == q == reported
+    q_default, objective_default, reported_default = values["default"]
+    assert q_default == q == reported_default
+    # phi, lambda and the activations start at 1/n, 0.1 and 0.2: the terms add their weighted squares
+    n_lam, n_act = len(nlp.model.lam), len(nlp.model.act)
+    extra = Regularisation().edge_force * 0.01 * n_lam + Regularisation().activation * 0.04 * n_act
+    assert objective_default == pytest.approx(q + extra, rel=1e-12)
+
+
 def test_cylinder_contact_has_finite_second_derivatives_on_its_axis_planes():
     """e2 = 1 makes an exponent of the superquadric 0; written as x ** 0 its derivative is NaN at x = 0."""
     surface = surface_for(load_object(TOOL))
@@ -93,6 +116,9 @@ def test_cylinder_contact_has_finite_second_derivatives_on_its_axis_planes():
         ("search_bounds: {task_force_n: -5}\n", "search_bounds.task_force_n' must be a positive number"),
         ("search_bounds: {edge: 5}\n", "unknown field 'search_bounds.edge'"),
         ("ipopt: [tol]\n", "field 'ipopt' must be a mapping"),
+        ("regularisation: {activation: -1.0e-6}\n", "regularisation.activation' must be a number >= 0"),
+        ("regularisation: {lam: 0.1}\n", "unknown field 'regularisation.lam'"),
+        ("regularisation: 0\n", "field 'regularisation' must be a mapping"),
     ],
 )
 def test_bad_solver_config_is_one_clear_line(tmp_path, text, message):
@@ -106,5 +132,6 @@ def test_solver_config_defaults_and_bundled_files():
     bundled = load_solver_config("configs/solver.yaml")
     assert bundled.placement and not bundled.two_phase
     assert bundled.bounds == SearchBounds(100.0, 50.0)
+    assert bundled.regularisation == Regularisation()
     assert bundled.time_limit == bundled.ipopt["max_wall_time"]
     assert load_solver_config("tests/data/solver_fast.yaml").placement

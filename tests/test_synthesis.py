@@ -5,6 +5,7 @@ start that needs longer is recorded as time-limit, which the sweep must handle a
 """
 
 import json
+import multiprocessing as mp
 import signal
 import subprocess
 import sys
@@ -21,6 +22,7 @@ from grasptask.objects import load_object
 from grasptask.synthesis.backends import STATUSES
 from grasptask.synthesis.model import build_model
 from grasptask.synthesis.starts import make_starts, palm_directions, subset
+from grasptask.synthesis.sweep import _next_start
 from grasptask.task.model import load_task_models
 
 FAST = Path("tests/data/solver_fast.yaml")
@@ -167,6 +169,19 @@ def test_a_crashed_worker_is_recorded_and_the_sweep_goes_on(cli, tasks, tmp_path
     solutions = pd.read_parquet(tmp_path / "drawing" / "solutions.parquet").set_index("start_id")
     assert solutions.loc[62, "status"] == "crashed" and not solutions.loc[62, "verified"]
     assert solutions.loc[0, "status"] != "crashed" and solutions.loc[125, "status"] != "crashed"
+
+
+def test_a_worker_stops_when_its_sweep_was_killed():
+    """A sweep killed outright cannot send its workers the stop message; they notice that it is gone."""
+    context = mp.get_context("spawn")
+    tasks = context.Queue()
+    gone = context.Process(target=time.sleep, args=(0,))
+    gone.start()
+    gone.join()
+    assert _next_start(tasks, gone, poll_s=0.05) is None
+    start = make_starts(np.array([[-0.01, -0.01, -0.1], [0.01, 0.01, 0.1]]))[3]
+    tasks.put(start)
+    assert _next_start(tasks, None, poll_s=0.05).start_id == 3
 
 
 def test_resume_keeps_finished_starts(cli, tasks, tmp_path):

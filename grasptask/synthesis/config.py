@@ -1,5 +1,6 @@
 """Solver settings (``configs/solver.yaml``), read and validated once: IPOPT's options, how a start is brought
-to the object before IPOPT (placement, two-phase) and the NLP's search bounds on forces."""
+to the object before IPOPT (placement, two-phase), the NLP's search bounds on forces and the small regularising
+weights on the variables its objective does not see."""
 
 from __future__ import annotations
 
@@ -22,6 +23,22 @@ class SearchBounds:
 
 
 @dataclass(frozen=True)
+class Regularisation:
+    """Weights of small quadratic terms added to eq. 12 for the variables Q does not depend on: eq. 4's
+    force-closure weights phi (about their mean), eq. 10's cone-edge magnitudes and its tendon activations.
+
+    Those variables only have to be feasible, so without these terms every optimum lies on a manifold of them
+    along which the Lagrangian is flat; IPOPT, with its barrier parameter at its floor, then spent most of its
+    iterations creeping along it (steps of 0.1-1 that changed Q in the sixth digit) before its dual
+    infeasibility settled. With the terms the optimum is isolated. They are not the paper's; Q reported for a
+    solution is eq. 12 alone, and zeros give the paper's objective exactly."""
+
+    closure_weight: float = 1e-5  # on sum (phi - 1/n)^2
+    edge_force: float = 1e-7  # on sum lambda^2 (N^2)
+    activation: float = 1e-6  # on sum a^2
+
+
+@dataclass(frozen=True)
 class SolverConfig:
     ipopt: dict = field(default_factory=dict)
     #: a worker that has not reported this long after its start's time limit is taken as hung and replaced
@@ -31,6 +48,7 @@ class SolverConfig:
     #: solve without torque feasibility first, then the full NLP from there
     two_phase: bool = False
     bounds: SearchBounds = SearchBounds()
+    regularisation: Regularisation = Regularisation()
 
     @property
     def time_limit(self) -> float:
@@ -46,21 +64,34 @@ def _positive_or_none(value, path: Path, name: str) -> float | None:
     return float(value)
 
 
+def _non_negative(value, path: Path, name: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float) or value < 0:
+        raise BadInputError(path, f"field '{name}' must be a number >= 0, got {value!r}")
+    return float(value)
+
+
+def _section(data: dict, name: str, fields: tuple[str, ...], path: Path) -> dict:
+    section = data.get(name, {})
+    if not isinstance(section, dict):
+        raise BadInputError(path, f"field '{name}' must be a mapping, got {section!r}")
+    reject_unknown(section, set(fields), path, f"{name}.")
+    return section
+
+
 def load_solver_config(path: str | Path) -> SolverConfig:
     path = Path(path)
     data = load_yaml(path)
-    reject_unknown(data, {"ipopt", "hang_grace_s", "placement", "two_phase", "search_bounds"}, path)
+    reject_unknown(data, {"ipopt", "hang_grace_s", "placement", "two_phase", "search_bounds", "regularisation"}, path)
     ipopt = data.get("ipopt", {})
     if not isinstance(ipopt, dict):
         raise BadInputError(path, f"field 'ipopt' must be a mapping of IPOPT options, got {ipopt!r}")
     for flag in ("placement", "two_phase"):
         if not isinstance(data.get(flag, False), bool):
             raise BadInputError(path, f"field '{flag}' must be true or false, got {data[flag]!r}")
-    bounds = data.get("search_bounds", {})
-    if not isinstance(bounds, dict):
-        raise BadInputError(path, f"field 'search_bounds' must be a mapping, got {bounds!r}")
-    reject_unknown(bounds, {"task_force_n", "edge_force_n"}, path, "search_bounds.")
-    defaults = SearchBounds()
+    bound_names, weight_names = ("task_force_n", "edge_force_n"), ("closure_weight", "edge_force", "activation")
+    bounds = _section(data, "search_bounds", bound_names, path)
+    weights = _section(data, "regularisation", weight_names, path)
+    defaults, default_weights = SearchBounds(), Regularisation()
     return SolverConfig(
         ipopt=dict(ipopt),
         hang_grace_s=_positive_or_none(data.get("hang_grace_s", 30.0), path, "hang_grace_s") or 30.0,
@@ -69,7 +100,13 @@ def load_solver_config(path: str | Path) -> SolverConfig:
         bounds=SearchBounds(
             *(
                 _positive_or_none(bounds.get(name, getattr(defaults, name)), path, f"search_bounds.{name}")
-                for name in ("task_force_n", "edge_force_n")
+                for name in bound_names
+            )
+        ),
+        regularisation=Regularisation(
+            *(
+                _non_negative(weights.get(name, getattr(default_weights, name)), path, f"regularisation.{name}")
+                for name in weight_names
             )
         ),
     )

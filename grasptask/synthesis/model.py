@@ -16,7 +16,8 @@ feasibility, contact forces and tendon activations per task wrench. Component na
     eq10_*          torque feasibility: for each axis and sign, forces in the friction cones apply +-gamma_i u_i
                     with joint torques J^T f = M P a, 0 <= a <= 1 - margin (eq. 1; the margin keeps the
                     verifier's own LP from reading a hair over 1 at an active bound)
-    eq12_objective  Q = sum_i gamma_i tau_i^T tau_i with tau_i = J^T f_i (eq. 12-13)
+    eq12_Q          Q = sum_i gamma_i tau_i^T tau_i with tau_i = J^T f_i (eq. 12-13)
+    eq12_objective  Q plus small quadratic terms on phi, eq. 10's forces and activations (``Regularisation``)
     eq14_collision  hand sample points stay out of the object by their radius
     eq16_23_*       palm rotation orthonormal; joint limits as bounds (eq. 20-21); DIP-PIP coupling
     pad_facing      the pad normal within the configured angle of the inward surface normal
@@ -49,7 +50,7 @@ from grasptask.grasp.settings import GraspSettings
 from grasptask.hand.model import Hand
 from grasptask.objects.gp import GPImplicitSurface
 from grasptask.objects.superquadric import Superquadric
-from grasptask.synthesis.config import SearchBounds
+from grasptask.synthesis.config import Regularisation, SearchBounds
 from grasptask.task.model import TaskModel
 
 XYZ = (0, 1, 2)
@@ -206,18 +207,21 @@ class GraspNLP:
     def approach(self):
         """The model without torque feasibility (eq. 1, 10): the grasp's geometry, force closure and Q only.
 
-        Inside the ``with`` block eq. 10 is deactivated and its forces and activations are fixed, so a model
-        written there is the smaller first phase of a two-phase solve."""
+        Inside the ``with`` block eq. 10 is deactivated, its forces and activations are fixed and left out of the
+        objective, so a model written there is the smaller first phase of a two-phase solve."""
         m = self.model
-        m.eq10_wrench.deactivate()
-        m.eq10_torque.deactivate()
+        switched = (m.eq10_wrench, m.eq10_torque, m.eq12_objective)
+        for component in switched:
+            component.deactivate()
+        m.approach_objective.activate()
         m.lam.fix()
         m.act.fix()
         try:
             yield self
         finally:
-            m.eq10_wrench.activate()
-            m.eq10_torque.activate()
+            for component in switched:
+                component.activate()
+            m.approach_objective.deactivate()
             m.lam.unfix()
             m.act.unfix()
 
@@ -263,7 +267,7 @@ class GraspNLP:
             "joint_angles": np.array([pyo.value(m.theta[k]) for k in m.theta]),
             "contacts": np.array([[pyo.value(m.p[j, i]) for i in XYZ] for j in range(b)]),
             "normals": -np.array([[pyo.value(m.n[j, i]) for i in XYZ] for j in range(b)]),  # outward
-            "Q": pyo.value(m.eq12_objective),
+            "Q": pyo.value(m.eq12_Q),
         }
 
 
@@ -273,8 +277,10 @@ def build_model(
     task: TaskModel,
     settings: GraspSettings = GraspSettings(),
     bounds: SearchBounds = SearchBounds(),
+    regularisation: Regularisation = Regularisation(),
 ) -> GraspNLP:
-    """The NLP for ``hand``'s grasping fingers on ``obj`` for ``task``, its forces searched within ``bounds``."""
+    """The NLP for ``hand``'s grasping fingers on ``obj`` for ``task``, its forces searched within ``bounds``,
+    its objective eq. 12 plus the small terms of ``regularisation``."""
     hand = hand.grasping_hand()
     fingers = list(hand.fingers.values())
     b, m_edges = len(fingers), settings.cone_edges
@@ -450,7 +456,7 @@ def build_model(
             m.eq8_task_force.add((total_force + total_torque)[r] == float(axes[a][r]))
         for j in range(b):
             objective += float(weights[a]) * sum(t * t for t in joint_torques(j, forces[j]))
-    m.eq12_objective = pyo.Objective(expr=objective, sense=pyo.minimize)
+    m.eq12_Q = pyo.Expression(expr=objective, doc="Q, eq. 12")
 
     # eq. 1 and 10: every task wrench +-gamma_i u_i applied with cone forces and activations in [0, 1]
     blocks = [(a, s) for a in range(n_axes) for s in (0, 1)]
@@ -470,4 +476,15 @@ def build_model(
                 tau = sum(m.lam[a, s, j, e] * m.edge_torque[j, e, k] for e in range(m_edges))
                 produced = sum(float(torque_map[k, q]) * m.act[a, s, j, q] for q in range(len(finger.muscles)))
                 m.eq10_torque.add(tau == produced)
+
+    def squares(weight, values):
+        return weight * sum(v**2 for v in values) if weight > 0 else 0
+
+    closure = squares(regularisation.closure_weight, [v - 1.0 / len(cells) for v in m.phi.values()])
+    feasibility = squares(regularisation.edge_force, m.lam.values()) + squares(
+        regularisation.activation, m.act.values()
+    )
+    m.eq12_objective = pyo.Objective(expr=m.eq12_Q + closure + feasibility, doc="eq. 12 and the regularising terms")
+    m.approach_objective = pyo.Objective(expr=m.eq12_Q + closure, doc="the same without eq. 10's variables")
+    m.approach_objective.deactivate()
     return GraspNLP(m, hand, definitions, targets, edges, wrenches, joint_torques)

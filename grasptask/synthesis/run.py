@@ -88,7 +88,7 @@ def run_synthesize(options: SynthesisOptions, echo=print) -> dict:
         str(options.grasp_config),
     )
     grasp_settings = load_grasp_settings(options.grasp_config)
-    size = build_model(hand, obj, models[options.task], grasp_settings, solver.bounds).size()
+    size = build_model(hand, obj, models[options.task], grasp_settings, solver.bounds, solver.regularisation).size()
     paper = read_paper_synthesis()
     starts = subset(make_starts(obj.bounds(), options.seed), options.starts)
     folder = options.out / options.task

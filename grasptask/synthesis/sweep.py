@@ -81,7 +81,9 @@ class SolverContext:
         self.obj = load_object(job.object_path)
         self.task = load_task_models(job.tasks_path)[job.task]
         self.settings = load_grasp_settings(job.settings_path) if job.settings_path else GraspSettings()
-        self.nlp = build_model(self.hand, self.obj, self.task, self.settings, job.solver.bounds)
+        self.nlp = build_model(
+            self.hand, self.obj, self.task, self.settings, job.solver.bounds, job.solver.regularisation
+        )
         text, self.order = write_nl(self.nlp.model)
         self.backend = BACKENDS[job.backend](text, job.solver.ipopt)
         self.approach = None
@@ -191,11 +193,20 @@ def _worker(job: Job, tasks, results, worker_id: int) -> None:
         results.put(("failed", worker_id, traceback.format_exc()))
         return
     results.put(("ready", worker_id, None))
-    while True:
-        start = tasks.get()
-        if start is None:
-            return
+    parent = mp.parent_process()
+    while (start := _next_start(tasks, parent)) is not None:
         results.put(("done", worker_id, _guarded(context, start)))
+
+
+def _next_start(tasks, parent, poll_s: float = 1.0) -> Start | None:
+    """The worker's next start, or None when the parent says stop or has died: a sweep killed outright (SIGKILL,
+    SIGTERM) cannot end its workers, which would otherwise wait on their queues for ever."""
+    while True:
+        try:
+            return tasks.get(timeout=poll_s)
+        except queue.Empty:
+            if parent is not None and not parent.is_alive():
+                return None
 
 
 def run_pool(
