@@ -135,3 +135,36 @@ def test_solver_config_defaults_and_bundled_files():
     assert bundled.regularisation == Regularisation()
     assert bundled.time_limit == bundled.ipopt["max_wall_time"]
     assert load_solver_config("tests/data/solver_fast.yaml").placement
+
+
+def test_compiled_expressions_match_pyomo_for_every_operation():
+    """The CasADi conversion of a Pyomo expression gives Pyomo's own value: sums (short and long), products,
+    quotients, powers, negation, the unary functions, parameters, named expressions and defined variables."""
+    from grasptask.synthesis.compiled import CompiledExpressions
+
+    m = pyo.ConcreteModel()
+    m.x = pyo.Var(range(3), initialize={0: 0.7, 1: -1.3, 2: 2.1})
+    m.y = pyo.Var(initialize=0.0)
+    m.k = pyo.Param(initialize=1.5, mutable=True)
+    m.e = pyo.Expression(expr=pyo.cos(m.x[0]) * m.x[1] - m.x[2] / (1 + m.x[0] ** 2))
+    long_sum = sum((m.x[i % 3] - 0.1 * i) ** 2 for i in range(12))
+    definitions = [(m.y, m.e + pyo.sqrt(long_sum) + abs(m.x[1]) ** m.k)]
+    extra = [-m.y * pyo.sin(m.x[2]) + pyo.exp(m.x[0]) - pyo.log(m.x[2]), m.e]
+    compiled = CompiledExpressions(list(m.x.values()), definitions, extra)
+    expected_y = pyo.value(definitions[0][1])
+    compiled.assign_defined(compiled.input_values())
+    assert m.y.value == pytest.approx(expected_y, rel=1e-14)
+    np.testing.assert_allclose(compiled.extra(compiled.input_values()), [pyo.value(e) for e in extra], rtol=1e-14)
+    with pytest.raises(ValueError, match="neither an input"):
+        CompiledExpressions([m.x[0]], [(m.y, m.x[1] + 1)])
+
+
+@settings(max_examples=8, deadline=None)
+@given(st.integers(min_value=0, max_value=125), st.floats(min_value=-0.05, max_value=0.05))
+def test_min_clearance_is_the_smallest_eq14_margin(nlp, start_id, shift):
+    """The compiled collision margins are eq. 14's constraint bodies, at any palm position."""
+    obj = load_object(TOOL)
+    start = make_starts(obj.bounds(), seed=0)[start_id]
+    nlp.initialise(start.palm_rotation, start.palm_position + shift, nlp.hand.mid_range())
+    margins = [pyo.value(c.body) - pyo.value(c.lower) for c in nlp.model.eq14_collision.values()]
+    assert nlp.min_clearance() == pytest.approx(min(margins), abs=1e-13)

@@ -162,6 +162,38 @@ def test_sweep_writes_rows_verifies_and_clusters(cli, tasks, tmp_path):
     assert len(optima) <= len(verified) and optima["members"].sum() == len(verified)
 
 
+def test_sweep_on_a_gp_object(cli, tasks, tmp_path):
+    """The NLP on a Gaussian-process surface (a capsule-shaped handle fitted from surface points) reaches grasps
+    that the verifier, with its own numpy GP, accepts: contacts on the surface, Q as it recomputes it."""
+    import trimesh
+    import yaml
+
+    mesh = trimesh.creation.capsule(height=0.12, radius=0.012, count=[24, 24])
+    points, faces = trimesh.sample.sample_surface_even(mesh, 1500, seed=0)
+    table = pd.DataFrame(np.hstack([points, mesh.face_normals[faces]]), columns=["x", "y", "z", "nx", "ny", "nz"])
+    table.to_csv(tmp_path / "capsule.csv", index=False)
+    (tmp_path / "capsule.yaml").write_text(
+        "type: gp\nname: capsule\npoints_csv: capsule.csv\nn_support: 30\nmax_support: 40\ntolerance_m: 0.001\n"
+        "symmetry: {rotation_axis: z, flip_axis: z}\n"
+    )
+    solver = yaml.safe_load(FAST.read_text())
+    solver["ipopt"]["max_wall_time"] = 10.0  # each iteration evaluates every kernel term: 3-4x the cylinder's
+    (tmp_path / "solver.yaml").write_text(yaml.safe_dump(solver))
+    out = tmp_path / "out"
+    result = cli(
+        "synthesize", "--tasks", tasks, "--task", "drawing", "--out", out, "--object", tmp_path / "capsule.yaml",
+        "--solver-config", tmp_path / "solver.yaml", "--starts", "2", "--workers", "2",
+    )  # fmt: skip
+    assert result.exit_code == 0, result.output
+    solutions = pd.read_parquet(out / "drawing" / "solutions.parquet")
+    verified = solutions[solutions["verified"]]
+    assert len(verified) >= 1, solutions[["status", "message", "verify_failures"]]
+    distances = verified[[f"verify_contact_distance_m_{f}" for f in ("thumb", "index", "middle")]].abs()
+    assert (distances.to_numpy() < 1e-4).all()
+    converged = verified[verified["status"] == "optimal"]
+    np.testing.assert_allclose(converged["Q"], converged["verify_Q"], rtol=1e-3)
+
+
 def test_a_crashed_worker_is_recorded_and_the_sweep_goes_on(cli, tasks, tmp_path, monkeypatch):
     monkeypatch.setenv("GRASPTASK_CRASH_STARTS", "62")  # the middle one of the 3-start subset 0, 62, 125
     result = synthesize(cli, tasks, tmp_path, "--starts", "3", "--workers", "1")

@@ -41,6 +41,7 @@ from __future__ import annotations
 
 from contextlib import contextmanager
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 import pyomo.environ as pyo
@@ -50,6 +51,7 @@ from grasptask.grasp.settings import GraspSettings
 from grasptask.hand.model import Hand
 from grasptask.objects.gp import GPImplicitSurface
 from grasptask.objects.superquadric import Superquadric
+from grasptask.synthesis.compiled import CompiledExpressions
 from grasptask.synthesis.config import Regularisation, SearchBounds
 from grasptask.task.model import TaskModel
 
@@ -183,6 +185,14 @@ class GraspNLP:
         n_cons = sum(1 for _ in self.model.component_data_objects(pyo.Constraint, active=True))
         return {"variables": n_vars, "constraints": n_cons}
 
+    @cached_property
+    def _compiled(self) -> CompiledExpressions:
+        """The defined variables and eq. 14's margins as one CasADi function of the palm pose and joints."""
+        m = self.model
+        inputs = [m.R_h[i, j] for i in XYZ for j in XYZ] + [m.d_h[i] for i in XYZ] + list(m.theta.values())
+        margins = [c.body - c.lower for c in m.eq14_collision.values()]
+        return CompiledExpressions(inputs, self.definitions, margins)
+
     def initialise(self, palm_rotation: np.ndarray, palm_position: np.ndarray, joint_angles: np.ndarray) -> None:
         """Set the palm pose and joints, then every defined variable from its defining expression."""
         m = self.model
@@ -192,8 +202,7 @@ class GraspNLP:
                 m.R_h[i, j].set_value(float(palm_rotation[i, j]))
         for k, value in enumerate(joint_angles):
             m.theta[k].set_value(float(np.clip(value, m.theta[k].lb, m.theta[k].ub)))
-        for var, expression in self.definitions:
-            var.set_value(pyo.value(expression))
+        self._compiled.assign_defined(self._compiled.input_values())
         for var in m.phi.values():
             var.set_value(1.0 / len(m.phi))
         for var in m.force.values():
@@ -249,13 +258,13 @@ class GraspNLP:
                     m.act[a, s, j, q].set_value(float(value))
 
     def min_clearance(self, palm_position: np.ndarray | None = None) -> float:
-        """The smallest eq. 14 margin (negative: a hand point is inside the object) at the current values, or
-        with the palm moved to ``palm_position`` first. Only the palm moves (the link frames do not depend on
-        it); the contacts and normals keep their old values until the next :meth:`initialise`."""
+        """The smallest eq. 14 margin (negative: a hand point is inside the object) at the current palm pose and
+        joints, or with the palm moved to ``palm_position`` first. Only the palm moves; the defined variables
+        (contacts, normals) keep their old values until the next :meth:`initialise`."""
         if palm_position is not None:
             for i in XYZ:
                 self.model.d_h[i].set_value(float(palm_position[i]))
-        return min(pyo.value(c.body) - pyo.value(c.lower) for c in self.model.eq14_collision.values())
+        return float(self._compiled.extra(self._compiled.input_values()).min())
 
     def read(self) -> dict:
         """The current variable values as arrays: palm pose, joints, contacts and normals."""
