@@ -185,9 +185,13 @@ class GraspNLP:
         n_cons = sum(1 for _ in self.model.component_data_objects(pyo.Constraint, active=True))
         return {"variables": n_vars, "constraints": n_cons}
 
+    def compile(self) -> CompiledExpressions:
+        """The defined variables and eq. 14's margins as one CasADi function of the palm pose and joints, built
+        on first use (:meth:`initialise`, :meth:`min_clearance`) or when called."""
+        return self._compiled
+
     @cached_property
     def _compiled(self) -> CompiledExpressions:
-        """The defined variables and eq. 14's margins as one CasADi function of the palm pose and joints."""
         m = self.model
         inputs = [m.R_h[i, j] for i in XYZ for j in XYZ] + [m.d_h[i] for i in XYZ] + list(m.theta.values())
         margins = [c.body - c.lower for c in m.eq14_collision.values()]

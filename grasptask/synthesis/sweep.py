@@ -85,6 +85,7 @@ class SolverContext:
             self.hand, self.obj, self.task, self.settings, job.solver.bounds, job.solver.regularisation
         )
         text, self.order = write_nl(self.nlp.model)
+        self.nlp.compile()  # now, so that its one-off cost is not counted in the first start's seconds
         self.backend = BACKENDS[job.backend](text, job.solver.ipopt)
         self.approach = None
         if job.solver.two_phase:
@@ -292,8 +293,11 @@ def run_pool(
     finally:
         for _, tasks in procs.values():
             tasks.put(None)
+        # idle workers exit at once, but one holding a GP object's model takes seconds to free it; after Ctrl-C
+        # or an error, workers still solving are not waited for
+        grace = 30 if outstanding == 0 else 2
         for proc, _ in procs.values():
-            proc.join(timeout=2)
+            proc.join(timeout=grace)
             if proc.is_alive():
                 proc.kill()
 
