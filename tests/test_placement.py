@@ -149,7 +149,7 @@ def test_compiled_expressions_match_pyomo_for_every_operation():
     m.e = pyo.Expression(expr=pyo.cos(m.x[0]) * m.x[1] - m.x[2] / (1 + m.x[0] ** 2))
     long_sum = sum((m.x[i % 3] - 0.1 * i) ** 2 for i in range(12))
     definitions = [(m.y, m.e + pyo.sqrt(long_sum) + abs(m.x[1]) ** m.k)]
-    extra = [-m.y * pyo.sin(m.x[2]) + pyo.exp(m.x[0]) - pyo.log(m.x[2]), m.e]
+    extra = [-m.y * pyo.sin(m.x[2]) + pyo.exp(m.x[0]) - pyo.log(m.x[2]), -(m.x[0] * m.x[1]) + pyo.tan(m.x[0]), m.e]
     compiled = CompiledExpressions(list(m.x.values()), definitions, extra)
     expected_y = pyo.value(definitions[0][1])
     compiled.assign_defined(compiled.input_values())

@@ -177,7 +177,7 @@ def test_sweep_on_a_gp_object(cli, tasks, tmp_path):
         "symmetry: {rotation_axis: z, flip_axis: z}\n"
     )
     solver = yaml.safe_load(FAST.read_text())
-    solver["ipopt"]["max_wall_time"] = 10.0  # each iteration evaluates every kernel term: 3-4x the cylinder's
+    solver["ipopt"]["max_wall_time"] = 10.0  # each iteration evaluates every kernel term: 3-5x the cylinder's
     (tmp_path / "solver.yaml").write_text(yaml.safe_dump(solver))
     out = tmp_path / "out"
     result = cli(
