@@ -2,7 +2,7 @@
 
 Placement evaluates every defined variable of the NLP (link frames, contacts, normals, cone edges, Jacobians)
 and the collision margins at each start, several times over. Walking the Pyomo expression trees for that took
-75 ms per start on the tool cylinder, and 10-20 s on the GP mug (2,183 kernel terms in every margin and
+75 ms per start on the tool cylinder, and 10-50 s on the GP mug (2,183 kernel terms in every margin and
 normal); with the compiled function placement takes 5 ms and 60 ms. The conversion walks each tree once, when
 a worker builds its model (0.1 s for the cylinder, about 50 s for the mug).
 """
