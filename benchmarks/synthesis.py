@@ -28,9 +28,8 @@ sys.path[:0] = [str(ROOT / "benchmarks"), str(ROOT)]
 from common import save  # noqa: E402
 
 from grasptask.io.reference import read_paper_synthesis  # noqa: E402
-from grasptask.stages import run_fit_task, run_simulate  # noqa: E402
-from grasptask.synthesis.columns import contacts_from_row, palm_normal_from_row  # noqa: E402
-from grasptask.synthesis.run import SynthesisOptions, run_synthesize  # noqa: E402
+from grasptask.io.solutions import contacts_from_row, palm_normal_from_row  # noqa: E402
+from grasptask.stages import SynthesisOptions, run_fit_task, run_simulate, run_synthesize  # noqa: E402  # noqa: E402
 
 TASKS = ("drawing", "cutting", "screwdriving")
 CONFIGS = ROOT / "configs"
@@ -76,9 +75,8 @@ def main(n_starts: int | None, cyipopt_starts: int, baseline_starts: int, solver
 
         def options(task, out, backend="casadi", starts=n_starts, workers=2, config=solver):
             return SynthesisOptions(
-                CONFIGS / "hands" / "human.yaml", CONFIGS / "objects" / "tool.yaml", tasks, task, out,
-                config, CONFIGS / "grasp.yaml", starts=starts, workers=workers, backend=backend,
-            )  # fmt: skip
+                tasks=tasks, task=task, out=out, solver_config=config, starts=starts, workers=workers, backend=backend
+            )
 
         sweep_start = time.perf_counter()
         for task in TASKS:

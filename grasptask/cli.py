@@ -7,15 +7,17 @@ from pathlib import Path
 
 import click
 
-from grasptask import __version__
-from grasptask.errors import BadInputError
-from grasptask.io.units import FORCE_UNITS, TIME_UNITS, TORQUE_UNITS
-from grasptask.paths import (
+from grasptask import __version__, stages
+from grasptask.stages import (
     DEFAULT_GRASP_CONFIG,
     DEFAULT_HAND,
     DEFAULT_OBJECT,
     DEFAULT_SIMULATE_CONFIG,
     DEFAULT_SOLVER_CONFIG,
+    FORCE_UNITS,
+    TIME_UNITS,
+    TORQUE_UNITS,
+    BadInputError,
 )
 
 
@@ -68,9 +70,7 @@ def _out_option(f):
 def simulate(out, config_path, seed, fmt):
     """Simulate sensorized-tool demonstrations: 7 subjects x 3 trials of drawing (tripod, cylindrical and
     power grasps), cutting and screw driving, 105 recordings plus manifest.csv."""
-    from grasptask.stages import run_simulate
-
-    summary = run_simulate(config_path, out, seed, fmt)
+    summary = stages.run_simulate(config_path, out, seed, fmt)
     click.echo(f"wrote {summary['recordings']} recordings and {summary['manifest']}")
 
 
@@ -134,13 +134,9 @@ def fit_task(
     torque_unit, time_unit, tool, bias_window_s), or recording files that share the --task/--grasp labels.
     Writes ellipsoids.parquet, task_models.json and stats.csv (the long format of the paper's Tables 1-10).
     """
-    from grasptask.stages import run_fit_task
-    from grasptask.task.fit import FitOptions
-    from grasptask.task.preprocess import Preprocess
-
-    options = FitOptions(Preprocess(bias_window, trim_start, trim_end, lowpass), centered)
+    options = stages.FitOptions(stages.Preprocess(bias_window, trim_start, trim_end, lowpass), centered)
     units = {"torque_unit": torque_unit, "force_unit": force_unit, "time_unit": time_unit}
-    result, stats = run_fit_task(
+    result, stats = stages.run_fit_task(
         inputs, out, options, skip_bad, task=task, grasp=grasp, frame=frame, tool=tool, units=units
     )
     click.echo(_fit_summary(result.ellipsoids, stats))
@@ -173,9 +169,7 @@ def distances(ellipsoids, out):
     """Log-Euclidean distances between the ellipsoids of ELLIPSOIDS (ellipsoids.parquet): distances.parquet,
     distance_summary.json (leave-one-out 1-NN accuracy, silhouette, within/between means), a heatmap ordered
     as the paper's Figure 9 and a 2D embedding."""
-    from grasptask.stages import run_distances
-
-    summary = run_distances(ellipsoids, out)
+    summary = stages.run_distances(ellipsoids, out)
     by_task = summary["by_task"]
     click.echo(
         f"{by_task['n_ellipsoids']} ellipsoids, {len(by_task['labels'])} tasks: "
@@ -267,26 +261,24 @@ def synthesize(
     solution checked by the independent verifier. Writes OUT/TASK/solutions.parquet (one row per start),
     optima.parquet (distinct verified optima) and run.json."""
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-    from grasptask.synthesis.run import SynthesisOptions, run_synthesize
-
-    options = SynthesisOptions(
-        hand,
-        object_path,
-        tasks_path,
-        task,
-        out,
-        solver_config,
-        grasp_config,
-        starts,
-        seed,
-        workers,
-        executor,
-        scheduler,
-        backend,
-        resume,
+    options = stages.SynthesisOptions(
+        tasks=tasks_path,
+        task=task,
+        out=out,
+        hand=hand,
+        object=object_path,
+        solver_config=solver_config,
+        grasp_config=grasp_config,
+        starts=starts,
+        seed=seed,
+        workers=workers,
+        executor=executor,
+        scheduler=scheduler,
+        backend=backend,
+        resume=resume,
     )
     try:
-        run = run_synthesize(options, echo=click.echo)
+        run = stages.run_synthesize(options, echo=click.echo)
     except KeyboardInterrupt:
         click.echo(
             f"interrupted: finished starts are kept in {out}/{task}/solutions.jsonl; rerun with --resume", err=True
@@ -310,9 +302,7 @@ def synthesize(
 def verify_command(solutions, tasks_path, task, out, hand, object_path, grasp_config):
     """Check every grasp in SOLUTIONS (solutions.parquet) again with the independent verifier; writes
     OUT/verification.parquet with one row per start and its verification figures."""
-    from grasptask.synthesis.verification import run_verify
-
-    table = run_verify(solutions, tasks_path, task, out, hand, object_path, grasp_config)
+    table = stages.run_verify(solutions, tasks_path, task, out, hand, object_path, grasp_config)
     click.echo(f"{int(table['verified'].sum())}/{len(table)} grasps verified; wrote {out}/verification.parquet")
 
 
@@ -337,17 +327,13 @@ def report(results_dir, out, check_browser, screenshot):
     """Write a self-contained HTML report (OUT/index.html, images embedded), OUT/figures/*.png and
     OUT/tables/*.md: Tables 1-10 beside the paper, ellipsoid figures, distances, synthesis statistics and a
     rendering of every distinct optimum. Parts whose inputs are missing become notes."""
-    from grasptask.report.build import build_report
-
     out = out or results_dir / "report"
-    summary = build_report(results_dir, out)
+    summary = stages.build_report(results_dir, out)
     for note in summary.notes:
         click.echo(f"note: {note}")
     click.echo(f"{summary.figures} figures, {summary.tables} tables in {summary.seconds:.1f} s")
     if check_browser:
-        from grasptask.report.browser import check_page
-
-        check = check_page(summary.index, screenshot)
+        check = stages.check_page(summary.index, screenshot)
         click.echo(
             f"chromium: {check.images - len(check.broken_images)}/{check.images} images loaded, "
             f"{len(check.console_errors)} console errors"
@@ -370,14 +356,17 @@ def pipeline():
 @click.option("--dry-run", is_flag=True, help="Say which stages would run, run nothing.")
 def pipeline_run(pipeline_file, force, dry_run):
     """Run PIPELINE_FILE's stages in order, skipping a stage whose inputs and config are unchanged."""
-    from grasptask.pipeline.runner import load_pipeline, run_pipeline
-
-    spec = load_pipeline(pipeline_file)
-    outcome = run_pipeline(spec, force=force, dry_run=dry_run, echo=click.echo)
+    spec, outcome = stages.run_pipeline_file(pipeline_file, run_stage, force=force, dry_run=dry_run, echo=click.echo)
     if outcome.failed:
         raise click.exceptions.Exit(outcome.exit_code)
     if spec.final_message:
         click.echo(spec.final_message)
+
+
+def run_stage(stage) -> int:
+    """Run one pipeline stage's command in this process; its exit code."""
+    code = main.main(args=[*stage.run, *stage.args], prog_name="grasptask", standalone_mode=False)
+    return code if isinstance(code, int) else 0
 
 
 if __name__ == "__main__":

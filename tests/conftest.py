@@ -6,15 +6,16 @@ from click.testing import CliRunner
 
 from grasptask.cli import main
 from grasptask.io.recordings import write_recording
-from grasptask.stages import run_fit_task, run_simulate
+from grasptask.stages import run_distances, run_fit_task, run_simulate
 
 
 @pytest.fixture(scope="session")
 def simulated(tmp_path_factory):
-    """The bundled simulator's 105 recordings (seed 0, Parquet) and fit-task on them."""
+    """The bundled simulator's 105 recordings (seed 0, Parquet), fit-task and distances on them."""
     root = tmp_path_factory.mktemp("simulated")
     run_simulate("configs/simulate.yaml", root / "recordings", seed=0, fmt="parquet")
     result, stats = run_fit_task([root / "recordings" / "manifest.csv"], root / "tasks")
+    run_distances(root / "tasks" / "ellipsoids.parquet", root / "tasks")
     return root, result, stats
 
 

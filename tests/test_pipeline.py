@@ -5,6 +5,7 @@ import shutil
 import pytest
 import yaml
 
+from grasptask.cli import run_stage
 from grasptask.pipeline.runner import load_pipeline, run_pipeline
 from tests.conftest import wrench_samples
 
@@ -38,24 +39,24 @@ def test_runs_then_skips_then_reruns_after_a_change(tmp_path, recording_factory)
 
     recording_factory("rec.csv")
     spec = load_pipeline(write_pipeline(tmp_path, tmp_path))
-    first = run_pipeline(spec, echo=lambda _: None)
+    first = run_pipeline(spec, run_stage, echo=lambda _: None)
     assert first.ran == ["fit", "distances"] and first.failed is None
-    second = run_pipeline(spec, echo=lambda _: None)
+    second = run_pipeline(spec, run_stage, echo=lambda _: None)
     assert second.skipped == ["fit", "distances"]
     write_recording(tmp_path / "rec.csv", wrench_samples(seed=9))
-    third = run_pipeline(spec, echo=lambda _: None)
+    third = run_pipeline(spec, run_stage, echo=lambda _: None)
     assert third.ran == ["fit", "distances"]
     shutil.rmtree(tmp_path / "dist")
-    fourth = run_pipeline(spec, echo=lambda _: None)
+    fourth = run_pipeline(spec, run_stage, echo=lambda _: None)
     assert fourth.skipped == ["fit"] and fourth.ran == ["distances"]
-    assert run_pipeline(spec, force=True, echo=lambda _: None).ran == ["fit", "distances"]
+    assert run_pipeline(spec, run_stage, force=True, echo=lambda _: None).ran == ["fit", "distances"]
 
 
 def test_a_failing_stage_stops_the_pipeline_with_its_exit_code(tmp_path):
     (tmp_path / "rec.csv").write_text("")
     spec = load_pipeline(write_pipeline(tmp_path, tmp_path))
     messages = []
-    outcome = run_pipeline(spec, echo=messages.append)
+    outcome = run_pipeline(spec, run_stage, echo=messages.append)
     assert outcome.failed == "fit" and outcome.exit_code == 2
     assert outcome.ran == [] and not (tmp_path / "dist").exists()
     assert any("failed with exit code 2" in m for m in messages)

@@ -14,9 +14,10 @@ from grasptask.errors import BadInputError
 from grasptask.hand import load_hand
 from grasptask.objects import load_object
 from grasptask.synthesis.config import Regularisation, SearchBounds, load_solver_config
-from grasptask.synthesis.model import build_model, surface_for
+from grasptask.synthesis.model import build_model
 from grasptask.synthesis.placement import anchor_point, place
 from grasptask.synthesis.starts import make_starts
+from grasptask.synthesis.surfaces import surface_for
 from grasptask.task.model import load_task_models
 
 TOOL = "configs/objects/tool.yaml"
@@ -130,7 +131,7 @@ def test_bad_solver_config_is_one_clear_line(tmp_path, text, message):
 
 def test_solver_config_defaults_and_bundled_files():
     bundled = load_solver_config("configs/solver.yaml")
-    assert bundled.placement and not bundled.two_phase
+    assert bundled.placement
     assert bundled.bounds == SearchBounds(100.0, 50.0)
     assert bundled.regularisation == Regularisation()
     assert bundled.time_limit == bundled.ipopt["max_wall_time"]

@@ -13,12 +13,10 @@ from grasp_fixtures import BALL_RADIUS, ball_grasp, drawing_like_task
 from grasptask.grasp.verify import verify
 from grasptask.hand import load_hand
 from grasptask.io.reference import read_paper_synthesis
-from grasptask.paths import DEFAULT_GRASP_CONFIG, DEFAULT_HAND, DEFAULT_SOLVER_CONFIG
+from grasptask.io.solutions import grasp_columns
 from grasptask.report.browser import check_page, find_chromium
-from grasptask.report.build import build_report
 from grasptask.report.paper_tables import PAPER_TABLES
-from grasptask.synthesis.columns import grasp_columns
-from grasptask.synthesis.run import SynthesisOptions, _summarise
+from grasptask.stages import SynthesisOptions, build_report, summarise
 
 
 def _results_with_tasks(simulated, root):
@@ -52,11 +50,18 @@ def _ball_sweep(results, task="drawing"):
         {"start_id": 2, "status": "max-iter", "iterations": 400, "seconds": 4.0, "Q": float("nan"), "verified": False},
     ]
     options = SynthesisOptions(
-        DEFAULT_HAND, ball_config, results / "tasks" / "task_models.json", task, results / "grasps",
-        DEFAULT_SOLVER_CONFIG, DEFAULT_GRASP_CONFIG,
-    )  # fmt: skip
+        tasks=results / "tasks" / "task_models.json", task=task, out=results / "grasps", object=ball_config
+    )
     size = {"variables": 643, "constraints": 462}
-    return _summarise(options, rows, size, 5.0, None, fingers, read_paper_synthesis())
+    return summarise(
+        options,
+        rows,
+        model_size=size,
+        wall_seconds=5.0,
+        symmetry=None,
+        fingers=fingers,
+        paper=read_paper_synthesis(),
+    )
 
 
 @pytest.fixture(scope="module")

@@ -18,8 +18,8 @@ import pyomo.environ as pyo
 import pytest
 
 from grasptask.hand import load_hand
+from grasptask.io.solutions import STATUSES
 from grasptask.objects import load_object
-from grasptask.synthesis.backends import STATUSES
 from grasptask.synthesis.model import build_model
 from grasptask.synthesis.starts import make_starts, palm_directions, subset
 from grasptask.synthesis.sweep import _next_start
@@ -89,40 +89,6 @@ def test_initialisation_satisfies_every_defining_equality(tasks):
     for name in defining:
         residuals = [abs(pyo.value(c.body) - pyo.value(c.upper)) for c in getattr(m, name).values()]
         assert max(residuals) < 1e-12, name
-
-
-def test_two_phase_approach_model_and_warm_start(tasks):
-    """The approach model is the full one without eq. 10 (and is restored after); the warm start gives
-    forces and activations within their bounds that apply the task wrenches better than the default guess."""
-    nlp = build_model(load_hand(), load_object("configs/objects/tool.yaml"), load_task_models(tasks)["drawing"])
-    full = nlp.size()
-    with nlp.approach():
-        smaller = nlp.size()
-    assert nlp.size() == full
-    n_eq10 = len(nlp.model.eq10_wrench) + len(nlp.model.eq10_torque)
-    assert smaller["constraints"] == full["constraints"] - n_eq10
-    assert smaller["variables"] == full["variables"] - len(nlp.model.lam) - len(nlp.model.act)
-
-    start = make_starts(np.array([[-0.01, -0.01, -0.1], [0.01, 0.01, 0.1]]))[5]
-    nlp.initialise(start.palm_rotation, start.palm_position, nlp.hand.mid_range())
-
-    def wrench_residual():
-        return sum(abs(pyo.value(c.body) - pyo.value(c.upper)) for c in nlp.model.eq10_wrench.values())
-
-    before = wrench_residual()
-    nlp.warm_start_feasibility(0.98)
-    assert wrench_residual() < before
-    assert all(v.value >= 0 for v in nlp.model.lam.values())
-    assert all(0 <= v.value <= 0.98 + 1e-12 for v in nlp.model.act.values())
-
-
-def test_two_phase_sweep_records_the_approach(cli, tasks, tmp_path):
-    config = tmp_path / "two_phase.yaml"
-    config.write_text(FAST.read_text() + "two_phase: true\n")
-    result = synthesize(cli, tasks, tmp_path, "--starts", "2", "--executor", "serial", "--solver-config", config)
-    assert result.exit_code == 0, result.output
-    rows = pd.read_parquet(tmp_path / "drawing" / "solutions.parquet")
-    assert set(rows["approach_status"]) <= set(STATUSES) and rows["iterations"].min() > 0
 
 
 def test_126_starts_from_42_orientations_and_3_positions():
@@ -267,17 +233,14 @@ def test_ctrl_c_then_resume(tasks, tmp_path):
 def test_dask_local_cluster(tasks, tmp_path):
     from dask.distributed import LocalCluster
 
-    from grasptask.synthesis.run import SynthesisOptions, run_synthesize
+    from grasptask.stages import SynthesisOptions, run_synthesize
 
     with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
         options = SynthesisOptions(
-            Path("configs/hands/human.yaml"),
-            Path("configs/objects/tool.yaml"),
-            tasks,
-            "drawing",
-            tmp_path,
-            FAST,
-            Path("configs/grasp.yaml"),
+            tasks=tasks,
+            task="drawing",
+            out=tmp_path,
+            solver_config=FAST,
             starts=2,
             executor="dask",
             scheduler=cluster.scheduler_address,

@@ -7,9 +7,7 @@ from pathlib import Path
 
 from grasptask.errors import BadInputError
 from grasptask.io.config import load_yaml, reject_unknown
-from grasptask.paths import CONFIG_DIR
-
-DEFAULT_GRASP_SETTINGS = CONFIG_DIR / "grasp.yaml"
+from grasptask.paths import DEFAULT_GRASP_CONFIG
 
 
 @dataclass(frozen=True)
@@ -21,7 +19,7 @@ class GraspSettings:
     activation_margin: float = 0.02
 
 
-def load_grasp_settings(path: str | Path = DEFAULT_GRASP_SETTINGS) -> GraspSettings:
+def load_grasp_settings(path: str | Path = DEFAULT_GRASP_CONFIG) -> GraspSettings:
     data = load_yaml(path)
     names = {f.name for f in fields(GraspSettings)}
     reject_unknown(data, names, path)

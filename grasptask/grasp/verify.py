@@ -16,6 +16,7 @@ import scipy.sparse as sp
 from scipy.optimize import linprog
 
 from grasptask.grasp.epsilon import ferrari_canny
+from grasptask.grasp.grasp import Grasp
 from grasptask.grasp.mechanics import (
     friction_cone_edges,
     grasp_matrix,
@@ -44,16 +45,6 @@ class Tolerances:
     epsilon_min: float = 1e-6  # Ferrari-Canny epsilon (torques divided by the characteristic length)
     rank_rtol: float = 1e-8  # relative singular value threshold for the rank condition of eq. 9
     effort_max: float = 1.0 + 1e-6  # largest muscle activation needed for the task wrenches
-
-
-@dataclass(frozen=True)
-class Grasp:
-    """A hand pose: palm rotation ``R_h`` and position ``d_h`` in the object frame, and joint angles (rad) of
-    the grasping fingers in the hand's joint order."""
-
-    palm_rotation: np.ndarray
-    palm_position: np.ndarray
-    joint_angles: np.ndarray
 
 
 @dataclass

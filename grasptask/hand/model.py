@@ -9,9 +9,7 @@ import numpy as np
 
 from grasptask.errors import BadInputError
 from grasptask.io.config import load_yaml, reject_unknown, require
-from grasptask.paths import CONFIG_DIR
-
-DEFAULT_HAND = CONFIG_DIR / "hands" / "human.yaml"
+from grasptask.paths import DEFAULT_HAND
 
 
 @dataclass(frozen=True)

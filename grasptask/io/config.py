@@ -1,7 +1,8 @@
-"""YAML configuration loading, validated once at the edge."""
+"""YAML configuration and JSON summaries, read and validated once at the edge."""
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 from typing import Any
 
@@ -23,6 +24,18 @@ def load_yaml(path: str | Path) -> dict[str, Any]:
         ) from exc
     if not isinstance(data, dict):
         raise BadInputError(path, "expected a mapping at the top level")
+    return data
+
+
+def read_json(path: str | Path) -> dict[str, Any]:
+    """A JSON object from ``path``, or a one-line error naming the file."""
+    path = Path(path)
+    try:
+        data = json.loads(path.read_text())
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise BadInputError(path, f"not a readable JSON file ({type(exc).__name__})") from exc
+    if not isinstance(data, dict):
+        raise BadInputError(path, "expected a JSON object at the top level")
     return data
 
 

@@ -1,5 +1,5 @@
 """Gaussian-process implicit surfaces (paper Section 4, after Williams & Fitzgibbon 2006 and El-Khoury et al.
-2013; SPEC section 6).
+2013).
 
 ``g`` is the posterior mean of a GP with the thin-plate (triharmonic) generalized covariance ``k(r) = r^3`` and
 a linear mean function fitted with it (universal kriging):
@@ -25,7 +25,7 @@ from functools import cached_property
 import numpy as np
 from scipy.spatial import cKDTree
 
-from grasptask.objects.surface import ImplicitObject, SurfaceIndex
+from grasptask.objects.surface import ImplicitObject, SurfaceIndex, Symmetry
 
 #: offsets along the normals (m) at which signed-distance targets are placed: outward (+) and inward (-)
 OFFSETS = (0.004, 0.010, 0.020, -0.004, -0.010)
@@ -73,6 +73,7 @@ class GPImplicitSurface(ImplicitObject):
     mean_coefficients: np.ndarray  # (4,) c_0, c_x, c_y, c_z of the linear mean
     n_surface_support: int = 0
     name: str = "gp"
+    symmetry: Symmetry | None = None
 
     def g(self, p: np.ndarray) -> np.ndarray:
         return _chunked(self._g, np.atleast_2d(p), 1)

@@ -14,12 +14,14 @@
     tolerance_m: 0.0005
     seed: 0
 
-Paths are relative to the config file. An optional ``symmetry`` entry describes the object's symmetry for
-clustering grasps.
+Paths are relative to the config file. An optional ``symmetry`` entry, ``{rotation_axis: z, flip_axis: z}``
+(or ``rotation_axis: any`` for a sphere), describes the object's symmetry for clustering grasps; the loaded
+object carries it.
 """
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -31,10 +33,9 @@ from grasptask.errors import BadInputError
 from grasptask.io.config import load_yaml, reject_unknown, require
 from grasptask.objects.gp import GPImplicitSurface
 from grasptask.objects.superquadric import Superquadric
-from grasptask.objects.surface import ImplicitObject
-from grasptask.paths import CONFIG_DIR
+from grasptask.objects.surface import ImplicitObject, Symmetry
+from grasptask.paths import DEFAULT_OBJECT
 
-DEFAULT_OBJECT = CONFIG_DIR / "objects" / "tool.yaml"
 POINT_COLUMNS = ["x", "y", "z", "nx", "ny", "nz"]
 
 
@@ -43,6 +44,7 @@ def load_object(path: str | Path = DEFAULT_OBJECT) -> ImplicitObject:
     data = load_yaml(path)
     kind = require(data, "type", path, str)
     common = {"type", "name", "description", "symmetry"}
+    symmetry = _symmetry(data.get("symmetry"), path)
     if kind == "superquadric":
         reject_unknown(data, common | {"size_m", "exponents", "pose"}, path)
         size = np.asarray(require(data, "size_m", path, list), dtype=float)
@@ -52,12 +54,12 @@ def load_object(path: str | Path = DEFAULT_OBJECT) -> ImplicitObject:
         pose = data.get("pose", {}) or {}
         rotation = Rotation.from_euler("xyz", pose.get("rotation_rpy_deg", [0, 0, 0]), degrees=True).as_matrix()
         position = np.asarray(pose.get("position_m", [0, 0, 0]), dtype=float)
-        return Superquadric(size, e1, e2, rotation, position, str(data.get("name", path.stem)))
+        return Superquadric(size, e1, e2, rotation, position, str(data.get("name", path.stem)), symmetry)
     if kind == "gp":
         allowed = {"mesh", "points_csv", "n_support", "max_support", "tolerance_m", "seed", "n_samples"}
         reject_unknown(data, common | allowed, path)
         points, normals = _surface_samples(path, data)
-        return GPImplicitSurface.fit(
+        gp = GPImplicitSurface.fit(
             points,
             normals,
             n_support=int(data.get("n_support", 250)),
@@ -66,7 +68,23 @@ def load_object(path: str | Path = DEFAULT_OBJECT) -> ImplicitObject:
             seed=int(data.get("seed", 0)),
             name=str(data.get("name", path.stem)),
         )
+        return replace(gp, symmetry=symmetry)
     raise BadInputError(path, f"unknown object type '{kind}' (known: superquadric, gp)")
+
+
+SYMMETRY_AXES = {"rotation_axis": ("z", "any"), "flip_axis": ("z",)}
+
+
+def _symmetry(value: object, path: Path) -> Symmetry | None:
+    if value is None:
+        return None
+    if not isinstance(value, dict):
+        raise BadInputError(path, f"field 'symmetry' must be a mapping, got {value!r}")
+    reject_unknown(value, set(SYMMETRY_AXES), path, "symmetry.")
+    for key, allowed in SYMMETRY_AXES.items():
+        if key in value and value[key] not in allowed:
+            raise BadInputError(path, f"field 'symmetry.{key}' must be one of {', '.join(allowed)}, got {value[key]!r}")
+    return {str(k): str(v) for k, v in value.items()}
 
 
 def _surface_samples(path: Path, data: dict) -> tuple[np.ndarray, np.ndarray]:

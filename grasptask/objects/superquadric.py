@@ -1,4 +1,4 @@
-"""Superquadrics (SPEC section 6): F = ((x/a1)^(2/e2) + (y/a2)^(2/e2))^(e2/e1) + (z/a3)^(2/e1), g = F - 1."""
+"""Superquadrics (paper Section 4): F = ((x/a1)^(2/e2) + (y/a2)^(2/e2))^(e2/e1) + (z/a3)^(2/e1), g = F - 1."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from grasptask.objects.surface import ImplicitObject
+from grasptask.objects.surface import ImplicitObject, Symmetry
 
 
 @dataclass(eq=False)
@@ -23,6 +23,7 @@ class Superquadric(ImplicitObject):
     rotation: np.ndarray = field(default_factory=lambda: np.eye(3))
     position: np.ndarray = field(default_factory=lambda: np.zeros(3))
     name: str = "superquadric"
+    symmetry: Symmetry | None = None
 
     def __post_init__(self):
         self.a = np.asarray(self.a, dtype=float)

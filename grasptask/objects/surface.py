@@ -17,11 +17,17 @@ import trimesh
 from scipy.spatial import cKDTree
 from skimage import measure
 
+#: an object's symmetry for clustering grasps, e.g. ``{"rotation_axis": "z", "flip_axis": "z"}`` for a body of
+#: revolution about z that may be turned end for end
+Symmetry = dict[str, str]
+
 
 class ImplicitObject:
-    """Base class: subclasses define ``g``, ``gradient`` and ``bounds``."""
+    """Base class: subclasses define ``g``, ``gradient`` and ``bounds``; ``symmetry`` is None or a
+    :data:`Symmetry`."""
 
     name: str = "object"
+    symmetry: Symmetry | None = None
 
     def g(self, p: np.ndarray) -> np.ndarray:
         raise NotImplementedError

@@ -25,6 +25,7 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 from grasptask.errors import BadInputError
 from grasptask.io.artifacts import config_hash, path_hash
@@ -132,21 +133,14 @@ def _save_state(path: Path, state: dict) -> None:
     os.replace(tmp, path)
 
 
-def run_stage(stage: Stage) -> int:
-    """Run one stage's command in this process; its exit code."""
-    from grasptask.cli import main
-
-    code = main.main(args=[*stage.run, *stage.args], prog_name="grasptask", standalone_mode=False)
-    return code if isinstance(code, int) else 0
-
-
 def run_pipeline(
     spec: PipelineSpec,
+    runner: Callable[[Stage], int],
     force: bool = False,
     dry_run: bool = False,
-    echo: Callable[[str], None] = print,
-    runner: Callable[[Stage], int] = run_stage,
+    echo: Callable[[str], Any] = print,
 ) -> Outcome:
+    """Run ``spec``'s stages in order with ``runner`` (a stage in, its exit code out), skipping fresh ones."""
     state = _load_state(spec.state_path)
     outcome = Outcome()
     for number, stage in enumerate(spec.stages, start=1):

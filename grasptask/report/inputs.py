@@ -2,6 +2,7 @@
 
     DIR/recordings/manifest.csv          simulate (or your own recordings' manifest)
     DIR/tasks/stats.csv, ellipsoids.parquet, task_models.json      fit-task
+    DIR/tasks/distances.parquet, distance_summary.json             distances
     DIR/grasps/<task>/run.json, solutions.parquet, optima.parquet  synthesize
 
 Any part may be missing; the report makes what it can from the rest.
@@ -9,13 +10,13 @@ Any part may be missing; the report makes what it can from the rest.
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
 from pathlib import Path
 
 import pandas as pd
 
 from grasptask.errors import BadInputError
+from grasptask.io.config import read_json
 from grasptask.io.tables import read_table
 
 
@@ -51,6 +52,14 @@ class ResultsFolder:
         return self.root / "tasks" / "task_models.json"
 
     @property
+    def distances(self) -> Path:
+        return self.root / "tasks" / "distances.parquet"
+
+    @property
+    def distance_summary(self) -> Path:
+        return self.root / "tasks" / "distance_summary.json"
+
+    @property
     def grasps(self) -> Path:
         return self.root / "grasps"
 
@@ -75,11 +84,7 @@ def find_results(root: str | Path) -> ResultsFolder:
 
 
 def read_sweep(folder: Path) -> SweepResult:
-    run_path = folder / "run.json"
-    try:
-        run = json.loads(run_path.read_text())
-    except (OSError, json.JSONDecodeError) as exc:
-        raise BadInputError(run_path, f"not a readable run summary ({type(exc).__name__})") from exc
+    run = read_json(folder / "run.json")
     solutions = read_table(folder / "solutions.parquet", ("start_id", "status", "seconds", "verified"))
     optima = read_table(folder / "optima.parquet")
     return SweepResult(str(run.get("task", folder.name)), folder, run, solutions, optima)

@@ -9,8 +9,8 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.ticker import MaxNLocator
 
+from grasptask.io.solutions import STATUSES
 from grasptask.report.style import apply_style, task_colour
-from grasptask.synthesis.backends import STATUSES
 
 STATUS_COLOURS = {
     "optimal": "#1a9850",

@@ -18,8 +18,6 @@ import casadi
 import numpy as np
 from pyomo.repn.plugins.nl_writer import NLWriter
 
-STATUSES = ("optimal", "acceptable", "infeasible", "max-iter", "time-limit", "error", "crashed", "hung")
-
 _IPOPT_STATUS = {
     "Solve_Succeeded": "optimal",
     "Solved_To_Acceptable_Level": "acceptable",

@@ -1,6 +1,6 @@
-"""Solver settings (``configs/solver.yaml``), read and validated once: IPOPT's options, how a start is brought
-to the object before IPOPT (placement, two-phase), the NLP's search bounds on forces and the small regularising
-weights on the variables its objective does not see."""
+"""Solver settings (``configs/solver.yaml``), read and validated once: IPOPT's options, whether a start is
+placed at the object before IPOPT, the NLP's search bounds on forces and the small regularising weights on the
+variables its objective does not see."""
 
 from __future__ import annotations
 
@@ -13,10 +13,9 @@ from grasptask.io.config import load_yaml, reject_unknown
 
 @dataclass(frozen=True)
 class SearchBounds:
-    """Bounds on the NLP's force variables that no grasp worth finding reaches. They are not part of the
-    paper's model: without them IPOPT takes steps of 1e4 N through configurations where the contacts line up
-    (G nearly singular) and spends hundreds of iterations in restoration coming back. ``None`` leaves a force
-    unbounded, as in the paper."""
+    """Bounds on the NLP's force variables that no grasp worth finding reaches; not part of the paper's model.
+    Without them IPOPT stepped through configurations where the contacts line up (G nearly singular) with
+    forces of 1e4 N. ``None`` leaves a force unbounded, as in the paper."""
 
     task_force_n: float | None = 100.0  # |f_i| per component, for a unit task axis (eq. 8)
     edge_force_n: float | None = 50.0  # cone-edge magnitudes for the real task wrenches (eq. 10)
@@ -28,10 +27,8 @@ class Regularisation:
     force-closure weights phi (about their mean), eq. 10's cone-edge magnitudes and its tendon activations.
 
     Those variables only have to be feasible, so without these terms every optimum lies on a manifold of them
-    along which the Lagrangian is flat; IPOPT, with its barrier parameter at its floor, then spent most of its
-    iterations creeping along it (on one screw-driving start, 240 full steps of length 0.1-1.6 that lowered Q
-    by 2% in all) before its dual infeasibility settled. With the terms the optimum is isolated. They are not
-    the paper's; Q reported for a solution is eq. 12 alone, and zeros give the paper's objective exactly."""
+    along which the Lagrangian is flat, and IPOPT crept along it. The terms make each optimum isolated. Q as
+    reported is eq. 12 alone, and zeros give the paper's objective exactly (docs/synthesis-notes.md)."""
 
     closure_weight: float = 1e-5  # on sum (phi - 1/n)^2
     edge_force: float = 1e-7  # on sum lambda^2 (N^2)
@@ -45,15 +42,13 @@ class SolverConfig:
     hang_grace_s: float = 30.0
     #: move the palm from its far-away start to the object, keeping its orientation, before IPOPT
     placement: bool = True
-    #: solve without torque feasibility first, then the full NLP from there
-    two_phase: bool = False
     bounds: SearchBounds = SearchBounds()
     regularisation: Regularisation = Regularisation()
 
     @property
     def time_limit(self) -> float:
         """The longest a start's solves may take, by IPOPT's own wall-time limit."""
-        return float(self.ipopt.get("max_wall_time", 60.0)) * (2 if self.two_phase else 1)
+        return float(self.ipopt.get("max_wall_time", 60.0))
 
 
 def _positive_or_none(value, path: Path, name: str) -> float | None:
@@ -81,13 +76,12 @@ def _section(data: dict, name: str, fields: tuple[str, ...], path: Path) -> dict
 def load_solver_config(path: str | Path) -> SolverConfig:
     path = Path(path)
     data = load_yaml(path)
-    reject_unknown(data, {"ipopt", "hang_grace_s", "placement", "two_phase", "search_bounds", "regularisation"}, path)
+    reject_unknown(data, {"ipopt", "hang_grace_s", "placement", "search_bounds", "regularisation"}, path)
     ipopt = data.get("ipopt", {})
     if not isinstance(ipopt, dict):
         raise BadInputError(path, f"field 'ipopt' must be a mapping of IPOPT options, got {ipopt!r}")
-    for flag in ("placement", "two_phase"):
-        if not isinstance(data.get(flag, False), bool):
-            raise BadInputError(path, f"field '{flag}' must be true or false, got {data[flag]!r}")
+    if not isinstance(data.get("placement", True), bool):
+        raise BadInputError(path, f"field 'placement' must be true or false, got {data['placement']!r}")
     bound_names, weight_names = ("task_force_n", "edge_force_n"), ("closure_weight", "edge_force", "activation")
     bounds = _section(data, "search_bounds", bound_names, path)
     weights = _section(data, "regularisation", weight_names, path)
@@ -96,7 +90,6 @@ def load_solver_config(path: str | Path) -> SolverConfig:
         ipopt=dict(ipopt),
         hang_grace_s=_positive_or_none(data.get("hang_grace_s", 30.0), path, "hang_grace_s") or 30.0,
         placement=data.get("placement", True),
-        two_phase=data.get("two_phase", False),
         bounds=SearchBounds(
             *(
                 _positive_or_none(bounds.get(name, getattr(defaults, name)), path, f"search_bounds.{name}")

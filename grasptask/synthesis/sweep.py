@@ -21,6 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from grasptask.io import solutions as schema
 from grasptask.synthesis.config import SolverConfig
 from grasptask.synthesis.starts import Start
 
@@ -52,6 +53,14 @@ class stop_on_sigint:
         STOP.clear()
 
 
+OnResult = Callable[[dict], None]
+OnModel = Callable[[dict[str, int]], None]
+
+
+def _ignore(size: dict[str, int]) -> None:
+    pass
+
+
 @dataclass(frozen=True)
 class Job:
     """Everything a worker needs to rebuild the model; plain paths and values, so it pickles."""
@@ -66,7 +75,7 @@ class Job:
 
 
 class SolverContext:
-    """A worker's model and solver, built once."""
+    """A worker's model and solver, built once; ``size`` is the model's variable and constraint count."""
 
     def __init__(self, job: Job):
         from grasptask.grasp.settings import GraspSettings, load_grasp_settings
@@ -84,40 +93,17 @@ class SolverContext:
         self.nlp = build_model(
             self.hand, self.obj, self.task, self.settings, job.solver.bounds, job.solver.regularisation
         )
+        self.size = self.nlp.size()
         text, self.order = write_nl(self.nlp.model)
         self.nlp.compile()  # now, so that its one-off cost is not counted in the first start's seconds
         self.backend = BACKENDS[job.backend](text, job.solver.ipopt)
-        self.approach = None
-        if job.solver.two_phase:
-            with self.nlp.approach():
-                text, self.approach_order = write_nl(self.nlp.model)
-            self.approach = BACKENDS[job.backend](text, job.solver.ipopt)
         self.bounds = self.obj.bounds()
         self.fingers = list(self.nlp.hand.fingers)
         self.joint_names = self.nlp.hand.joint_names
 
-    def _run(self):
-        """IPOPT from the initialised point: on the full NLP, or (two-phase) on the approach NLP first and then
-        on the full NLP from its solution. The last result, its variable order, and the counts over both."""
-        if self.approach is None:
-            result = self.backend.solve(_values(self.order))
-            return result, self.order, {"iterations": result.iterations, "seconds": result.seconds}
-        first = self.approach.solve(_values(self.approach_order))
-        totals = {"approach_status": first.status, "iterations": first.iterations, "seconds": first.seconds}
-        if first.status not in ("optimal", "acceptable"):
-            # a start whose grasp geometry is locally infeasible was never rescued by the full NLP (it only spent
-            # its time limit there), so it ends with the first phase's status and point
-            return first, self.approach_order, totals
-        _assign(self.approach_order, first.x)
-        self.nlp.warm_start_feasibility(1.0 - self.settings.activation_margin)
-        result = self.backend.solve(_values(self.order))
-        totals["iterations"] += result.iterations
-        totals["seconds"] += result.seconds
-        return result, self.order, totals
-
     def solve(self, start: Start) -> dict:
         from grasptask.grasp.verify import Grasp, verify
-        from grasptask.synthesis.columns import grasp_columns
+        from grasptask.io.solutions import grasp_columns
         from grasptask.synthesis.placement import place
 
         if str(start.start_id) in os.environ.get(CRASH_ENV, "").split(","):
@@ -130,14 +116,17 @@ class SolverContext:
         else:
             self.nlp.initialise(start.palm_rotation, start.palm_position, joints)
         row["placement_seconds"] = time.perf_counter() - began
-        result, order, totals = self._run()
+        result = self.backend.solve(_values(self.order))
         # a start's seconds are all it took to solve it: placement (or initialisation) and IPOPT
-        totals["seconds"] += row["placement_seconds"]
-        row.update({"status": result.status, **totals})
-        row["message"] = result.message
+        row.update(
+            status=result.status,
+            iterations=result.iterations,
+            seconds=result.seconds + row["placement_seconds"],
+            message=result.message,
+        )
         if result.x is None:
             return {**row, "Q": float("nan"), "verified": False}
-        _assign(order, result.x)
+        _assign(self.order, result.x)
         solution = self.nlp.read()
         row["Q"] = float(solution["Q"])
         grasp = Grasp(solution["palm_rotation"], solution["palm_position"], solution["joint_angles"])
@@ -157,21 +146,12 @@ def _assign(order: list, x: np.ndarray) -> None:
 
 
 def failed_row(start: Start, status: str, seconds: float, message: str) -> dict:
-    return {
-        "start_id": start.start_id,
-        "orientation": start.orientation,
-        "position": start.position_name,
-        "status": status,
-        "iterations": 0,
-        "seconds": seconds,
-        "message": message,
-        "Q": float("nan"),
-        "verified": False,
-    }
+    return schema.failed_row(start.start_id, start.orientation, start.position_name, status, seconds, message)
 
 
-def run_serial(job: Job, starts: Iterable[Start], on_result: Callable[[dict], None]) -> None:
+def run_serial(job: Job, starts: Iterable[Start], on_result: OnResult, on_model: OnModel = _ignore) -> None:
     context = SolverContext(job)
+    on_model(context.size)
     for start in starts:
         on_result(_guarded(context, start))
         _check_stop()
@@ -193,7 +173,7 @@ def _worker(job: Job, tasks, results, worker_id: int) -> None:
     except Exception:  # noqa: BLE001
         results.put(("failed", worker_id, traceback.format_exc()))
         return
-    results.put(("ready", worker_id, None))
+    results.put(("ready", worker_id, context.size))
     parent = mp.parent_process()
     while (start := _next_start(tasks, parent)) is not None:
         results.put(("done", worker_id, _guarded(context, start)))
@@ -214,11 +194,13 @@ def run_pool(
     job: Job,
     starts: list[Start],
     workers: int,
-    on_result: Callable[[dict], None],
+    on_result: OnResult,
     hang_after_s: float,
+    on_model: OnModel = _ignore,
     max_restarts: int = 20,
 ) -> None:
-    """Solve ``starts`` on ``workers`` processes; ``on_result`` gets each row as it finishes.
+    """Solve ``starts`` on ``workers`` processes; ``on_result`` gets each row as it finishes, ``on_model`` the
+    model size each worker reports when it is ready.
 
     The parent hands each worker one start at a time through the worker's own queue, so it always knows which
     start a worker holds: a worker that dies (a message it was sending may die with it) or outlives the hang
@@ -260,6 +242,7 @@ def run_pool(
             if kind == "failed":
                 raise RuntimeError(f"a solver worker could not build the model:\n{payload}")
             if kind == "ready":
+                on_model(payload)
                 assign(worker_id)
             elif kind == "done" and worker_id in holding:
                 holding.pop(worker_id)
@@ -305,15 +288,23 @@ def run_pool(
 _DASK_CONTEXTS: dict = {}
 
 
-def _dask_solve(job: Job, start: Start) -> dict:
-    """Runs on a Dask worker: the context is built once per worker process and job."""
+def _dask_solve(job: Job, start: Start) -> tuple[dict[str, int], dict]:
+    """Runs on a Dask worker: the context is built once per worker process and job. The model size and the row."""
     key = (os.getpid(), repr(job))
     if key not in _DASK_CONTEXTS:
         _DASK_CONTEXTS[key] = SolverContext(job)
-    return _guarded(_DASK_CONTEXTS[key], start)
+    context = _DASK_CONTEXTS[key]
+    return context.size, _guarded(context, start)
 
 
-def run_dask(job: Job, starts: list[Start], scheduler: str, on_result: Callable[[dict], None], timeout_s: float):
+def run_dask(
+    job: Job,
+    starts: list[Start],
+    scheduler: str,
+    on_result: OnResult,
+    timeout_s: float,
+    on_model: OnModel = _ignore,
+) -> None:
     """Solve the starts on a Dask cluster at ``scheduler``; a start whose task fails is recorded as crashed."""
     from dask.distributed import Client, as_completed
 
@@ -326,6 +317,9 @@ def run_dask(job: Job, starts: list[Start], scheduler: str, on_result: Callable[
             _check_stop()
             start = futures[future]
             try:
-                on_result(future.result(timeout=timeout_s))
+                size, row = future.result(timeout=timeout_s)
             except Exception as exc:  # noqa: BLE001
                 on_result(failed_row(start, "crashed", 0.0, f"{type(exc).__name__}: {exc}"[:300]))
+                continue
+            on_model(size)
+            on_result(row)

@@ -8,12 +8,16 @@ pairwise Euclidean distance of the vectorised logs.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from scipy.linalg import eigh
 from scipy.spatial.distance import pdist, squareform
 from sklearn.metrics import silhouette_samples
 
+from grasptask.errors import BadInputError
+from grasptask.io.tables import read_table
 from grasptask.task.fit import ellipsoid_matrices
 from grasptask.task.spd import log_vectors
 from grasptask.task.stats import group_order
@@ -22,6 +26,12 @@ from grasptask.task.stats import group_order
 def distance_matrix(matrices: np.ndarray) -> np.ndarray:
     """``D[i, j] = ||log S_i - log S_j||_F`` for a ``(k, 6, 6)`` stack."""
     return squareform(pdist(log_vectors(matrices)))
+
+
+def _fix_signs(coords: np.ndarray) -> np.ndarray:
+    """Each axis signed so that its largest coordinate is positive: the same data give the same picture."""
+    signs = np.sign(coords[np.argmax(np.abs(coords), axis=0), [0, 1]])
+    return coords * np.where(signs == 0, 1.0, signs)
 
 
 def embedding_2d(matrices: np.ndarray) -> np.ndarray:
@@ -34,9 +44,20 @@ def embedding_2d(matrices: np.ndarray) -> np.ndarray:
     _, _, vt = np.linalg.svd(centred, full_matrices=False)
     coords = np.zeros((len(vectors), 2))
     coords[:, : min(2, len(vt))] = centred @ vt[:2].T
-    # fix each axis's sign so that its largest coordinate is positive: the same data give the same picture
-    signs = np.sign(coords[np.argmax(np.abs(coords), axis=0), [0, 1]])
-    return coords * np.where(signs == 0, 1.0, signs)
+    return _fix_signs(coords)
+
+
+def embedding_from_distances(raw: np.ndarray) -> np.ndarray:
+    """Classical MDS of a Euclidean distance matrix: the same coordinates as :func:`embedding_2d` of the
+    matrices the distances came from, for when only the distances are at hand."""
+    k = len(raw)
+    centring = np.eye(k) - 1.0 / k
+    gram = -0.5 * centring @ (raw**2) @ centring
+    values, vectors = eigh(gram, subset_by_index=[max(k - 2, 0), k - 1])
+    order = np.argsort(values)[::-1]
+    coords = np.zeros((k, 2))
+    coords[:, : len(order)] = vectors[:, order] * np.sqrt(np.maximum(values[order], 0.0))
+    return _fix_signs(coords)
 
 
 def loo_1nn_accuracy(distances: np.ndarray, labels: np.ndarray) -> float:
@@ -120,3 +141,20 @@ def compute_distances(ellipsoids: pd.DataFrame) -> Distances:
     table = paper_order(ellipsoids)
     matrices = ellipsoid_matrices(table)
     return Distances(table=table, raw=distance_matrix(matrices), embedding=embedding_2d(matrices))
+
+
+def read_distances(path: str | Path, ellipsoids: pd.DataFrame) -> Distances:
+    """The :class:`Distances` that ``grasptask distances`` wrote to ``path`` for ``ellipsoids``, without
+    recomputing them; every ordered pair of the ellipsoids' ids must be in the file."""
+    table = paper_order(ellipsoids)
+    long = read_table(path, ("id_a", "id_b", "distance"))
+    ids = pd.Index(table["id"].astype(str))
+    rows, cols = ids.get_indexer(long["id_a"].astype(str)), ids.get_indexer(long["id_b"].astype(str))
+    k = len(ids)
+    if (rows < 0).any() or (cols < 0).any() or len(long) != k * k:
+        raise BadInputError(path, f"does not hold the {k} x {k} distances of the ellipsoids it is read with")
+    raw = np.full((k, k), np.nan)
+    raw[rows, cols] = long["distance"].to_numpy(dtype=float)
+    if np.isnan(raw).any():
+        raise BadInputError(path, "a pair of ellipsoids is missing or repeated")
+    return Distances(table=table, raw=raw, embedding=embedding_from_distances(raw))

@@ -1,35 +1,21 @@
-"""``grasptask report``: one page with the task ellipsoids, distances and synthesized grasps of a results folder,
+"""The report's sections: the task ellipsoids, distances, sweeps and synthesized grasps of a results folder,
 each beside the paper's figures. A part whose inputs are missing becomes a note saying what to run."""
 
 from __future__ import annotations
 
-import time
-from dataclasses import dataclass
 from pathlib import Path
 
-import numpy as np
-
-from grasptask import __version__
-from grasptask.io.artifacts import Provenance, StagedOutput
-from grasptask.io.reference import PaperSynthesis, read_paper_synthesis
-from grasptask.paths import PAPER_ELLIPSOID_TABLES, ROOT
+from grasptask.io.artifacts import StagedOutput
+from grasptask.io.config import read_json
+from grasptask.io.reference import PaperSynthesis
+from grasptask.paths import DEFAULT_GRASP_CONFIG, DEFAULT_HAND, DEFAULT_OBJECT, PAPER_ELLIPSOID_TABLES, ROOT
 from grasptask.progress import progress
 from grasptask.report import paper_tables
-from grasptask.report.inputs import ResultsFolder, SweepResult, find_results, read_sweep
-from grasptask.report.page import Figure, Note, Section, Table, markdown, render_html
-from grasptask.report.style import task_order
+from grasptask.report.inputs import ResultsFolder, SweepResult
+from grasptask.report.page import Figure, Note, Section, Table, markdown
 
 
-@dataclass(frozen=True)
-class ReportSummary:
-    index: Path
-    figures: int
-    tables: int
-    notes: list[str]
-    seconds: float
-
-
-class _Writer:
+class Writer:
     """Names figures and tables inside the staged report folder."""
 
     def __init__(self, staged: StagedOutput):
@@ -52,7 +38,7 @@ def _run_missing(what: str, command: str) -> Note:
     return Note(f"{what} not found; run `{command}` to add this section.")
 
 
-def ellipsoid_tables_section(results: ResultsFolder, writer: _Writer) -> Section:
+def ellipsoid_tables_section(results: ResultsFolder, writer: Writer) -> Section:
     from grasptask.task.stats import read_reference
 
     section = Section(
@@ -85,7 +71,7 @@ def ellipsoid_tables_section(results: ResultsFolder, writer: _Writer) -> Section
     return section
 
 
-def ellipsoid_figures_section(results: ResultsFolder, writer: _Writer) -> Section:
+def ellipsoid_figures_section(results: ResultsFolder, writer: Writer) -> Section:
     from grasptask.report.ellipsoid_plots import load_samples_or_note, plot_task_ellipsoids
     from grasptask.task.fit import read_ellipsoids
     from grasptask.task.model import load_task_models
@@ -122,18 +108,22 @@ def ellipsoid_figures_section(results: ResultsFolder, writer: _Writer) -> Sectio
     return section
 
 
-def distances_section(results: ResultsFolder, writer: _Writer) -> Section:
+def distances_section(results: ResultsFolder, writer: Writer) -> Section:
     from grasptask.report.distance_plots import plot_embedding, plot_heatmap
-    from grasptask.task.distances import compute_distances
+    from grasptask.task.distances import read_distances
     from grasptask.task.fit import read_ellipsoids
 
     section = Section("distances", "Distances between task ellipsoids (Figure 9)")
-    if not results.ellipsoids.is_file():
-        section.blocks.append(_run_missing(str(results.ellipsoids), "grasptask fit-task ... --out DIR/tasks"))
+    needed = (results.distances, results.distance_summary, results.ellipsoids)
+    if not all(p.is_file() for p in needed):
+        section.blocks.append(
+            _run_missing(
+                " or ".join(map(str, needed)), "grasptask distances DIR/tasks/ellipsoids.parquet --out DIR/tasks"
+            )
+        )
         return section
-    distances = compute_distances(read_ellipsoids(results.ellipsoids))
-    summary = distances.summary()
-    by_task = summary.get("by_task", {})
+    distances = read_distances(results.distances, read_ellipsoids(results.ellipsoids))
+    by_task = read_json(results.distance_summary).get("by_task", {})
     section.summary = (
         f"Distances: leave-one-out nearest-neighbour task accuracy {by_task.get('loo_1nn_accuracy', 0):.2f}"
     )
@@ -167,7 +157,7 @@ def _no_sweeps(results: ResultsFolder) -> Note:
 
 
 def sweeps_section(
-    results: ResultsFolder, sweeps: dict[str, SweepResult], paper: PaperSynthesis, writer: _Writer
+    results: ResultsFolder, sweeps: dict[str, SweepResult], paper: PaperSynthesis, writer: Writer
 ) -> Section:
     from grasptask.report.sweep_plots import plot_sweeps
 
@@ -205,14 +195,13 @@ def sweeps_section(
 
 
 def grasps_section(
-    results: ResultsFolder, sweeps: dict[str, SweepResult], paper: PaperSynthesis, writer: _Writer
+    results: ResultsFolder, sweeps: dict[str, SweepResult], paper: PaperSynthesis, writer: Writer
 ) -> Section:
     from grasptask.grasp.settings import load_grasp_settings
     from grasptask.hand import load_hand
+    from grasptask.io.solutions import contacts_from_row, grasp_from_row, normals_from_row
     from grasptask.objects import load_object
-    from grasptask.paths import DEFAULT_GRASP_CONFIG, DEFAULT_HAND, DEFAULT_OBJECT
     from grasptask.report.render import display_mesh, render_grasp
-    from grasptask.synthesis.columns import contacts_from_row, grasp_from_row
     from grasptask.task.model import load_task_models
 
     section = Section(
@@ -254,7 +243,7 @@ def grasps_section(
             number = int(optimum["optimum_id"])
             path = writer.figure(f"grasp_{task}_{number:02d}")
             contacts = contacts_from_row(optimum, fingers)
-            normals = np.array([[optimum[f"normal_{f}_{a}"] for a in "xyz"] for f in fingers], dtype=float)
+            normals = normals_from_row(optimum, fingers)
             title = f"{task}, optimum {number}: Q = {optimum['Q']:.4g} ({int(optimum['members'])} starts)"
             render_grasp(
                 path,
@@ -272,55 +261,3 @@ def grasps_section(
             )
             section.blocks.append(Figure(path, title))
     return section
-
-
-def build_report(results_dir: str | Path, out: str | Path) -> ReportSummary:
-    """Write ``out/index.html`` (self-contained), ``out/figures/*.png`` and ``out/tables/*.md``."""
-    start = time.perf_counter()
-    results = find_results(results_dir)
-    sweeps: dict[str, SweepResult] = {}
-    for folder in results.sweep_folders():
-        sweep = read_sweep(folder)
-        sweeps[sweep.task] = sweep
-    sweeps = {task: sweeps[task] for task in sorted(sweeps, key=task_order)}
-    inputs = [p for p in (results.stats, results.ellipsoids, results.task_models) if p.is_file()]
-    inputs += [s.folder / "run.json" for s in sweeps.values()]
-    provenance = Provenance.of("report", {"results": str(results_dir)}, inputs)
-    with StagedOutput(out, provenance) as staged:
-        writer = _Writer(staged)
-        sections = []
-        for make in (ellipsoid_tables_section, ellipsoid_figures_section, distances_section):
-            sections.append(make(results, writer))
-        paper = read_paper_synthesis()
-        sections.append(sweeps_section(results, sweeps, paper, writer))
-        sections.append(grasps_section(results, sweeps, paper, writer))
-        notes = [f"{s.title}: {n}" for s in sections for n in s.notes]
-        summary_lines = _summary_lines(sweeps, sections, paper)
-        page = render_html(
-            "grasptask report",
-            f"results: {Path(results_dir).resolve()}; grasptask {__version__}; built {time.strftime('%Y-%m-%d %H:%M')}",
-            summary_lines,
-            sections,
-        )
-        staged.write_with("index.html", lambda p: p.write_text(page))
-        staged.write_json(
-            "report.json",
-            {"figures": writer.figures, "tables": writer.tables, "notes": notes, "summary": summary_lines},
-        )
-    index = Path(out) / "index.html"
-    return ReportSummary(index, len(writer.figures), len(writer.tables), notes, time.perf_counter() - start)
-
-
-def _summary_lines(sweeps: dict[str, SweepResult], sections: list[Section], paper: PaperSynthesis) -> list[str]:
-    lines = [s.summary for s in sections if s.summary]
-    for task, sweep in sweeps.items():
-        solutions = sweep.solutions
-        best = f"best Q {sweep.optima['Q'].min():.4g}" if len(sweep.optima) else "no grasp found"
-        lines.append(
-            f"{task}: {int(solutions['verified'].sum())}/{len(solutions)} starts verified, {len(sweep.optima)} "
-            f"distinct optima, {best}, median {solutions['seconds'].median():.1f} s per start (paper: {paper.seconds})"
-        )
-    missing = [s.title for s in sections if not s.made]
-    if missing:
-        lines.append("Not made (inputs missing): " + "; ".join(missing))
-    return lines

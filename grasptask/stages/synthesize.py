@@ -3,7 +3,7 @@
 Each finished start is appended as one JSON line to ``<out>/<task>/solutions.jsonl`` (flushed and synced), so
 an interrupted sweep loses nothing and ``--resume`` skips the starts already there. At the end the lines
 become ``solutions.parquet``; the distinct verified optima go to ``optima.parquet`` and the counts, timings,
-solver versions and model size to ``run.json``.
+solver versions and model size (as the workers report it) to ``run.json``.
 """
 
 from __future__ import annotations
@@ -11,8 +11,10 @@ from __future__ import annotations
 import json
 import os
 import time
-from dataclasses import dataclass, field
+from collections.abc import Callable
+from dataclasses import asdict, dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -20,24 +22,26 @@ from tqdm import tqdm
 
 from grasptask.errors import BadInputError
 from grasptask.io.artifacts import Provenance, StagedOutput
-from grasptask.io.config import load_yaml
 from grasptask.io.reference import PaperSynthesis, read_paper_synthesis
-from grasptask.synthesis import sweep
-from grasptask.synthesis.backends import STATUSES
-from grasptask.synthesis.clustering import cluster
-from grasptask.synthesis.config import load_solver_config
-from grasptask.synthesis.starts import make_starts, subset
+from grasptask.io.solutions import STATUSES
+from grasptask.objects.surface import Symmetry
+from grasptask.paths import DEFAULT_GRASP_CONFIG, DEFAULT_HAND, DEFAULT_OBJECT, DEFAULT_SOLVER_CONFIG
+
+EXECUTORS = ("pool", "serial", "dask")
+BACKENDS = ("casadi", "cyipopt")
 
 
-@dataclass
+@dataclass(frozen=True, kw_only=True)
 class SynthesisOptions:
-    hand: Path
-    object: Path
+    """What a sweep is run on and how; checked when made, so a bad combination fails before any work."""
+
     tasks: Path
     task: str
     out: Path
-    solver_config: Path
-    grasp_config: Path
+    hand: Path = DEFAULT_HAND
+    object: Path = DEFAULT_OBJECT
+    solver_config: Path = DEFAULT_SOLVER_CONFIG
+    grasp_config: Path = DEFAULT_GRASP_CONFIG
     starts: int | None = None
     seed: int = 0
     workers: int = 1
@@ -45,7 +49,27 @@ class SynthesisOptions:
     scheduler: str | None = None
     backend: str = "casadi"
     resume: bool = False
-    extra: dict = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        if self.executor not in EXECUTORS:
+            raise BadInputError("synthesize", f"unknown executor '{self.executor}' (known: {', '.join(EXECUTORS)})")
+        if self.backend not in BACKENDS:
+            raise BadInputError("synthesize", f"unknown solver '{self.backend}' (known: {', '.join(BACKENDS)})")
+        if self.workers < 1 or (self.starts is not None and self.starts < 1):
+            raise BadInputError("synthesize", "--workers and --starts must be at least 1")
+        if self.executor == "serial" and self.workers != 1:
+            raise BadInputError(
+                "synthesize",
+                f"--executor serial solves in this process, one start at a time: drop --workers {self.workers}",
+            )
+        if self.executor == "dask" and not self.scheduler:
+            raise BadInputError("synthesize", "--executor dask needs --scheduler ADDRESS")
+        if self.executor != "dask" and self.scheduler:
+            raise BadInputError("synthesize", "--scheduler is for --executor dask")
+
+    @property
+    def folder(self) -> Path:
+        return Path(self.out) / self.task
 
 
 def _read_done(path: Path) -> list[dict]:
@@ -64,34 +88,44 @@ def _jsonable(row: dict) -> dict:
     return {k: (v.item() if hasattr(v, "item") else v) for k, v in row.items()}
 
 
-def run_synthesize(options: SynthesisOptions, echo=print) -> dict:
+def _previous_model_size(folder: Path) -> dict[str, int] | None:
+    """The model size an earlier run of this folder recorded, for a resumed sweep with nothing left to solve."""
+    try:
+        return json.loads((folder / "run.json").read_text()).get("model_size")
+    except (OSError, json.JSONDecodeError):
+        return None
+
+
+def run_synthesize(options: SynthesisOptions, echo: Callable[[str], Any] = print) -> dict:
+    """Solve the task's starts, verify every solution, and write ``solutions.parquet``, ``optima.parquet`` and
+    ``run.json`` under ``options.folder``; the run summary."""
     from grasptask.grasp.settings import load_grasp_settings
     from grasptask.hand import load_hand
     from grasptask.objects import load_object
-    from grasptask.synthesis.model import build_model
+    from grasptask.synthesis import sweep
+    from grasptask.synthesis.config import load_solver_config
+    from grasptask.synthesis.starts import make_starts, subset
     from grasptask.task.model import load_task_models
 
     models = load_task_models(options.tasks)
     if options.task not in models:
         raise BadInputError(options.tasks, f"no task '{options.task}' (has: {', '.join(models)})")
     solver = load_solver_config(options.solver_config)
+    load_grasp_settings(options.grasp_config)
     hand = load_hand(options.hand)
     obj = load_object(options.object)
-    object_config = load_yaml(options.object)
     job = sweep.Job(
-        str(options.hand),
-        str(options.object),
-        str(options.tasks),
-        options.task,
-        options.backend,
-        solver,
-        str(options.grasp_config),
+        hand_path=str(options.hand),
+        object_path=str(options.object),
+        tasks_path=str(options.tasks),
+        task=options.task,
+        backend=options.backend,
+        solver=solver,
+        settings_path=str(options.grasp_config),
     )
-    grasp_settings = load_grasp_settings(options.grasp_config)
-    size = build_model(hand, obj, models[options.task], grasp_settings, solver.bounds, solver.regularisation).size()
     paper = read_paper_synthesis()
     starts = subset(make_starts(obj.bounds(), options.seed), options.starts)
-    folder = options.out / options.task
+    folder = options.folder
     folder.mkdir(parents=True, exist_ok=True)
     log = folder / "solutions.jsonl"
     if not options.resume and log.exists():
@@ -99,16 +133,25 @@ def run_synthesize(options: SynthesisOptions, echo=print) -> dict:
     done = _read_done(log)
     finished = {row["start_id"] for row in done}
     todo = [s for s in starts if s.start_id not in finished]
-    echo(
-        f"{options.task}: {len(starts)} starts, {len(finished)} already done, model {size['variables']} variables"
-        f" x {size['constraints']} constraints (paper: {paper.variables} x {paper.constraints})"
-    )
+    echo(f"{options.task}: {len(starts)} starts, {len(finished)} already done")
+    model_size = None if todo else _previous_model_size(folder)
     wall_start = time.perf_counter()
     bar = tqdm(total=len(starts), initial=len(finished), desc=f"synthesize {options.task}", unit="start", disable=None)
     counts = {
         "verified": sum(r.get("verified", False) for r in done),
         "failing": sum(not r.get("verified", False) for r in done),
     }
+
+    def on_model(size: dict[str, int]) -> None:
+        nonlocal model_size
+        if model_size is None:
+            model_size = size
+            with bar.external_write_mode():
+                echo(
+                    f"model {size['variables']} variables x {size['constraints']} constraints"
+                    f" (paper: {paper.variables} x {paper.constraints})"
+                )
+
     with open(log, "a") as handle, sweep.stop_on_sigint():
 
         def on_result(row: dict) -> None:
@@ -120,26 +163,45 @@ def run_synthesize(options: SynthesisOptions, echo=print) -> dict:
             bar.set_postfix(counts)
             bar.update(1)
 
+        hang_after = solver.time_limit + solver.hang_grace_s
         try:
             if options.executor == "dask":
-                if not options.scheduler:
-                    raise BadInputError("synthesize", "--executor dask needs --scheduler ADDRESS")
-                sweep.run_dask(job, todo, options.scheduler, on_result, solver.time_limit + solver.hang_grace_s)
-            elif options.workers <= 1 and options.executor == "serial":
-                sweep.run_serial(job, todo, on_result)
+                assert options.scheduler is not None  # checked by SynthesisOptions
+                sweep.run_dask(job, todo, options.scheduler, on_result, hang_after, on_model)
+            elif options.executor == "serial":
+                sweep.run_serial(job, todo, on_result, on_model)
             else:
-                sweep.run_pool(job, todo, max(1, options.workers), on_result, solver.time_limit + solver.hang_grace_s)
+                sweep.run_pool(job, todo, options.workers, on_result, hang_after, on_model)
         finally:
             bar.close()
     wall = time.perf_counter() - wall_start
-    return _summarise(options, done, size, wall, object_config.get("symmetry"), list(hand.grasping), paper)
+    return summarise(
+        options,
+        done,
+        model_size=model_size,
+        wall_seconds=wall,
+        symmetry=obj.symmetry,
+        fingers=list(hand.grasping),
+        paper=paper,
+    )
 
 
-def _summarise(
-    options: SynthesisOptions, rows: list[dict], size: dict, wall: float, symmetry, fingers, paper: PaperSynthesis
+def summarise(
+    options: SynthesisOptions,
+    rows: list[dict],
+    *,
+    model_size: dict[str, int] | None,
+    wall_seconds: float,
+    symmetry: Symmetry | None,
+    fingers: list[str],
+    paper: PaperSynthesis,
 ) -> dict:
+    """Write the sweep's ``solutions.parquet``, ``optima.parquet`` and ``run.json`` from its rows; the run
+    summary."""
     import casadi
     import pyomo.version
+
+    from grasptask.synthesis.clustering import cluster
 
     solutions = pd.DataFrame(rows).sort_values("start_id").reset_index(drop=True)
     solutions["verified"] = solutions["verified"].fillna(False).astype(bool)
@@ -166,8 +228,8 @@ def _summarise(
             "mean": float(seconds.mean()),
             "sd": float(seconds.std(ddof=1)) if len(seconds) > 1 else 0.0,
         },
-        "sweep_wall_seconds_this_run": wall,
-        "model_size": size,
+        "sweep_wall_seconds_this_run": wall_seconds,
+        "model_size": model_size,
         "paper": {
             "variables": paper.variables,
             "constraints": paper.constraints,
@@ -177,10 +239,9 @@ def _summarise(
         },
         "versions": {"casadi": casadi.__version__, "pyomo": pyomo.version.version},
     }
-    folder = options.out / options.task
-    config = {k: str(v) for k, v in vars(options).items() if k != "out"}
+    config = {k: str(v) for k, v in asdict(options).items() if k != "out"}
     inputs = [options.tasks, options.hand, options.object, options.solver_config, options.grasp_config]
-    with StagedOutput(folder, Provenance.of("synthesize", config, inputs, options.seed)) as staged:
+    with StagedOutput(options.folder, Provenance.of("synthesize", config, inputs, options.seed)) as staged:
         staged.write_parquet("solutions.parquet", solutions)
         staged.write_parquet("optima.parquet", optima)
         staged.write_json("run.json", run)

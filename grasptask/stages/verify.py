@@ -11,13 +11,24 @@ from grasptask.grasp.settings import load_grasp_settings
 from grasptask.grasp.verify import verify
 from grasptask.hand import load_hand
 from grasptask.io.artifacts import Provenance, StagedOutput
+from grasptask.io.solutions import grasp_from_row, joint_columns
 from grasptask.io.tables import read_table
 from grasptask.objects import load_object
-from grasptask.synthesis.columns import grasp_from_row, joint_columns
+from grasptask.paths import DEFAULT_GRASP_CONFIG, DEFAULT_HAND, DEFAULT_OBJECT
 from grasptask.task.model import load_task_models
 
 
-def run_verify(solutions_path, tasks_path, task, out, hand_path, object_path, grasp_config) -> pd.DataFrame:
+def run_verify(
+    solutions_path: str | Path,
+    tasks_path: str | Path,
+    task: str,
+    out: str | Path,
+    hand_path: str | Path = DEFAULT_HAND,
+    object_path: str | Path = DEFAULT_OBJECT,
+    grasp_config: str | Path = DEFAULT_GRASP_CONFIG,
+) -> pd.DataFrame:
+    """Verify every row of ``solutions_path`` for ``task``; writes ``out/verification.parquet`` (one row per
+    start: ``verified``, ``verify_failures`` and the verifier's figures) and returns it."""
     solutions_path = Path(solutions_path)
     solutions = read_table(solutions_path, ("start_id", "palm_x", "palm_r00"))
     models = load_task_models(tasks_path)

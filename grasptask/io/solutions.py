@@ -1,0 +1,86 @@
+"""The results schema of a synthesis sweep, in one light module (numpy only): the start statuses, the columns of
+a solutions table and the row of a start that produced no solution.
+
+A solutions row holds ``start_id``, ``orientation``, ``position``, ``status``, ``iterations``, ``seconds``,
+``message``, ``Q`` and ``verified``; for a start with a solution also the palm pose ``palm_x/y/z`` and
+``palm_r<i><j>``, joint angles ``q_<joint>``, ``contact_<finger>_<axis>`` and ``normal_<finger>_<axis>``
+(outward), and the verifier's ``verify_*`` figures.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
+from grasptask.grasp.grasp import Grasp
+
+#: how a start ends: IPOPT's outcomes, then the sweep's own (a solver error, a worker that died or hung)
+STATUSES = ("optimal", "acceptable", "infeasible", "max-iter", "time-limit", "error", "crashed", "hung")
+AXES = "xyz"
+
+Row = Mapping[str, Any]
+
+
+def joint_columns(joint_names: list[str]) -> list[str]:
+    return [f"q_{n}" for n in joint_names]
+
+
+def _finger_columns(kind: str, fingers: list[str]) -> list[list[str]]:
+    return [[f"{kind}_{finger}_{axis}" for axis in AXES] for finger in fingers]
+
+
+def grasp_columns(
+    grasp: Grasp, joint_names: list[str], fingers: list[str], contacts: np.ndarray, normals: np.ndarray
+) -> dict[str, float]:
+    """The palm pose, joint angles, contacts and outward normals of a grasp as row values."""
+    row = {}
+    for i, axis in enumerate(AXES):
+        row[f"palm_{axis}"] = float(grasp.palm_position[i])
+        for j in range(3):
+            row[f"palm_r{i}{j}"] = float(grasp.palm_rotation[i, j])
+    row.update({c: float(v) for c, v in zip(joint_columns(joint_names), grasp.joint_angles, strict=True)})
+    for kind, values in (("contact", contacts), ("normal", normals)):
+        for names, value in zip(_finger_columns(kind, fingers), values, strict=True):
+            row.update({name: float(v) for name, v in zip(names, value, strict=True)})
+    return row
+
+
+def failed_row(start_id: int, orientation: int, position: str, status: str, seconds: float, message: str) -> dict:
+    """The row of a start that produced no solution (an error, a crashed or hung worker)."""
+    return {
+        "start_id": start_id,
+        "orientation": orientation,
+        "position": position,
+        "status": status,
+        "iterations": 0,
+        "seconds": seconds,
+        "message": message,
+        "Q": float("nan"),
+        "verified": False,
+    }
+
+
+def grasp_from_row(row: Row, joint_names: list[str]) -> Grasp:
+    rotation = np.array([[row[f"palm_r{i}{j}"] for j in range(3)] for i in range(3)], dtype=float)
+    joints = np.array([row[c] for c in joint_columns(joint_names)], dtype=float)
+    return Grasp(rotation, palm_position_from_row(row), joints)
+
+
+def palm_position_from_row(row: Row) -> np.ndarray:
+    return np.array([row[f"palm_{a}"] for a in AXES], dtype=float)
+
+
+def palm_normal_from_row(row: Row) -> np.ndarray:
+    """The palm's normal (the third column of R_h) in the object frame."""
+    return np.array([row[f"palm_r{i}2"] for i in range(3)], dtype=float)
+
+
+def contacts_from_row(row: Row, fingers: list[str]) -> np.ndarray:
+    return np.array([[row[c] for c in names] for names in _finger_columns("contact", fingers)], dtype=float)
+
+
+def normals_from_row(row: Row, fingers: list[str]) -> np.ndarray:
+    """The outward surface normals at the contacts."""
+    return np.array([[row[c] for c in names] for names in _finger_columns("normal", fingers)], dtype=float)

@@ -1,0 +1,81 @@
+"""Every ``grasptask`` command as a function: inputs and options in, artifacts on disk, a summary out.
+
+The CLI is a thin layer over these, and a notebook can call them directly (or the lower-level functions in
+:mod:`grasptask.task`, :mod:`grasptask.synthesis` and :mod:`grasptask.grasp`, which work on arrays and tables
+without touching the disk). One module per command; the names below are imported on first use, so that
+``grasptask --help`` does not load Pyomo, CasADi or matplotlib.
+"""
+
+from __future__ import annotations
+
+from importlib import import_module
+from typing import TYPE_CHECKING, Any
+
+from grasptask.errors import BadInputError
+from grasptask.io.units import FORCE_UNITS, TIME_UNITS, TORQUE_UNITS
+from grasptask.paths import (
+    DEFAULT_GRASP_CONFIG,
+    DEFAULT_HAND,
+    DEFAULT_OBJECT,
+    DEFAULT_SIMULATE_CONFIG,
+    DEFAULT_SOLVER_CONFIG,
+)
+
+if TYPE_CHECKING:
+    from grasptask.report.browser import check_page
+    from grasptask.stages.distances import run_distances
+    from grasptask.stages.fit_task import FitOptions, Preprocess, entries_from_inputs, run_fit_task
+    from grasptask.stages.pipeline import run_pipeline_file
+    from grasptask.stages.report import ReportSummary, build_report
+    from grasptask.stages.simulate import run_simulate
+    from grasptask.stages.synthesize import SynthesisOptions, run_synthesize, summarise
+    from grasptask.stages.verify import run_verify
+
+_LAZY = {
+    "run_simulate": "grasptask.stages.simulate",
+    "run_fit_task": "grasptask.stages.fit_task",
+    "entries_from_inputs": "grasptask.stages.fit_task",
+    "FitOptions": "grasptask.stages.fit_task",
+    "Preprocess": "grasptask.stages.fit_task",
+    "run_distances": "grasptask.stages.distances",
+    "SynthesisOptions": "grasptask.stages.synthesize",
+    "run_synthesize": "grasptask.stages.synthesize",
+    "summarise": "grasptask.stages.synthesize",
+    "run_verify": "grasptask.stages.verify",
+    "build_report": "grasptask.stages.report",
+    "ReportSummary": "grasptask.stages.report",
+    "check_page": "grasptask.report.browser",
+    "run_pipeline_file": "grasptask.stages.pipeline",
+}
+
+__all__ = [
+    "BadInputError",
+    "DEFAULT_GRASP_CONFIG",
+    "DEFAULT_HAND",
+    "DEFAULT_OBJECT",
+    "DEFAULT_SIMULATE_CONFIG",
+    "DEFAULT_SOLVER_CONFIG",
+    "FORCE_UNITS",
+    "TIME_UNITS",
+    "TORQUE_UNITS",
+    "FitOptions",
+    "Preprocess",
+    "ReportSummary",
+    "SynthesisOptions",
+    "build_report",
+    "check_page",
+    "entries_from_inputs",
+    "run_distances",
+    "run_fit_task",
+    "run_pipeline_file",
+    "run_simulate",
+    "run_synthesize",
+    "run_verify",
+    "summarise",
+]
+
+
+def __getattr__(name: str) -> Any:
+    if name in _LAZY:
+        return getattr(import_module(_LAZY[name]), name)
+    raise AttributeError(f"module 'grasptask.stages' has no attribute {name!r}")

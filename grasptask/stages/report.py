@@ -1,0 +1,89 @@
+"""``grasptask report``: one self-contained page with the task ellipsoids, distances and synthesized grasps of a
+results folder, each beside the paper's figures, written all at once or not at all."""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+from grasptask import __version__
+from grasptask.io.artifacts import Provenance, StagedOutput
+from grasptask.io.reference import PaperSynthesis, read_paper_synthesis
+from grasptask.report.inputs import SweepResult, find_results, read_sweep
+from grasptask.report.page import Section, render_html
+from grasptask.report.sections import (
+    Writer,
+    distances_section,
+    ellipsoid_figures_section,
+    ellipsoid_tables_section,
+    grasps_section,
+    sweeps_section,
+)
+from grasptask.report.style import task_order
+
+
+@dataclass(frozen=True)
+class ReportSummary:
+    index: Path
+    figures: int
+    tables: int
+    notes: list[str]
+    seconds: float
+
+
+def build_report(results_dir: str | Path, out: str | Path) -> ReportSummary:
+    """Write ``out/index.html`` (self-contained), ``out/figures/*.png``, ``out/tables/*.md`` and
+    ``out/report.json`` from the results folder ``results_dir``."""
+    start = time.perf_counter()
+    results = find_results(results_dir)
+    sweeps: dict[str, SweepResult] = {}
+    for folder in results.sweep_folders():
+        sweep = read_sweep(folder)
+        sweeps[sweep.task] = sweep
+    sweeps = {task: sweeps[task] for task in sorted(sweeps, key=task_order)}
+    inputs = [
+        p
+        for p in (results.stats, results.ellipsoids, results.task_models, results.distances, results.distance_summary)
+        if p.is_file()
+    ]
+    inputs += [s.folder / "run.json" for s in sweeps.values()]
+    provenance = Provenance.of("report", {"results": str(results_dir)}, inputs)
+    with StagedOutput(out, provenance) as staged:
+        writer = Writer(staged)
+        sections = [
+            make(results, writer) for make in (ellipsoid_tables_section, ellipsoid_figures_section, distances_section)
+        ]
+        paper = read_paper_synthesis()
+        sections.append(sweeps_section(results, sweeps, paper, writer))
+        sections.append(grasps_section(results, sweeps, paper, writer))
+        notes = [f"{s.title}: {n}" for s in sections for n in s.notes]
+        summary_lines = _summary_lines(sweeps, sections, paper)
+        page = render_html(
+            "grasptask report",
+            f"results: {Path(results_dir).resolve()}; grasptask {__version__}; built {time.strftime('%Y-%m-%d %H:%M')}",
+            summary_lines,
+            sections,
+        )
+        staged.write_with("index.html", lambda p: p.write_text(page))
+        staged.write_json(
+            "report.json",
+            {"figures": writer.figures, "tables": writer.tables, "notes": notes, "summary": summary_lines},
+        )
+    index = Path(out) / "index.html"
+    return ReportSummary(index, len(writer.figures), len(writer.tables), notes, time.perf_counter() - start)
+
+
+def _summary_lines(sweeps: dict[str, SweepResult], sections: list[Section], paper: PaperSynthesis) -> list[str]:
+    lines = [s.summary for s in sections if s.summary]
+    for task, sweep in sweeps.items():
+        solutions = sweep.solutions
+        best = f"best Q {sweep.optima['Q'].min():.4g}" if len(sweep.optima) else "no grasp found"
+        lines.append(
+            f"{task}: {int(solutions['verified'].sum())}/{len(solutions)} starts verified, {len(sweep.optima)} "
+            f"distinct optima, {best}, median {solutions['seconds'].median():.1f} s per start (paper: {paper.seconds})"
+        )
+    missing = [s.title for s in sections if not s.made]
+    if missing:
+        lines.append("Not made (inputs missing): " + "; ".join(missing))
+    return lines

@@ -1,0 +1,106 @@
+"""The object's surface as Pyomo expressions, written independently of :mod:`grasptask.objects` (whose numpy
+code the verifier uses), so that the NLP and its judge share no code.
+
+Each surface gives the contact residual of eq. 3 (zero on the surface), eq. 14's clearance of a ball (``>= 0``
+when it stays out) and the gradient whose normalisation is the contact normal.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any, Protocol
+
+import numpy as np
+
+from grasptask.objects.gp import GPImplicitSurface
+from grasptask.objects.superquadric import Superquadric
+from grasptask.objects.surface import ImplicitObject
+from grasptask.synthesis.algebra import XYZ, power
+
+Point = Sequence[Any]
+
+
+class NLPSurface(Protocol):
+    def contact(self, p: Point) -> Any: ...
+
+    def clearance(self, p: Point, radius: float) -> Any: ...
+
+    def gradient(self, p: Point) -> list[Any]: ...
+
+
+class SuperquadricSurface:
+    """A superquadric in terms of ``F^(e1/2)``, which is well scaled near the surface. Collisions use the
+    superquadric inflated by the ball's radius, because the radial distance beside a long thin cylinder
+    overstates the true clearance several-fold."""
+
+    def __init__(self, sq: Superquadric):
+        self.a, self.e1, self.e2 = sq.a, sq.e1, sq.e2
+        self.rotation, self.position = sq.rotation, sq.position
+
+    def _local(self, p: Point) -> list[Any]:
+        d = [p[i] - self.position[i] for i in XYZ]
+        return [sum(self.rotation[i, j] * d[i] for i in XYZ) for j in XYZ]  # R^T (p - t)
+
+    def _inside_outside(self, x: Point, a: np.ndarray) -> Any:
+        u = (x[0] / a[0]) ** 2
+        v = (x[1] / a[1]) ** 2
+        w = (x[2] / a[2]) ** 2
+        p_, r_, s_ = 1 / self.e2, self.e2 / self.e1, 1 / self.e1
+        return power(power(u, p_) + power(v, p_), r_) + power(w, s_)
+
+    def contact(self, p: Point) -> Any:
+        """``F^(e1/2) - 1``: zero on the surface."""
+        return self._inside_outside(self._local(p), self.a) ** (self.e1 / 2) - 1
+
+    def clearance(self, p: Point, radius: float) -> Any:
+        """``>= 0`` when a ball of ``radius`` at ``p`` stays out: outside the superquadric inflated by it."""
+        return self._inside_outside(self._local(p), self.a + radius) ** (self.e1 / 2) - 1
+
+    def gradient(self, p: Point) -> list[Any]:
+        """Gradient of ``F^(e1/2)`` in the object frame."""
+        x = self._local(p)
+        a = self.a
+        u, v, w = ((x[i] / a[i]) ** 2 for i in XYZ)
+        p_, r_, s_ = 1 / self.e2, self.e2 / self.e1, 1 / self.e1
+        base = power(u, p_) + power(v, p_)
+        big_f = power(base, r_) + power(w, s_)
+        outer = (self.e1 / 2) * power(big_f, self.e1 / 2 - 1)
+        radial = outer * r_ * power(base, r_ - 1) * p_
+        local = [
+            radial * power(u, p_ - 1) * 2 * x[0] / a[0] ** 2,
+            radial * power(v, p_ - 1) * 2 * x[1] / a[1] ** 2,
+            outer * s_ * power(w, s_ - 1) * 2 * x[2] / a[2] ** 2,
+        ]
+        return [sum(self.rotation[i, j] * local[j] for j in XYZ) for i in XYZ]
+
+
+class GPSurface:
+    """The GP's posterior mean ``sum_k alpha_k |p - x_k|^3 + c0 + c.p``: a signed distance in metres."""
+
+    def __init__(self, gp: GPImplicitSurface):
+        self.support, self.alpha, self.coef = gp.support, gp.alpha, gp.mean_coefficients
+
+    def _squared(self, p: Point, x: np.ndarray) -> Any:
+        return sum((p[i] - x[i]) ** 2 for i in XYZ)
+
+    def contact(self, p: Point) -> Any:
+        terms = sum(a * self._squared(p, x) ** 1.5 for a, x in zip(self.alpha, self.support, strict=True))
+        return terms + self.coef[0] + sum(self.coef[1 + i] * p[i] for i in XYZ)
+
+    def clearance(self, p: Point, radius: float) -> Any:
+        return self.contact(p) - radius
+
+    def gradient(self, p: Point) -> list[Any]:
+        weights = [3 * a * self._squared(p, x) ** 0.5 for a, x in zip(self.alpha, self.support, strict=True)]
+        return [
+            sum(w * (p[i] - x[i]) for w, x in zip(weights, self.support, strict=True)) + self.coef[1 + i] for i in XYZ
+        ]
+
+
+def surface_for(obj: ImplicitObject) -> NLPSurface:
+    """The NLP's surface for a loaded object."""
+    if isinstance(obj, Superquadric):
+        return SuperquadricSurface(obj)
+    if isinstance(obj, GPImplicitSurface):
+        return GPSurface(obj)
+    raise TypeError(f"no NLP surface for {type(obj).__name__}")
