@@ -6,7 +6,7 @@ INSTALLED := $(VENV)/.installed
 CYIPOPT := $(VENV)/.cyipopt
 export OPENBLAS_NUM_THREADS ?= 1
 
-.PHONY: demo paper test install setup-cyipopt setup-browser lint format bench clean
+.PHONY: demo paper test install setup-cyipopt setup-browser lint format typecheck bench screenshot clean
 
 demo: $(INSTALLED)
 	$(BIN)/grasptask pipeline run pipelines/demo.yaml
@@ -16,8 +16,9 @@ paper: $(INSTALLED) setup-browser
 	$(BIN)/grasptask pipeline run pipelines/paper.yaml
 
 test: $(INSTALLED) $(CYIPOPT) setup-browser
-	$(BIN)/ruff check grasptask tests benchmarks
-	$(BIN)/ruff format --check grasptask tests benchmarks
+	$(BIN)/ruff check grasptask tests benchmarks tools
+	$(BIN)/ruff format --check grasptask tests benchmarks tools
+	$(BIN)/mypy
 	$(BIN)/python -m pytest
 
 install: $(INSTALLED)
@@ -42,10 +43,17 @@ setup-browser:
 	tools/setup_browser.sh
 
 lint: $(INSTALLED)
-	$(BIN)/ruff check grasptask tests benchmarks
+	$(BIN)/ruff check grasptask tests benchmarks tools
 
 format: $(INSTALLED)
-	$(BIN)/ruff format grasptask tests benchmarks
+	$(BIN)/ruff format grasptask tests benchmarks tools
+
+typecheck: $(INSTALLED)
+	$(BIN)/mypy
+
+# the README's picture of the report, made anew from the demo
+screenshot: $(INSTALLED) setup-browser
+	tools/screenshot.sh $(BIN)
 
 bench: $(INSTALLED) $(CYIPOPT)
 	$(BIN)/python benchmarks/task_modelling.py

@@ -145,3 +145,13 @@ def test_bad_object_configs(tmp_path):
     (tmp_path / "c.yaml").write_text("type: superquadric\nsize_m: [0.01, -1, 0.1]\nexponents: [1, 1]\n")
     with pytest.raises(BadInputError, match="positive half-sizes"):
         load_object(tmp_path / "c.yaml")
+
+
+def test_a_loaded_object_carries_its_symmetry(tmp_path):
+    assert load_object("configs/objects/tool.yaml").symmetry == {"rotation_axis": "z", "flip_axis": "z"}
+    assert load_object("configs/objects/box.yaml").symmetry is None
+    (tmp_path / "s.yaml").write_text(
+        "type: superquadric\nsize_m: [0.01, 0.01, 0.1]\nexponents: [1, 1]\nsymmetry: {rotation_axis: y}\n"
+    )
+    with pytest.raises(BadInputError, match="symmetry.rotation_axis"):
+        load_object(tmp_path / "s.yaml")

@@ -6,10 +6,19 @@ import numpy as np
 import pandas as pd
 import pytest
 import scipy.linalg
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
+from grasptask.errors import BadInputError
 from grasptask.io.artifacts import Provenance, StagedOutput, read_parquet_provenance
 from grasptask.task import preprocess
-from grasptask.task.distances import compute_distances, loo_1nn_accuracy
+from grasptask.task.distances import (
+    compute_distances,
+    embedding_2d,
+    embedding_from_distances,
+    loo_1nn_accuracy,
+    read_distances,
+)
 from tests.test_spd import random_spd
 
 
@@ -62,21 +71,26 @@ def test_artifacts_carry_provenance(tmp_path):
     assert ledger["s.csv"]["version"]
 
 
-def test_distance_matrix_matches_pairwise_scipy_logm():
-    rng = np.random.default_rng(0)
-    matrices = [random_spd(rng) for _ in range(6)]
-    table = pd.DataFrame(
+def _ellipsoid_table(matrices):
+    k = len(matrices)
+    half = ["a"] * (k // 2) + ["b"] * (k - k // 2)
+    return pd.DataFrame(
         {
-            "id": [f"e{k}" for k in range(6)],
-            "task": ["a"] * 3 + ["b"] * 3,
+            "id": [f"e{i}" for i in range(k)],
+            "task": half,
             "grasp": "free",
-            "group": ["a"] * 3 + ["b"] * 3,
+            "group": half,
             "subject": "1",
-            "trial": range(6),
+            "trial": range(k),
             "S": [m.ravel() for m in matrices],
         }
     )
-    distances = compute_distances(table)
+
+
+def test_distance_matrix_matches_pairwise_scipy_logm():
+    rng = np.random.default_rng(0)
+    matrices = [random_spd(rng) for _ in range(6)]
+    distances = compute_distances(_ellipsoid_table(matrices))
     for i in range(6):
         for j in range(6):
             expected = np.linalg.norm(scipy.linalg.logm(matrices[i]).real - scipy.linalg.logm(matrices[j]).real)
@@ -91,3 +105,30 @@ def test_loo_1nn_accuracy_on_a_known_layout():
     distances = np.abs(points[:, None] - points[None, :])
     labels = np.array(["a", "a", "a", "b", "b", "b"])
     assert loo_1nn_accuracy(distances, labels) == pytest.approx(4 / 6)
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.integers(3, 12))
+def test_embedding_from_the_distances_alone_is_the_embedding_of_the_matrices(seed, k):
+    """Classical MDS of the Log-Euclidean distances gives the PCA coordinates of the matrix logs, so the report
+    can draw the embedding from distances.parquet without the matrices."""
+    rng = np.random.default_rng(seed)
+    matrices = np.stack([random_spd(rng) for _ in range(k)])
+    distances = compute_distances(_ellipsoid_table(list(matrices)))
+    direct = embedding_2d(matrices[[int(i[1:]) for i in distances.table["id"]]])
+    np.testing.assert_allclose(embedding_from_distances(distances.raw), direct, atol=1e-8 * np.abs(direct).max())
+
+
+def test_distances_read_back_from_their_table(tmp_path):
+    rng = np.random.default_rng(1)
+    table = _ellipsoid_table([random_spd(rng) for _ in range(6)])
+    distances = compute_distances(table)
+    path = tmp_path / "distances.parquet"
+    distances.long_table().to_parquet(path)
+    again = read_distances(path, table)
+    assert list(again.table["id"]) == list(distances.table["id"])
+    np.testing.assert_array_equal(again.raw, distances.raw)
+    np.testing.assert_allclose(again.embedding, distances.embedding, atol=1e-9)
+    distances.long_table().iloc[:-1].to_parquet(path)
+    with pytest.raises(BadInputError, match="6 x 6 distances"):
+        read_distances(path, table)

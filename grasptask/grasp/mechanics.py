@@ -73,7 +73,7 @@ def task_torques(
     Returns ``(tau, f)``, or ``(None, None)`` if no contact forces produce the wrench.
     """
     f_p = np.linalg.lstsq(G, wrench, rcond=None)[0] if particular is None else particular
-    if np.linalg.norm(G @ f_p - wrench) > 1e-8 * max(1.0, np.linalg.norm(wrench)):
+    if np.linalg.norm(G @ f_p - wrench) > 1e-8 * max(1.0, float(np.linalg.norm(wrench))):
         return None, None
     A = internal_forces(G) if A is None else A
     x = -np.linalg.lstsq(J.T @ A, J.T @ f_p, rcond=None)[0] if A.size else np.zeros(0)

@@ -1,4 +1,5 @@
-"""The independent grasp verifier (SPEC section 7): numpy and scipy only, sharing no code with the NLP.
+"""The independent grasp verifier: numpy and scipy only, sharing no code with the NLP (README, "Hand, objects
+and the grasp verifier").
 
 A grasp counts as found only when :func:`verify` accepts it. Distances are Euclidean, measured against a
 dense sampling of the object's surface (:class:`grasptask.objects.surface.SurfaceIndex`), not the implicit

@@ -199,9 +199,8 @@ def load_hand(path: str | Path = DEFAULT_HAND) -> Hand:
         for j in joints:
             if j.coupled_to is not None and j.coupled_to not in names:
                 raise BadInputError(path, f"joint '{j.name}' is coupled to unknown joint '{j.coupled_to}'")
-        joints = tuple(joints)
         base = require(spec, "base", path, dict)
-        muscles, arms, forces = _tendons(data, name, joints, path)
+        muscles, arms, forces = _tendons(data, name, tuple(joints), path)
         fingers[name] = Finger(
             name=name,
             base_position=np.asarray(base["position_m"], dtype=float),
@@ -210,14 +209,15 @@ def load_hand(path: str | Path = DEFAULT_HAND) -> Hand:
             pad_along=float(spec.get("pad_along", 0.65)),
             sample_fractions=tuple(spec.get("sample_fractions", [0.0, 0.35, 0.7])),
             distal_sample_fractions=tuple(spec.get("distal_sample_fractions", [0.0, 0.3])),
-            joints=joints,
+            joints=tuple(joints),
             muscles=muscles,
             moment_arms=arms,
             max_forces=forces,
         )
     palm = require(data, "palm", path, dict)
-    xs = np.linspace(*palm["x_range_m"], palm["grid"][0])
-    ys = np.linspace(*palm["y_range_m"], palm["grid"][1])
+    (x0, x1), (y0, y1) = palm["x_range_m"], palm["y_range_m"]
+    xs = np.linspace(float(x0), float(x1), int(palm["grid"][0]))
+    ys = np.linspace(float(y0), float(y1), int(palm["grid"][1]))
     points = np.array([[x, y, 0.0] for x in xs for y in ys])
     grasping = tuple(data.get("grasping_fingers", list(fingers)))
     for name in grasping:

@@ -95,7 +95,7 @@ class StagedOutput:
         self.out = Path(out)
         self.provenance = provenance
         self._staged: list[str] = []
-        self._tmp: Path | None = None
+        self._tmp = Path()  # the staging folder, made on entry
 
     def __enter__(self) -> StagedOutput:
         parent = self.out.resolve().parent
@@ -131,7 +131,7 @@ class StagedOutput:
     def write_csv(self, name: str, frame: pd.DataFrame) -> None:
         frame.to_csv(self.path(name), index=False)
 
-    def write_with(self, name: str, writer: Callable[[Path], None]) -> None:
+    def write_with(self, name: str, writer: Callable[[Path], object]) -> None:
         writer(self.path(name))
 
     def _commit(self) -> None:

@@ -76,7 +76,8 @@ def read_manifest(path: str | Path) -> list[RecordingEntry]:
             raise BadInputError(path, f"unexpected column (allowed: {', '.join(REQUIRED + OPTIONAL)})", column=name)
     if frame.empty:
         raise BadInputError(path, "manifest lists no recordings")
-    entries, seen = [], {}
+    entries: list[RecordingEntry] = []
+    seen: dict[str, int] = {}
     for index, row in enumerate(frame.to_dict("records"), start=1):
         entry = _entry(path, index, row)
         if entry.id in seen:

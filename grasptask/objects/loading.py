@@ -92,7 +92,7 @@ def _surface_samples(path: Path, data: dict) -> tuple[np.ndarray, np.ndarray]:
         mesh_path = path.parent / str(data["mesh"])
         if not mesh_path.is_file():
             raise BadInputError(path, f"mesh file not found: {mesh_path}")
-        mesh = trimesh.load(mesh_path, force="mesh")
+        mesh: trimesh.Trimesh = trimesh.load(mesh_path, force="mesh")  # type: ignore[assignment]
         if not mesh.is_watertight:
             raise BadInputError(mesh_path, "mesh is not closed (watertight), so inside and outside are undefined")
         points, faces = trimesh.sample.sample_surface_even(mesh, int(data.get("n_samples", 6000)), seed=0)

@@ -4,6 +4,7 @@ main axes (the paper's Figures 2, 7 and 10)."""
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import matplotlib.pyplot as plt
 import numpy as np
@@ -30,7 +31,8 @@ def recording_samples(manifest: Path, ids, per_recording: int = 150, seed: int =
     """Up to ``per_recording`` preprocessed object-frame wrench samples (N, N.m) of each recording in ``ids``."""
     wanted = set(ids)
     rng = np.random.default_rng(seed)
-    tools, samples = {}, {}
+    tools: dict[Path, Any] = {}
+    samples: dict[str, np.ndarray] = {}
     for entry in read_manifest(manifest):
         if entry.id not in wanted:
             continue

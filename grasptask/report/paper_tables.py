@@ -16,7 +16,6 @@ DRAWING_GROUPS = ("drawing_tripod", "drawing_cylindrical", "drawing_power")
 TASK_GROUPS = ("drawing_tripod", "cutting", "screwdriving")
 RAW = ("mu", "sigma", "cv")
 NORMALISED = ("mu_n", "sigma_n", "cv_n")
-UNITS = {"force": "N", "torque": "N.cm"}
 
 
 @dataclass(frozen=True)

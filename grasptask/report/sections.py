@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from grasptask.hand.model import Hand
 from grasptask.io.artifacts import StagedOutput
 from grasptask.io.config import read_json
 from grasptask.io.reference import PaperSynthesis
@@ -222,7 +223,8 @@ def grasps_section(
         )
     )
     task_models = load_task_models(results.task_models) if results.task_models.is_file() else {}
-    objects, hands = {}, {}
+    objects: dict[Path, tuple] = {}
+    hands: dict[Path, Hand] = {}
     for task, sweep in sweeps.items():
         if sweep.optima.empty:
             section.blocks.append(Note(f"{task}: no verified grasp among {len(sweep.solutions)} starts"))

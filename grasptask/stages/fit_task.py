@@ -24,17 +24,17 @@ __all__ = ["FitOptions", "Preprocess", "entries_from_inputs", "run_fit_task"]
 
 def entries_from_inputs(inputs: Sequence[str | Path], **labels) -> list[RecordingEntry]:
     """A manifest's entries, or one entry per recording file labelled by ``labels``."""
-    inputs = [Path(p) for p in inputs]
-    if not inputs:
+    paths = [Path(p) for p in inputs]
+    if not paths:
         raise BadInputError("fit-task", "give a manifest or at least one recording file")
-    if len(inputs) == 1 and is_manifest(inputs[0]):
-        return read_manifest(inputs[0])
-    for path in inputs:
+    if len(paths) == 1 and is_manifest(paths[0]):
+        return read_manifest(paths[0])
+    for path in paths:
         if is_manifest(path):
             raise BadInputError(path, "a manifest must be the only input")
     task, grasp = labels.get("task", "unlabelled"), labels.get("grasp", "free")
     entries = []
-    for trial, path in enumerate(inputs, start=1):
+    for trial, path in enumerate(paths, start=1):
         subject = labels.get("subject") or path.stem
         entries.append(
             RecordingEntry(

@@ -51,6 +51,8 @@ class SynthesisOptions:
     resume: bool = False
 
     def __post_init__(self) -> None:
+        for name in ("tasks", "out", "hand", "object", "solver_config", "grasp_config"):
+            object.__setattr__(self, name, Path(getattr(self, name)))  # strings from a notebook are welcome
         if self.executor not in EXECUTORS:
             raise BadInputError("synthesize", f"unknown executor '{self.executor}' (known: {', '.join(EXECUTORS)})")
         if self.backend not in BACKENDS:
@@ -69,7 +71,7 @@ class SynthesisOptions:
 
     @property
     def folder(self) -> Path:
-        return Path(self.out) / self.task
+        return self.out / self.task
 
 
 def _read_done(path: Path) -> list[dict]:
@@ -237,7 +239,7 @@ def summarise(
             "seconds_per_solution_sd": paper.sd_s,
             "distinct_optima": paper.optima.get(options.task),
         },
-        "versions": {"casadi": casadi.__version__, "pyomo": pyomo.version.version},
+        "versions": {"casadi": casadi.CasadiMeta.version(), "pyomo": pyomo.version.version},
     }
     config = {k: str(v) for k, v in asdict(options).items() if k != "out"}
     inputs = [options.tasks, options.hand, options.object, options.solver_config, options.grasp_config]

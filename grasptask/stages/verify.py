@@ -42,7 +42,7 @@ def run_verify(
             raise BadInputError(solutions_path, "missing column", column=column)
     rows = []
     for _, row in solutions.iterrows():
-        record = {"start_id": int(row["start_id"])}
+        record: dict[str, object] = {"start_id": int(row["start_id"])}
         if pd.isna(row["palm_x"]):
             record.update({"verified": False, "verify_failures": "no solution"})
         else:

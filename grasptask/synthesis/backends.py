@@ -12,7 +12,9 @@ import io
 import os
 import tempfile
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any, Protocol
 
 import casadi
 import numpy as np
@@ -70,9 +72,9 @@ class CasadiNLP:
                 handle.write(nl_text)
             builder = casadi.NlpBuilder()
             builder.import_nl(path, {"verbose": False})
-        self.x = casadi.vertcat(*builder.x)
-        self.f = builder.f
-        self.g = casadi.vertcat(*builder.g)
+        self.x: Any = casadi.vertcat(*builder.x)
+        self.f: Any = builder.f
+        self.g: Any = casadi.vertcat(*builder.g)
         self.lbx, self.ubx = np.array(builder.x_lb, float), np.array(builder.x_ub, float)
         self.lbg, self.ubg = np.array(builder.g_lb, float), np.array(builder.g_ub, float)
 
@@ -118,18 +120,19 @@ class CyipoptBackend:
 
         self.cyipopt = cyipopt
         nlp = self.nlp = CasadiNLP(nl_text)
-        x, f, g = nlp.x, nlp.f, nlp.g
+        x, f, g = nlp.x, nlp.f, nlp.g  # MX from CasADi's import (untyped here: it becomes SX below)
         sigma, lam = casadi.SX.sym("sigma"), casadi.SX.sym("lambda", g.shape[0])
         if isinstance(x, casadi.MX):  # CasADi's import gives MX; expand to SX like nlpsol(expand=True)
             fg = casadi.Function("fg", [x], [f, g]).expand()
             x = casadi.SX.sym("x", x.shape[0])
             f, g = fg(x)
         jac = casadi.jacobian(g, x)
-        hess = casadi.tril(casadi.hessian(sigma * f + casadi.dot(lam, g), x)[0])
+        hess: Any = casadi.tril(casadi.hessian(sigma * f + casadi.dot(lam, g), x)[0])
         self._f = casadi.Function("objective", [x], [f])
         self._grad = casadi.Function("objective_gradient", [x], [casadi.gradient(f, x)])
         self._g = casadi.Function("constraints", [x], [g])
-        self._jac = casadi.Function("constraint_jacobian", [x], [jac.nz[:]]) if jac.nnz() else None
+        # an NLP without constraints has an empty Jacobian, which cyipopt then never asks for
+        self._jac = casadi.Function("constraint_jacobian", [x], [jac.nz[:] if jac.nnz() else casadi.DM(0, 1)])
         self._jac_rc = jac.sparsity().get_triplet()
         self._hess = casadi.Function("lagrangian_hessian", [x, sigma, lam], [hess.nz[:]])
         self._hess_rc = hess.sparsity().get_triplet()
@@ -184,4 +187,10 @@ class CyipoptBackend:
         return SolveResult(status, iterations[0], time.perf_counter() - start, np.asarray(x), message)
 
 
-BACKENDS = {"casadi": CasadiBackend, "cyipopt": CyipoptBackend}
+class Backend(Protocol):
+    name: str
+
+    def solve(self, x0: np.ndarray) -> SolveResult: ...
+
+
+BACKENDS: dict[str, Callable[[str, dict], Backend]] = {"casadi": CasadiBackend, "cyipopt": CyipoptBackend}

@@ -1,15 +1,14 @@
 """Pyomo expressions turned into one CasADi function of a few input variables.
 
 Placement evaluates every defined variable of the NLP (link frames, contacts, normals, cone edges, Jacobians)
-and the collision margins at each start, several times over. Walking the Pyomo expression trees for that took
-75 ms per start on the tool cylinder, and 10-50 s on the GP mug (2,183 kernel terms in every margin and
-normal); with the compiled function placement takes 5 ms and 60 ms. The conversion walks each tree once, when
-a worker builds its model (0.1 s for the cylinder, about 50 s for the mug).
+and the collision margins several times per start; walking the Pyomo expression trees each time is slow, so
+the trees are converted once, when a worker builds its model (timings in docs/synthesis-notes.md).
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import Any
 
 import casadi
 import numpy as np
@@ -38,7 +37,8 @@ class _ToCasadi(StreamBasedExpressionVisitor):
     def __init__(self, symbols: dict):
         super().__init__()
         self.symbols = symbols
-        self.memo = {}  # id(node) -> (node, SX); the node is kept so that its id is not reused
+        # id(node) -> (node, SX); the node is kept so that its id is not reused
+        self.memo: dict[int, tuple[Any, Any]] = {}
 
     def _known(self, node):
         """``(True, value)`` for a number, variable, parameter or converted sub-expression, else ``(False, None)``."""

@@ -9,6 +9,7 @@ goes on.
 
 from __future__ import annotations
 
+import itertools
 import multiprocessing as mp
 import os
 import queue
@@ -18,6 +19,7 @@ import time
 import traceback
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -108,21 +110,22 @@ class SolverContext:
 
         if str(start.start_id) in os.environ.get(CRASH_ENV, "").split(","):
             os._exit(13)
-        row = {"start_id": start.start_id, "orientation": start.orientation, "position": start.position_name}
+        row: dict[str, Any] = {
+            "start_id": start.start_id,
+            "orientation": start.orientation,
+            "position": start.position_name,
+        }
         joints = self.nlp.hand.mid_range()
         began = time.perf_counter()
         if self.job.solver.placement:
             row["placement_backoff_m"] = place(self.nlp, start, self.bounds, joints)
         else:
             self.nlp.initialise(start.palm_rotation, start.palm_position, joints)
-        row["placement_seconds"] = time.perf_counter() - began
+        row["placement_seconds"] = placed = time.perf_counter() - began
         result = self.backend.solve(_values(self.order))
         # a start's seconds are all it took to solve it: placement (or initialisation) and IPOPT
         row.update(
-            status=result.status,
-            iterations=result.iterations,
-            seconds=result.seconds + row["placement_seconds"],
-            message=result.message,
+            status=result.status, iterations=result.iterations, seconds=result.seconds + placed, message=result.message
         )
         if result.x is None:
             return {**row, "Q": float("nan"), "verified": False}
@@ -212,16 +215,14 @@ def run_pool(
     procs: dict[int, tuple] = {}  # worker id -> (process, its task queue)
     holding: dict[int, tuple[Start, float]] = {}
     restarts = 0
+    ids = itertools.count()
 
     def spawn() -> None:
-        worker_id = spawn.next_id
-        spawn.next_id += 1
+        worker_id = next(ids)
         tasks = ctx.Queue()
         proc = ctx.Process(target=_worker, args=(job, tasks, results, worker_id), daemon=True)
         proc.start()
         procs[worker_id] = (proc, tasks)
-
-    spawn.next_id = 0
 
     def assign(worker_id: int) -> None:
         if pending and worker_id in procs:

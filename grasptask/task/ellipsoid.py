@@ -1,4 +1,4 @@
-"""Task ellipsoids from wrench samples (paper Section 2; SPEC section 3)."""
+"""Task ellipsoids from wrench samples (paper Section 2)."""
 
 from __future__ import annotations
 

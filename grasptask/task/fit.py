@@ -19,8 +19,6 @@ from grasptask.task import preprocess
 from grasptask.task.ellipsoid import Ellipsoid, is_singular, second_moment
 from grasptask.task.frames import transform_wrenches
 
-ELLIPSOID_COLUMNS = ["id", "task", "grasp", "group", "subject", "trial", "path", "n_samples", "duration_s"]
-
 
 @dataclass(frozen=True)
 class FitOptions:

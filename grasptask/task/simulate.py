@@ -1,4 +1,5 @@
-"""Synthetic sensorized-tool demonstrations (SPEC section 4).
+"""Synthetic sensorized-tool demonstrations of the paper's three tasks (Section 7; README, "The demonstration
+simulator").
 
 Each task is a small physical model of the contact between the tool tip and the environment, expressed in
 the object frame (origin at the handle centre, z along the handle):

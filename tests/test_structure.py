@@ -1,0 +1,76 @@
+"""The layout the other issues build on: the CLI over grasptask.stages only, a report that does not load the
+solver stack, the NLP's equation map in its order, and options checked before any work."""
+
+import ast
+import subprocess
+import sys
+from pathlib import Path
+
+import pyomo.environ as pyo
+
+from grasptask.hand import load_hand
+from grasptask.objects import load_object
+from grasptask.synthesis.model import EQUATIONS, build_model
+from grasptask.task.model import load_task_models
+
+
+def test_the_cli_imports_only_the_stages_package():
+    tree = ast.parse(Path("grasptask/cli.py").read_text())
+    imported = {node.module for node in ast.walk(tree) if isinstance(node, ast.ImportFrom)}
+    imported |= {alias.name for node in ast.walk(tree) if isinstance(node, ast.Import) for alias in node.names}
+    assert {m for m in imported if m and m.startswith("grasptask")} == {"grasptask", "grasptask.stages"}
+
+
+def test_the_report_does_not_load_the_solver_stack():
+    code = (
+        "import sys, pkgutil, importlib, grasptask.report\n"
+        "for m in pkgutil.iter_modules(grasptask.report.__path__):\n"
+        "    importlib.import_module('grasptask.report.' + m.name)\n"
+        "import grasptask.stages.report\n"
+        "print(sorted(m for m in ('casadi', 'pyomo', 'grasptask.synthesis.backends') if m in sys.modules))"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "[]"
+
+
+def test_the_equation_families_create_their_components_in_the_paper_s_order(simulated):
+    """The order of creation fixes the NL writer's column order, which the solver's path depends on."""
+    tasks = load_task_models(simulated[0] / "tasks" / "task_models.json")
+    model = build_model(load_hand(), load_object("configs/objects/tool.yaml"), tasks["drawing"]).model
+    names = [c.local_name for c in model.component_objects((pyo.Var, pyo.Constraint, pyo.Objective))]
+    assert [f.__name__ for f in EQUATIONS] == [
+        "palm_and_joints",
+        "kinematics",
+        "contacts_and_collisions",
+        "cones_and_wrenches",
+        "jacobians",
+        "force_closure",
+        "task_forces_and_quality",
+        "torque_feasibility",
+        "objective",
+    ]
+    assert names == [
+        "R_h", "d_h", "theta", "eq16_23_palm_orthonormal", "eq22_coupling",
+        "frame", "eq2_frame", "p", "eq2_contact_point",
+        "eq3_contact", "eq14_collision", "n", "t", "normal_definition", "tangent_definition", "pad_facing",
+        "l", "l_torque", "eq24_cone_edge", "eq5_wrench",
+        "J", "eq7_jacobian", "edge_torque", "eq7_edge_torque",
+        "phi", "eq4_weights_sum", "eq4_force_closure",
+        "force", "eq8_task_force",
+        "lam", "act", "eq10_wrench", "eq10_torque",
+        "eq12_objective",
+    ]  # fmt: skip
+
+
+def test_executor_options_that_contradict_each_other_are_refused(cli, simulated, tmp_path):
+    tasks = simulated[0] / "tasks" / "task_models.json"
+    base = ("synthesize", "--tasks", tasks, "--task", "drawing", "--out", tmp_path)
+    for extra, expected in (
+        (("--executor", "serial", "--workers", "2"), "drop --workers 2"),
+        (("--executor", "dask"), "needs --scheduler"),
+        (("--scheduler", "tcp://127.0.0.1:1"), "for --executor dask"),
+    ):
+        result = cli(*base, *extra)
+        assert result.exit_code == 2 and expected in result.output, result.output
+        assert len(result.output.strip().splitlines()) == 1
+    assert not (tmp_path / "drawing").exists()
