@@ -23,7 +23,9 @@ def tangent_basis(normals: np.ndarray, reference: np.ndarray | None = None) -> t
     return t1, np.cross(normals, t1)
 
 
-def friction_cone_edges(inward_normals: np.ndarray, mu: float, m: int, reference: np.ndarray | None = None):
+def friction_cone_edges(
+    inward_normals: np.ndarray, mu: float, m: int, reference: np.ndarray | None = None
+) -> np.ndarray:
     """``(b, m, 3)`` unit edges ``l_i`` of the linearised cone about each inward normal (eq. 24).
 
     As in eq. 24, where the cone is attached to the finger's frame ``R_h R_q^j``, ``reference`` gives each
@@ -65,7 +67,7 @@ def internal_forces(G: np.ndarray) -> np.ndarray:
 
 def task_torques(
     G: np.ndarray, J: np.ndarray, wrench: np.ndarray, particular: np.ndarray | None = None, A: np.ndarray | None = None
-):
+) -> tuple[np.ndarray, np.ndarray] | tuple[None, None]:
     """Joint torques of least norm that apply ``wrench`` through the contacts (eq. 13).
 
     ``tau = J^T (f_p + A x)`` with ``G f_p = wrench`` and the internal forces ``x`` chosen to minimise ``|tau|``.
@@ -81,7 +83,9 @@ def task_torques(
     return J.T @ f, f
 
 
-def task_quality(G: np.ndarray, J: np.ndarray, axes: np.ndarray, weights: np.ndarray, m_tau: np.ndarray | None = None):
+def task_quality(
+    G: np.ndarray, J: np.ndarray, axes: np.ndarray, weights: np.ndarray, m_tau: np.ndarray | None = None
+) -> tuple[float, np.ndarray | None]:
     """``Q = sum_i gamma_i tau_i^T M_tau tau_i`` over the task axes ``u_i`` (rows of ``axes``) (eq. 12).
 
     ``M_tau`` is the identity by default; with another SPD matrix the least-norm problem is solved in its

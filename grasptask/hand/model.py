@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -87,7 +88,7 @@ class Hand:
             start += finger.n_joints
         return out
 
-    def subset(self, names) -> Hand:
+    def subset(self, names: Iterable[str]) -> Hand:
         """The same hand with only the named fingers (in the given order), e.g. the grasping fingers."""
         names = list(names)
         unknown = [n for n in names if n not in self.fingers]

@@ -4,6 +4,7 @@ shared by ``synthesize`` (``run.json``), the report and the benchmark."""
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
 
 import pandas as pd
 
@@ -28,7 +29,7 @@ class PaperSynthesis:
         return f"{self.mean_s:.0f} +- {self.sd_s:.0f} s"
 
 
-def read_paper_synthesis(path=PAPER_SYNTHESIS) -> PaperSynthesis:
+def read_paper_synthesis(path: str | Path = PAPER_SYNTHESIS) -> PaperSynthesis:
     table = pd.read_csv(path, comment="#")
 
     def rows(quantity):

@@ -105,7 +105,9 @@ class GPImplicitSurface(ImplicitObject):
         return np.stack([surface.min(axis=0), surface.max(axis=0)])
 
     @classmethod
-    def solve(cls, inputs: np.ndarray, targets: np.ndarray, n_surface: int, smoothing: float = 0.0, name="gp"):
+    def solve(
+        cls, inputs: np.ndarray, targets: np.ndarray, n_surface: int, smoothing: float = 0.0, name: str = "gp"
+    ) -> GPImplicitSurface:
         """Kriging weights for the given training set: the saddle-point system of the covariance and the mean."""
         n = len(inputs)
         basis = np.hstack([np.ones((n, 1)), inputs])
@@ -123,7 +125,7 @@ class GPImplicitSurface(ImplicitObject):
         n_support: int = 250,
         max_support: int = 500,
         tolerance: float = 5e-4,
-        offsets=OFFSETS,
+        offsets: tuple[float, ...] = OFFSETS,
         seed: int = 0,
         name: str = "gp",
     ) -> GPImplicitSurface:

@@ -101,7 +101,9 @@ class SurfaceIndex:
     tree: cKDTree
 
     @classmethod
-    def build(cls, obj: ImplicitObject, grid_cells: int = 120_000, spacing: float = 7e-4, max_points: int = 200_000):
+    def build(
+        cls, obj: ImplicitObject, grid_cells: int = 120_000, spacing: float = 7e-4, max_points: int = 200_000
+    ) -> SurfaceIndex:
         extent = np.diff(obj.bounds(), axis=0)[0]
         h = min(float(np.cbrt(np.prod(extent) / grid_cells)), extent.min() / 12)
         mesh = surface_mesh(obj, h)

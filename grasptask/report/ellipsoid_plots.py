@@ -3,6 +3,7 @@ main axes (the paper's Figures 2, 7 and 10)."""
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
@@ -27,7 +28,9 @@ DOMAINS = (
 MAIN_AXIS = "magenta"
 
 
-def recording_samples(manifest: Path, ids, per_recording: int = 150, seed: int = 0) -> dict[str, np.ndarray]:
+def recording_samples(
+    manifest: Path, ids: Iterable[str], per_recording: int = 150, seed: int = 0
+) -> dict[str, np.ndarray]:
     """Up to ``per_recording`` preprocessed object-frame wrench samples (N, N.m) of each recording in ``ids``."""
     wanted = set(ids)
     rng = np.random.default_rng(seed)
@@ -108,7 +111,7 @@ def plot_task_ellipsoids(
     plt.close(fig)
 
 
-def load_samples_or_note(manifest: Path, ids) -> tuple[dict[str, np.ndarray] | None, str | None]:
+def load_samples_or_note(manifest: Path, ids: Iterable[str]) -> tuple[dict[str, np.ndarray] | None, str | None]:
     """The data points, or why they cannot be shown (the figures are drawn without them)."""
     if not manifest.is_file():
         return None, f"no recordings manifest at {manifest}, so the ellipsoid figures show no data points"

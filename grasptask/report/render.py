@@ -4,6 +4,7 @@ friction cones and the task's main wrench axis (for the report, and for looking 
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import matplotlib.pyplot as plt
 import numpy as np
@@ -32,18 +33,18 @@ def _capsule_line(ax, a, b, radius, colour):
 
 
 def draw_grasp(
-    ax,
+    ax: Any,
     hand: Hand,
     obj: ImplicitObject,
-    palm_rotation,
-    palm_position,
-    joint_angles,
-    contacts=None,
-    normals=None,
+    palm_rotation: np.ndarray,
+    palm_position: np.ndarray,
+    joint_angles: np.ndarray,
+    contacts: np.ndarray | None = None,
+    normals: np.ndarray | None = None,
     mu: float = 0.5,
-    task_axis=None,
+    task_axis: np.ndarray | None = None,
     mesh: trimesh.Trimesh | None = None,
-):
+) -> None:
     """Draw one grasp on a 3D axis; ``contacts``/``normals`` (outward) add contact points and friction cones.
     ``mesh`` is the object's picture (made by :func:`display_mesh` when not given)."""
     mesh = display_mesh(obj) if mesh is None else mesh
@@ -86,7 +87,9 @@ def draw_grasp(
     ax.set_zlabel("z (m)")
 
 
-def render_grasp(path: Path, title: str, views=((20, -60), (20, 30)), **grasp) -> None:
+def render_grasp(
+    path: Path, title: str, views: tuple[tuple[float, float], ...] = ((20, -60), (20, 30)), **grasp: Any
+) -> None:
     """Two viewpoints of one grasp side by side, saved as a PNG."""
     apply_style()
     fig = plt.figure(figsize=(10, 4.8))

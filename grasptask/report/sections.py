@@ -5,6 +5,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import pandas as pd
+
 from grasptask.hand.model import Hand
 from grasptask.io.artifacts import StagedOutput
 from grasptask.io.config import read_json
@@ -28,7 +30,7 @@ class Writer:
         self.figures.append(name)
         return self.staged.path(f"figures/{name}.png")
 
-    def table(self, name: str, caption: str, frame) -> Table:
+    def table(self, name: str, caption: str, frame: pd.DataFrame) -> Table:
         table = Table(name, caption, frame)
         self.staged.write_with(f"tables/{name}.md", lambda p: p.write_text(markdown(table)))
         self.tables.append(name)

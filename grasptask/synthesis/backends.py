@@ -54,7 +54,7 @@ class SolveResult:
     message: str = ""
 
 
-def write_nl(model) -> tuple[str, list]:
+def write_nl(model: Any) -> tuple[str, list]:
     """The model as NL text (numeric labels only: symbolic ones break CasADi's import) and its variable order."""
     nl, row, col = io.StringIO(), io.StringIO(), io.StringIO()
     # no linear presolve: it would eliminate variables (e.g. the coupled DIP angles) from the column list

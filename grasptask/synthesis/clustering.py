@@ -17,7 +17,9 @@ def _rotation_z(angle):
     return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
 
 
-def descriptor(contacts: np.ndarray, palm_position: np.ndarray, palm_normal: np.ndarray, symmetry: dict | None):
+def descriptor(
+    contacts: np.ndarray, palm_position: np.ndarray, palm_normal: np.ndarray, symmetry: dict | None
+) -> np.ndarray:
     """Contacts, palm centre and palm normal, brought to a canonical pose under the object's symmetry.
 
     For a body of revolution about z that may also be flipped end for end (the tool), the grasp is turned

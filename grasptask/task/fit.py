@@ -26,7 +26,9 @@ class FitOptions:
     centered: bool = False
 
 
-def load_wrenches(entry: RecordingEntry, tool: ToolConfig | None = None, options: FitOptions = FitOptions()):
+def load_wrenches(
+    entry: RecordingEntry, tool: ToolConfig | None = None, options: FitOptions = FitOptions()
+) -> tuple[np.ndarray, np.ndarray]:
     """Time (s) and ``(n, 6)`` wrenches (N, N.m) in the object frame, preprocessed."""
     tool = tool or ToolConfig(name="none")
     data = read_recording(entry.path, tool.columns, tool.ignore_columns)
@@ -48,7 +50,9 @@ def load_wrenches(entry: RecordingEntry, tool: ToolConfig | None = None, options
     return t, wrenches
 
 
-def fit_entry(entry: RecordingEntry, tool: ToolConfig | None = None, options: FitOptions = FitOptions()):
+def fit_entry(
+    entry: RecordingEntry, tool: ToolConfig | None = None, options: FitOptions = FitOptions()
+) -> tuple[Ellipsoid, int, float]:
     """The recording's ellipsoid and its sample count and duration."""
     t, wrenches = load_wrenches(entry, tool, options)
     if not np.any(wrenches):

@@ -45,7 +45,9 @@ def lowpass(t: np.ndarray, wrenches: np.ndarray, cutoff_hz: float, order: int = 
     return signal.sosfiltfilt(sos, wrenches, axis=0, padlen=padlen)
 
 
-def apply(t: np.ndarray, wrenches: np.ndarray, options: Preprocess, bias_window_s: float = 0.0):
+def apply(
+    t: np.ndarray, wrenches: np.ndarray, options: Preprocess, bias_window_s: float = 0.0
+) -> tuple[np.ndarray, np.ndarray]:
     """Bias removal (recording's window unless overridden), trimming, then filtering."""
     window = options.bias_window_s if options.bias_window_s is not None else bias_window_s
     if window > 0:

@@ -23,7 +23,7 @@ transformed to the object frame, so ingestion's frame transformation is exercise
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -252,7 +252,9 @@ def tool_yaml(config: dict[str, Any]) -> str:
     )
 
 
-def simulate(config: dict[str, Any], seed: int, progress: Callable[[Iterable], Iterable] = iter):
+def simulate(
+    config: dict[str, Any], seed: int, progress: Callable[[Iterable], Iterable] = iter
+) -> Iterator[tuple[Trial, np.ndarray, bool]]:
     """Yield ``(trial, samples, in_sensor_frame)`` for the whole protocol."""
     for trial in progress(trials(config)):
         samples, in_sensor = simulate_trial(config, trial, seed)

@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+from collections.abc import Iterable
+from pathlib import Path
+
 import numpy as np
 import pandas as pd
 
@@ -15,7 +18,7 @@ DOMAINS = {"force": (FORCE, 1.0), "torque": (TORQUE, 1.0 / TORQUE_UNITS[PAPER_TO
 PAPER_GROUP_ORDER = ["drawing_tripod", "drawing_cylindrical", "drawing_power", "cutting", "screwdriving"]
 
 
-def group_order(groups) -> list[str]:
+def group_order(groups: Iterable[str]) -> list[str]:
     """Groups in the paper's order, any others after them alphabetically."""
     present = list(dict.fromkeys(groups))
     known = [g for g in PAPER_GROUP_ORDER if g in present]
@@ -57,7 +60,7 @@ def statistics_table(ellipsoids: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame(rows, columns=STATS_COLUMNS)
 
 
-def read_reference(path) -> pd.DataFrame:
+def read_reference(path: str | Path) -> pd.DataFrame:
     return pd.read_csv(path, comment="#", dtype={"axis": str})
 
 
