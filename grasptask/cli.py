@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import os
+import signal
+import threading
 from pathlib import Path
 
 import click
@@ -21,15 +23,33 @@ from grasptask.stages import (
 )
 
 
+def _interrupt(signum: int, frame: object) -> None:
+    raise KeyboardInterrupt
+
+
 class _Group(click.Group):
-    """Turns :class:`BadInputError` into one line on stderr and exit code 2."""
+    """Turns :class:`BadInputError`, and an output folder that cannot be written (read-only, a full disk), into
+    one line on stderr and exit code 2; SIGTERM into the same orderly stop as Ctrl-C (exit code 130), so that
+    no half-written artifact, staging folder or lock is left behind."""
 
     def invoke(self, ctx):
+        main_thread = threading.current_thread() is threading.main_thread()
+        previous = signal.signal(signal.SIGTERM, _interrupt) if main_thread else None
         try:
             return super().invoke(ctx)
         except BadInputError as exc:
             click.echo(f"error: {exc}", err=True)
             raise click.exceptions.Exit(2) from None
+        except OSError as exc:
+            where = exc.filename or ctx.invoked_subcommand or "grasptask"
+            click.echo(f"error: {where}: {exc.strerror or exc}", err=True)
+            raise click.exceptions.Exit(2) from None
+        except KeyboardInterrupt:
+            click.echo("interrupted: nothing half-written was kept", err=True)
+            raise click.exceptions.Exit(130) from None
+        finally:
+            if previous is not None:
+                signal.signal(signal.SIGTERM, previous)
 
 
 @click.group(cls=_Group, context_settings={"help_option_names": ["-h", "--help"]})

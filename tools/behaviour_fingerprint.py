@@ -28,7 +28,7 @@ from grasptask.grasp.settings import load_grasp_settings  # noqa: E402
 from grasptask.hand import load_hand  # noqa: E402
 from grasptask.objects import load_object  # noqa: E402
 from grasptask.paths import DEFAULT_GRASP_CONFIG, DEFAULT_HAND, DEFAULT_OBJECT, DEFAULT_SOLVER_CONFIG  # noqa: E402
-from grasptask.synthesis import sweep  # noqa: E402
+from grasptask.synthesis.context import Job, SolverContext  # noqa: E402
 from grasptask.synthesis.backends import write_nl  # noqa: E402
 from grasptask.synthesis.config import load_solver_config  # noqa: E402
 from grasptask.synthesis.model import build_model  # noqa: E402
@@ -52,7 +52,7 @@ def fingerprint(tasks_path: Path, n_starts: int = 12, seed: int = 0, nl_dir: Pat
             nl_dir.mkdir(parents=True, exist_ok=True)
             (nl_dir / f"{task}.nl").write_text(text)
         print(f"{task}: NL sha256 {nl[task][:16]}", flush=True)
-    job = sweep.Job(
+    job = Job(
         hand_path=str(DEFAULT_HAND),
         object_path=str(DEFAULT_OBJECT),
         tasks_path=str(tasks_path),
@@ -60,7 +60,7 @@ def fingerprint(tasks_path: Path, n_starts: int = 12, seed: int = 0, nl_dir: Pat
         solver=solver,
         settings_path=str(DEFAULT_GRASP_CONFIG),
     )
-    context = sweep.SolverContext(job)
+    context = SolverContext(job)
     rows = []
     for start in subset(make_starts(obj.bounds(), seed), n_starts):
         row = context.solve(start)

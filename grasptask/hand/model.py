@@ -5,11 +5,12 @@ from __future__ import annotations
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from grasptask.errors import BadInputError
-from grasptask.io.config import load_yaml, reject_unknown, require
+from grasptask.io.config import load_yaml, number, numbers, reject_unknown, require, whole
 from grasptask.paths import DEFAULT_HAND
 
 
@@ -128,9 +129,9 @@ class Hand:
         return q
 
 
-def _unit(vector, source, name) -> np.ndarray:
-    v = np.asarray(vector, dtype=float)
-    if v.shape != (3,) or not np.isfinite(v).all() or np.linalg.norm(v) < 1e-9:
+def _unit(vector: Any, source: Path, name: str) -> np.ndarray:
+    v = numbers(vector, source, name, 3)
+    if np.linalg.norm(v) < 1e-9:
         raise BadInputError(source, f"field '{name}' must be a non-zero 3-vector, got {vector!r}")
     return v / np.linalg.norm(v)
 
@@ -147,82 +148,110 @@ def _base_rotation(base: dict, source: Path, finger: str) -> np.ndarray:
 
 def _tendons(data: dict, finger: str, joints: tuple[Joint, ...], source: Path):
     tables = data.get("tendons", {})
+    if not isinstance(tables, dict):
+        raise BadInputError(source, "field 'tendons' must be a mapping of tendon tables")
     table = tables.get(finger)
     if table is None:
         raise BadInputError(source, f"missing tendon table 'tendons.{finger}'")
-    if "same_as" in table:
+    if isinstance(table, dict) and "same_as" in table:
         table = tables.get(table["same_as"], {})
-    muscles = table.get("muscles")
+    muscles = table.get("muscles") if isinstance(table, dict) else None
     if not isinstance(muscles, dict) or not muscles:
         raise BadInputError(source, f"tendon table for '{finger}' lists no muscles")
     arms, forces = [], []
     for name, muscle in muscles.items():
-        row = np.asarray(muscle.get("arms_mm", []), dtype=float)
-        if row.shape != (len(joints),):
-            raise BadInputError(source, f"muscle '{finger}.{name}' needs {len(joints)} moment arms, got {len(row)}")
-        force = float(muscle.get("max_force_n", -1))
-        if not force > 0:
-            raise BadInputError(source, f"muscle '{finger}.{name}' needs a positive max_force_n")
-        arms.append(row * 1e-3)
-        forces.append(force)
+        where = f"tendons.{finger}.muscles.{name}"
+        if not isinstance(muscle, dict):
+            raise BadInputError(source, f"field '{where}' must be a mapping with arms_mm and max_force_n")
+        arms.append(numbers(muscle.get("arms_mm"), source, f"{where}.arms_mm", len(joints)) * 1e-3)
+        forces.append(number(muscle.get("max_force_n"), source, f"{where}.max_force_n", positive=True))
     return tuple(muscles), np.array(arms).T, np.array(forces)
 
 
+def _joint(spec: Any, source: Path, where: str) -> Joint:
+    if not isinstance(spec, dict):
+        raise BadInputError(source, f"field '{where}' must be a mapping")
+    for key in ("name", "axis", "min_deg", "max_deg"):
+        if key not in spec:
+            raise BadInputError(source, f"missing field '{where}.{key}'")
+    lower = np.deg2rad(number(spec["min_deg"], source, f"{where}.min_deg"))
+    upper = np.deg2rad(number(spec["max_deg"], source, f"{where}.max_deg"))
+    if not lower < upper:
+        raise BadInputError(source, f"field '{where}': min_deg must be below max_deg")
+    coupled = spec.get("coupled_to")
+    return Joint(
+        name=str(spec["name"]),
+        axis=_unit(spec["axis"], source, f"{where}.axis"),
+        lower=float(lower),
+        upper=float(upper),
+        link=number(spec.get("link_m", 0.0), source, f"{where}.link_m", minimum=0.0),
+        coupled_to=None if coupled is None else str(coupled),
+        ratio=number(spec.get("ratio", 1.0), source, f"{where}.ratio"),
+    )
+
+
+def _finger(data: dict, name: str, spec: Any, source: Path) -> Finger:
+    where = f"fingers.{name}"
+    if not isinstance(spec, dict):
+        raise BadInputError(source, f"field '{where}' must be a mapping")
+    joints = tuple(
+        _joint(j, source, f"{where}.joints[{k + 1}]") for k, j in enumerate(require(spec, "joints", source, list))
+    )
+    if not any(j.link > 0 for j in joints):
+        raise BadInputError(source, f"field '{where}.joints': no joint has a link (link_m > 0) to carry the pad")
+    names = {j.name for j in joints}
+    for j in joints:
+        if j.coupled_to is not None and j.coupled_to not in names:
+            raise BadInputError(source, f"joint '{j.name}' is coupled to unknown joint '{j.coupled_to}'")
+    base = require(spec, "base", source, dict)
+    muscles, arms, forces = _tendons(data, name, joints, source)
+
+    def fractions(key: str, default: list[float]) -> tuple[float, ...]:
+        return tuple(numbers(spec.get(key, default), source, f"{where}.{key}"))
+
+    return Finger(
+        name=name,
+        base_position=numbers(base.get("position_m"), source, f"{where}.base.position_m", 3),
+        base_rotation=_base_rotation(base, source, name),
+        radius=number(spec.get("radius_m"), source, f"{where}.radius_m", positive=True),
+        pad_along=number(spec.get("pad_along", 0.65), source, f"{where}.pad_along", minimum=0.0),
+        sample_fractions=fractions("sample_fractions", [0.0, 0.35, 0.7]),
+        distal_sample_fractions=fractions("distal_sample_fractions", [0.0, 0.3]),
+        joints=joints,
+        muscles=muscles,
+        moment_arms=arms,
+        max_forces=forces,
+    )
+
+
+def _palm(data: dict, source: Path) -> Palm:
+    palm = require(data, "palm", source, dict)
+    x0, x1 = numbers(palm.get("x_range_m"), source, "palm.x_range_m", 2)
+    y0, y1 = numbers(palm.get("y_range_m"), source, "palm.y_range_m", 2)
+    grid = palm.get("grid")
+    if not isinstance(grid, list) or len(grid) != 2:
+        raise BadInputError(source, f"field 'palm.grid' must be two whole numbers, got {grid!r}")
+    nx, ny = (whole(g, source, f"palm.grid[{k + 1}]", minimum=1) for k, g in enumerate(grid))
+    points = np.array([[x, y, 0.0] for x in np.linspace(x0, x1, nx) for y in np.linspace(y0, y1, ny)])
+    return Palm(number(palm.get("radius_m"), source, "palm.radius_m", positive=True), points)
+
+
 def load_hand(path: str | Path = DEFAULT_HAND) -> Hand:
+    """A hand from its YAML, every field checked: a one-line error names the field at fault."""
     path = Path(path)
     data = load_yaml(path)
     reject_unknown(
         data, {"name", "hand_length_m", "grasping_fingers", "palm", "fingers", "tendons", "coupling_source"}, path
     )
-    fingers = {}
-    for name, spec in require(data, "fingers", path, dict).items():
-        joints = []
-        for k, j in enumerate(require(spec, "joints", path, list)):
-            where = f"fingers.{name}.joints[{k + 1}]"
-            for key in ("name", "axis", "min_deg", "max_deg"):
-                if key not in j:
-                    raise BadInputError(path, f"missing field '{where}.{key}'")
-            lower, upper = np.deg2rad(float(j["min_deg"])), np.deg2rad(float(j["max_deg"]))
-            if not lower < upper:
-                raise BadInputError(path, f"field '{where}': min_deg must be below max_deg")
-            joints.append(
-                Joint(
-                    name=str(j["name"]),
-                    axis=_unit(j["axis"], path, f"{where}.axis"),
-                    lower=lower,
-                    upper=upper,
-                    link=float(j.get("link_m", 0.0)),
-                    coupled_to=j.get("coupled_to"),
-                    ratio=float(j.get("ratio", 1.0)),
-                )
-            )
-        names = {j.name for j in joints}
-        for j in joints:
-            if j.coupled_to is not None and j.coupled_to not in names:
-                raise BadInputError(path, f"joint '{j.name}' is coupled to unknown joint '{j.coupled_to}'")
-        base = require(spec, "base", path, dict)
-        muscles, arms, forces = _tendons(data, name, tuple(joints), path)
-        fingers[name] = Finger(
-            name=name,
-            base_position=np.asarray(base["position_m"], dtype=float),
-            base_rotation=_base_rotation(base, path, name),
-            radius=float(require(spec, "radius_m", path, (int, float))),
-            pad_along=float(spec.get("pad_along", 0.65)),
-            sample_fractions=tuple(spec.get("sample_fractions", [0.0, 0.35, 0.7])),
-            distal_sample_fractions=tuple(spec.get("distal_sample_fractions", [0.0, 0.3])),
-            joints=tuple(joints),
-            muscles=muscles,
-            moment_arms=arms,
-            max_forces=forces,
-        )
-    palm = require(data, "palm", path, dict)
-    (x0, x1), (y0, y1) = palm["x_range_m"], palm["y_range_m"]
-    xs = np.linspace(float(x0), float(x1), int(palm["grid"][0]))
-    ys = np.linspace(float(y0), float(y1), int(palm["grid"][1]))
-    points = np.array([[x, y, 0.0] for x in xs for y in ys])
-    grasping = tuple(data.get("grasping_fingers", list(fingers)))
+    fingers = {
+        str(name): _finger(data, str(name), spec, path) for name, spec in require(data, "fingers", path, dict).items()
+    }
+    grasping = data.get("grasping_fingers", list(fingers))
+    if not isinstance(grasping, list) or not grasping:
+        raise BadInputError(path, f"field 'grasping_fingers' must be a list of finger names, got {grasping!r}")
     for name in grasping:
         if name not in fingers:
             raise BadInputError(path, f"grasping finger '{name}' is not defined")
-    sources = {name: str(t.get("source", "")) for name, t in data.get("tendons", {}).items()}
-    return Hand(str(data.get("name", path.stem)), fingers, Palm(float(palm["radius_m"]), points), grasping, sources)
+    tendons = data.get("tendons", {})
+    sources = {name: str(t.get("source", "")) for name, t in tendons.items() if isinstance(t, dict)}
+    return Hand(str(data.get("name", path.stem)), fingers, _palm(data, path), tuple(grasping), sources)

@@ -1,21 +1,23 @@
 """Atomic, provenance-stamped artifacts.
 
-Every command stages its outputs in a temporary folder beside ``--out`` and moves them in only once all of
-them are complete, so that bad input or a crash never leaves a half-written artifact behind. Each artifact is
-recorded in ``<out>/provenance.json`` with the package version, the hash of the configuration that made it,
-the hashes of its inputs and the seed; Parquet and JSON artifacts also carry the same record inside.
+Every command stages its outputs in a folder beside ``--out`` and swaps it in only once all of them are
+complete, so that bad input or a crash never leaves a half-written artifact or a mix of old and new ones.
+Each artifact is recorded in ``<out>/provenance.json`` with the package version, the hash of the
+configuration that made it, the hashes of its inputs and the seed; Parquet and JSON artifacts also carry the
+same record inside.
 """
 
 from __future__ import annotations
 
+import ctypes
 import hashlib
 import json
 import os
+import re
 import shutil
-import tempfile
 from collections.abc import Callable, Iterable
 from dataclasses import asdict, dataclass, field
-from pathlib import Path
+from pathlib import Path, PurePosixPath
 from typing import Any
 
 import pandas as pd
@@ -23,6 +25,8 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from grasptask import __version__
+from grasptask.errors import BadInputError
+from grasptask.io.locking import folder_lock, make_owned_folder, remove_stale_folders
 
 PROVENANCE_FILE = "provenance.json"
 _CHUNK = 1 << 20
@@ -84,11 +88,50 @@ class Provenance:
         return asdict(self)
 
 
-class StagedOutput:
-    """Collects a command's artifacts in a temporary folder and moves them into place together.
+def write_text_atomic(path: Path, text: str) -> None:
+    """Replace ``path`` by ``text`` in one rename, synced first: a kill leaves the old file or the new one."""
+    tmp = path.with_name(f".{path.name}.tmp-{os.getpid()}")
+    try:
+        with open(tmp, "w") as handle:
+            handle.write(text)
+            handle.flush()
+            os.fsync(handle.fileno())
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)
 
-    Use as a context manager: on an exception nothing reaches ``out``; on success every staged file is
-    renamed into ``out`` (same filesystem, so each rename is atomic) and ``provenance.json`` is updated.
+
+def write_json_atomic(path: Path, payload: Any) -> None:
+    write_text_atomic(path, json.dumps(payload, indent=2, sort_keys=True, default=_jsonable) + "\n")
+
+
+_UNSAFE = re.compile(r"[^A-Za-z0-9._-]")
+
+
+def plain_name(name: str, source: str | Path, what: str = "name") -> str:
+    """``name`` if it can be one folder or file name inside an output folder, else a one-line error: names
+    that become paths can come from inputs (a task label in a manifest), and must not lead outside."""
+    if not name or name in (".", "..") or "/" in name or "\\" in name or "\0" in name:
+        raise BadInputError(source, f"{what} {name!r} cannot be a file or folder name (no '/', '..' or empty)")
+    return name
+
+
+def file_stem(name: str) -> str:
+    """A label made safe to use inside a file name: anything but letters, digits, '.', '_' and '-' becomes
+    '_' (for figure names built from task labels, whatever they hold)."""
+    stem = _UNSAFE.sub("_", name).strip(".")
+    return stem or "_"
+
+
+class StagedOutput:
+    """Collects a command's artifacts in a staging folder beside ``out`` and swaps them in all at once.
+
+    Use as a context manager. On an exception nothing reaches ``out``. On success the staging folder becomes
+    the new ``out``: the files of the old one that were not rewritten are hard-linked into it, ``provenance.json``
+    is updated there, and the two folders trade places in one atomic rename (``renameat2`` with
+    ``RENAME_EXCHANGE``), so a reader or a kill sees either every old artifact or every new one. ``out`` is
+    locked for the duration (:func:`grasptask.io.locking.folder_lock`), and staging folders that a killed run
+    left behind are removed on entry.
     """
 
     def __init__(self, out: str | Path, provenance: Provenance):
@@ -96,11 +139,26 @@ class StagedOutput:
         self.provenance = provenance
         self._staged: list[str] = []
         self._tmp = Path()  # the staging folder, made on entry
+        self._lock: Any = None
+
+    @property
+    def _prefix(self) -> str:
+        return f".{self.out.name}.staging-"
 
     def __enter__(self) -> StagedOutput:
-        parent = self.out.resolve().parent
+        if self.out.exists() and not self.out.is_dir():
+            raise BadInputError(self.out, "is a file, not an output folder")
+        parent = self.out.absolute().parent
         parent.mkdir(parents=True, exist_ok=True)
-        self._tmp = Path(tempfile.mkdtemp(prefix=f".{self.out.name}.staging-", dir=parent))
+        self._lock = folder_lock(self.out, f"writing {self.out.name}")
+        self._lock.__enter__()
+        try:
+            _recover(self.out)
+            remove_stale_folders(parent, self._prefix)
+            self._tmp = make_owned_folder(parent, self._prefix)
+        except BaseException:
+            self._lock.__exit__(None, None, None)
+            raise
         return self
 
     def __exit__(self, exc_type, exc, tb) -> None:
@@ -109,9 +167,14 @@ class StagedOutput:
                 self._commit()
         finally:
             shutil.rmtree(self._tmp, ignore_errors=True)
+            self._lock.__exit__(None, None, None)
 
     def path(self, name: str) -> Path:
-        """Where to write artifact ``name`` (a path relative to ``out``) while staging."""
+        """Where to write artifact ``name`` (a path relative to ``out``) while staging. A name that would leave
+        ``out`` (absolute, or with ``..``) is refused: names can come from inputs, such as task labels."""
+        parts = PurePosixPath(name).parts
+        if not parts or PurePosixPath(name).is_absolute() or ".." in parts or "\\" in name:
+            raise BadInputError(self.out, f"refusing to write '{name}': artifact names must stay inside the folder")
         target = self._tmp / name
         target.parent.mkdir(parents=True, exist_ok=True)
         self._staged.append(name)
@@ -135,24 +198,97 @@ class StagedOutput:
         writer(self.path(name))
 
     def _commit(self) -> None:
-        self.out.mkdir(parents=True, exist_ok=True)
-        for name in self._staged:
-            target = self.out / name
-            target.parent.mkdir(parents=True, exist_ok=True)
-            os.replace(self._tmp / name, target)
-        _record_provenance(self.out, self._staged, self.provenance)
+        staged = set(self._staged)
+        if self.out.is_dir():
+            _link_tree(self.out, self._tmp, keep=staged)
+        _record_provenance(self.out, self._tmp, self._staged, self.provenance)
+        _sync_tree(self._tmp)
+        if not self.out.exists():
+            os.rename(self._tmp, self.out)
+        else:
+            exchange(self._tmp, self.out)
+        _fsync_folder(self.out.absolute().parent)
 
 
-def _record_provenance(out: Path, names: list[str], provenance: Provenance) -> None:
+def _old_prefix(out: Path) -> str:
+    return f".{out.name}.old-"
+
+
+def exchange(a: Path, b: Path) -> None:
+    """Swap two folders in one atomic step (Linux ``renameat2(RENAME_EXCHANGE)``). Where the system cannot,
+    ``b`` is first moved aside to ``.<b>.old-<owner>`` and restored by :func:`_recover` if a kill comes between
+    the two renames."""
+    try:
+        libc = ctypes.CDLL(None, use_errno=True)
+        if libc.renameat2(-100, os.fsencode(a), -100, os.fsencode(b), 2) == 0:  # AT_FDCWD, RENAME_EXCHANGE
+            return
+    except (OSError, AttributeError):
+        pass
+    aside = make_owned_folder(b.absolute().parent, _old_prefix(b))
+    os.rmdir(aside)
+    os.rename(b, aside)
+    os.rename(a, b)
+    os.rename(aside, a)  # the old content is removed with the staging folder
+
+
+def _recover(out: Path) -> None:
+    """Undo a swap that a kill interrupted: put a dead run's moved-aside folder back if ``out`` is missing."""
+    parent = out.absolute().parent
+    for aside in sorted(parent.glob(f"{_old_prefix(out)}*")):
+        if not out.exists():
+            os.rename(aside, out)
+    remove_stale_folders(parent, _old_prefix(out))
+
+
+def _link_tree(source: Path, target: Path, keep: set[str]) -> None:
+    """Hard-link (or, across devices, copy) every file under ``source`` into ``target`` unless its relative
+    name is in ``keep``: the new folder keeps what the stage did not rewrite."""
+    for path in source.rglob("*"):
+        if path.is_dir() or path.relative_to(source).as_posix() in keep:
+            continue
+        destination = target / path.relative_to(source)
+        if destination.exists():
+            continue
+        destination.parent.mkdir(parents=True, exist_ok=True)
+        try:
+            os.link(path, destination)
+        except OSError:
+            shutil.copy2(path, destination)
+
+
+def _sync_tree(folder: Path) -> None:
+    """Flush the staged files to disk before they are swapped in, so a power cut cannot leave them empty."""
+    for path in folder.rglob("*"):
+        if path.is_file():
+            with open(path, "rb") as handle:
+                os.fsync(handle.fileno())
+    _fsync_folder(folder)
+
+
+def _fsync_folder(folder: Path) -> None:
+    descriptor = os.open(folder, os.O_RDONLY)
+    try:
+        os.fsync(descriptor)
+    finally:
+        os.close(descriptor)
+
+
+def _record_provenance(out: Path, staging: Path, names: list[str], provenance: Provenance) -> None:
+    """The new ``provenance.json`` in the staging folder: the old ledger with this stage's artifacts updated."""
     ledger_path = out / PROVENANCE_FILE
-    ledger = json.loads(ledger_path.read_text()) if ledger_path.exists() else {}
+    try:
+        ledger = json.loads(ledger_path.read_text()) if ledger_path.exists() else {}
+    except (OSError, ValueError):
+        ledger = {}  # an unreadable ledger is rebuilt from this stage on
+    if not isinstance(ledger, dict):
+        ledger = {}
     record = provenance.to_dict()
     for name in names:
         if "/" not in name:  # per-recording files are covered by their manifest's entry
             ledger[name] = record
-    tmp = ledger_path.with_name(f".{PROVENANCE_FILE}.tmp")
-    tmp.write_text(json.dumps(ledger, indent=2, sort_keys=True) + "\n")
-    os.replace(tmp, ledger_path)
+    staged = staging / PROVENANCE_FILE
+    staged.unlink(missing_ok=True)  # a hard link to the old ledger: replace it, do not write through it
+    staged.write_text(json.dumps(ledger, indent=2, sort_keys=True) + "\n")
 
 
 def read_parquet_provenance(path: str | Path) -> dict[str, Any] | None:

@@ -20,7 +20,6 @@ as inputs too. Paths are relative to the folder the runner is started from.
 from __future__ import annotations
 
 import json
-import os
 import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -28,7 +27,7 @@ from pathlib import Path
 from typing import Any
 
 from grasptask.errors import BadInputError
-from grasptask.io.artifacts import config_hash, path_hash
+from grasptask.io.artifacts import config_hash, path_hash, write_json_atomic
 from grasptask.io.config import load_yaml, reject_unknown, require
 
 
@@ -128,9 +127,7 @@ def _load_state(path: Path) -> dict:
 
 def _save_state(path: Path, state: dict) -> None:
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.tmp")
-    tmp.write_text(json.dumps(state, indent=2, sort_keys=True) + "\n")
-    os.replace(tmp, path)
+    write_json_atomic(path, state)
 
 
 def run_pipeline(

@@ -8,8 +8,6 @@ solver versions and model size (as the workers report it) to ``run.json``.
 
 from __future__ import annotations
 
-import json
-import os
 import time
 from collections.abc import Callable
 from dataclasses import asdict, dataclass
@@ -21,9 +19,12 @@ import pandas as pd
 from tqdm import tqdm
 
 from grasptask.errors import BadInputError
-from grasptask.io.artifacts import Provenance, StagedOutput
+from grasptask.io.artifacts import Provenance, StagedOutput, config_hash, path_hash, plain_name, write_json_atomic
+from grasptask.io.config import read_json
+from grasptask.io.locking import folder_lock
 from grasptask.io.reference import PaperSynthesis, read_paper_synthesis
 from grasptask.io.solutions import STATUSES
+from grasptask.io.sweep_log import LogContents, LogWriter, read_log, rewrite_log
 from grasptask.objects.surface import Symmetry
 from grasptask.paths import DEFAULT_GRASP_CONFIG, DEFAULT_HAND, DEFAULT_OBJECT, DEFAULT_SOLVER_CONFIG
 
@@ -74,49 +75,57 @@ class SynthesisOptions:
         return self.out / self.task
 
 
-def _read_done(path: Path) -> list[dict]:
-    if not path.exists():
-        return []
-    rows = []
-    for line in path.read_text().splitlines():
-        try:
-            rows.append(json.loads(line))
-        except json.JSONDecodeError:
-            break  # a line cut short by an interruption; the start is simply solved again
-    return rows
+DEFINITION_FILE = "sweep.json"
+LOG_FILE = "solutions.jsonl"
 
 
-def _jsonable(row: dict) -> dict:
-    return {k: (v.item() if hasattr(v, "item") else v) for k, v in row.items()}
+@dataclass(frozen=True)
+class _Prepared:
+    """Everything a sweep needs, read and checked before anything on disk is touched."""
+
+    job: Any
+    starts: list
+    fingers: list[str]
+    symmetry: Symmetry | None
+    hang_after_s: float
+    definition: dict[str, Any]
+    paper: PaperSynthesis
 
 
-def _previous_model_size(folder: Path) -> dict[str, int] | None:
-    """The model size an earlier run of this folder recorded, for a resumed sweep with nothing left to solve."""
-    try:
-        return json.loads((folder / "run.json").read_text()).get("model_size")
-    except (OSError, json.JSONDecodeError):
-        return None
-
-
-def run_synthesize(options: SynthesisOptions, echo: Callable[[str], Any] = print) -> dict:
-    """Solve the task's starts, verify every solution, and write ``solutions.parquet``, ``optima.parquet`` and
-    ``run.json`` under ``options.folder``; the run summary."""
+def _prepare(options: SynthesisOptions) -> _Prepared:
     from grasptask.grasp.settings import load_grasp_settings
     from grasptask.hand import load_hand
     from grasptask.objects import load_object
-    from grasptask.synthesis import sweep
+    from grasptask.objects.loading import object_files
+    from grasptask.synthesis.backends import check_ipopt_options
     from grasptask.synthesis.config import load_solver_config
+    from grasptask.synthesis.context import Job
     from grasptask.synthesis.starts import make_starts, subset
     from grasptask.task.model import load_task_models
 
     models = load_task_models(options.tasks)
     if options.task not in models:
         raise BadInputError(options.tasks, f"no task '{options.task}' (has: {', '.join(models)})")
+    plain_name(options.task, options.tasks, "task name")
     solver = load_solver_config(options.solver_config)
+    check_ipopt_options(solver.ipopt, options.solver_config)
     load_grasp_settings(options.grasp_config)
     hand = load_hand(options.hand)
     obj = load_object(options.object)
-    job = sweep.Job(
+    every = make_starts(obj.bounds(), options.seed)
+    if options.starts is not None and options.starts > len(every):
+        raise BadInputError("synthesize", f"--starts {options.starts}: there are {len(every)} starts")
+    definition = {
+        "task": options.task,
+        "seed": options.seed,
+        "solver": options.backend,
+        "task model": config_hash(models[options.task].ellipsoid.S.tolist()),
+        "hand": path_hash(options.hand),
+        "object": config_hash([path_hash(p) for p in object_files(options.object)]),
+        "solver config": path_hash(options.solver_config),
+        "grasp config": path_hash(options.grasp_config),
+    }
+    job = Job(
         hand_path=str(options.hand),
         object_path=str(options.object),
         tasks_path=str(options.tasks),
@@ -125,67 +134,147 @@ def run_synthesize(options: SynthesisOptions, echo: Callable[[str], Any] = print
         solver=solver,
         settings_path=str(options.grasp_config),
     )
-    paper = read_paper_synthesis()
-    starts = subset(make_starts(obj.bounds(), options.seed), options.starts)
+    return _Prepared(
+        job,
+        subset(every, options.starts),
+        list(hand.grasping),
+        obj.symmetry,
+        solver.time_limit + solver.hang_grace_s,
+        definition,
+        read_paper_synthesis(),
+    )
+
+
+def _previous_run(folder: Path) -> dict[str, Any]:
+    try:
+        return read_json(folder / "run.json")
+    except BadInputError:
+        return {}
+
+
+def _check_resume(folder: Path, prepared: _Prepared, done: LogContents) -> None:
+    """Refuse to resume a different run: another seed, task, task model, hand, object, configuration or
+    solver; or starts done here that the new selection does not hold."""
+    if not done.rows:
+        return
+    try:
+        recorded = read_json(folder / DEFINITION_FILE).get("definition", {})
+    except BadInputError:
+        raise BadInputError(
+            folder, f"--resume: no readable {DEFINITION_FILE} says what run these {len(done.rows)} starts belong to"
+        ) from None
+    current = prepared.definition
+    shown = ("task", "seed", "solver")
+    differ = [
+        f"{key} ({recorded.get(key)!r}, now {current[key]!r})" if key in shown else key
+        for key in current
+        if recorded.get(key) != current[key]
+    ]
+    if differ:
+        raise BadInputError(
+            folder,
+            f"--resume: this sweep was run with another {', '.join(differ)}; use the same options or a new --out",
+        )
+    outside = sorted(done.start_ids - {s.start_id for s in prepared.starts})
+    if outside:
+        raise BadInputError(
+            folder,
+            f"--resume: {len(outside)} start(s) done here (e.g. {outside[0]}) are not among the {len(prepared.starts)}"
+            " this --starts selects; resume with the --starts of that run or more",
+        )
+
+
+def _check_fresh(folder: Path, done: LogContents) -> None:
+    """A run without --resume replaces a finished sweep's log, but never an unfinished one's rows."""
+    if not done.rows:
+        return
+    previous = _previous_run(folder)
+    if previous.get("log_rows", previous.get("starts")) != len(done.rows):
+        raise BadInputError(
+            folder,
+            f"holds an unfinished sweep ({len(done.rows)} starts done); continue it with --resume, or remove "
+            f"{folder / LOG_FILE} to start again",
+        )
+
+
+def run_synthesize(options: SynthesisOptions, echo: Callable[[str], Any] = print) -> dict:
+    """Solve the task's starts, verify every solution, and write ``solutions.parquet``, ``optima.parquet`` and
+    ``run.json`` under ``options.folder``; the run summary.
+
+    Every input is checked, and a worker has built the model, before anything of an earlier sweep in the
+    folder is touched; the folder is locked for the run."""
+    from grasptask.synthesis.sweep import graceful_stop, make_executor
+
+    prepared = _prepare(options)
     folder = options.folder
-    folder.mkdir(parents=True, exist_ok=True)
-    log = folder / "solutions.jsonl"
-    if not options.resume and log.exists():
-        log.unlink()
-    done = _read_done(log)
-    finished = {row["start_id"] for row in done}
-    todo = [s for s in starts if s.start_id not in finished]
-    echo(f"{options.task}: {len(starts)} starts, {len(finished)} already done")
-    model_size = None if todo else _previous_model_size(folder)
-    wall_start = time.perf_counter()
-    bar = tqdm(total=len(starts), initial=len(finished), desc=f"synthesize {options.task}", unit="start", disable=None)
+    with folder_lock(folder, f"synthesize {options.task}"):
+        log = folder / LOG_FILE
+        done = read_log(log)
+        if options.resume:
+            _check_resume(folder, prepared, done)
+        else:
+            _check_fresh(folder, done)
+        rows = done.rows if options.resume else []
+        finished = {row["start_id"] for row in rows}
+        todo = [s for s in prepared.starts if s.start_id not in finished]
+        echo(f"{options.task}: {len(prepared.starts)} starts, {len(finished)} already done")
+        model_size = None if todo else _previous_run(folder).get("model_size")
+        workers = max(1, min(options.workers, len(todo)))
+        executor = make_executor(prepared.job, options.executor, workers, prepared.hang_after_s, options.scheduler)
+        wall_start = time.perf_counter()
+        with graceful_stop(notify=echo):
+            try:
+                if todo:
+                    model_size = executor.start()
+                    _say_model(model_size, prepared.paper, echo)
+                # the run is known to work: only now is the folder changed
+                folder.mkdir(parents=True, exist_ok=True)
+                for repair in done.repairs if options.resume else []:
+                    echo(f"{log}: {repair}")
+                if done.repairs or not options.resume:
+                    rewrite_log(log, rows)
+                write_json_atomic(folder / DEFINITION_FILE, {"definition": prepared.definition})
+                _solve(executor, todo, rows, log, options.task, len(prepared.starts))
+            finally:
+                executor.close()
+        return summarise(
+            options,
+            rows,
+            model_size=model_size,
+            wall_seconds=time.perf_counter() - wall_start,
+            symmetry=prepared.symmetry,
+            fingers=prepared.fingers,
+            paper=prepared.paper,
+        )
+
+
+def _say_model(size: dict[str, int], paper: PaperSynthesis, echo: Callable[[str], Any]) -> None:
+    echo(
+        f"model {size['variables']} variables x {size['constraints']} constraints"
+        f" (paper: {paper.variables} x {paper.constraints})"
+    )
+
+
+def _solve(executor: Any, todo: list, rows: list[dict], log: Path, task: str, total: int) -> None:
+    """Run the executor over ``todo``, appending each row to the log (and ``rows``) with a progress bar."""
     counts = {
-        "verified": sum(r.get("verified", False) for r in done),
-        "failing": sum(not r.get("verified", False) for r in done),
+        "verified": sum(bool(r.get("verified")) for r in rows),
+        "failing": sum(not r.get("verified") for r in rows),
     }
-
-    def on_model(size: dict[str, int]) -> None:
-        nonlocal model_size
-        if model_size is None:
-            model_size = size
-            with bar.external_write_mode():
-                echo(
-                    f"model {size['variables']} variables x {size['constraints']} constraints"
-                    f" (paper: {paper.variables} x {paper.constraints})"
-                )
-
-    with open(log, "a") as handle, sweep.stop_on_sigint():
+    bar = tqdm(total=total, initial=len(rows), desc=f"synthesize {task}", unit="start", disable=None)
+    with LogWriter(log) as writer:
 
         def on_result(row: dict) -> None:
-            handle.write(json.dumps(_jsonable(row)) + "\n")
-            handle.flush()
-            os.fsync(handle.fileno())
-            done.append(row)
+            writer.append(row)
+            rows.append(row)
             counts["verified" if row.get("verified") else "failing"] += 1
             bar.set_postfix(counts)
             bar.update(1)
 
-        hang_after = solver.time_limit + solver.hang_grace_s
         try:
-            if options.executor == "dask":
-                assert options.scheduler is not None  # checked by SynthesisOptions
-                sweep.run_dask(job, todo, options.scheduler, on_result, hang_after, on_model)
-            elif options.executor == "serial":
-                sweep.run_serial(job, todo, on_result, on_model)
-            else:
-                sweep.run_pool(job, todo, options.workers, on_result, hang_after, on_model)
+            executor.run(todo, on_result)
         finally:
             bar.close()
-    wall = time.perf_counter() - wall_start
-    return summarise(
-        options,
-        done,
-        model_size=model_size,
-        wall_seconds=wall,
-        symmetry=obj.symmetry,
-        fingers=list(hand.grasping),
-        paper=paper,
-    )
 
 
 def summarise(
@@ -219,6 +308,7 @@ def summarise(
         "executor": options.executor,
         "workers": options.workers,
         "starts": int(len(solutions)),
+        "log_rows": len(rows),
         "status_counts": status_counts,
         "verified": int(solutions["verified"].sum()),
         "verified_fraction": float(solutions["verified"].mean()) if len(solutions) else 0.0,

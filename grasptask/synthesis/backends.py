@@ -10,15 +10,20 @@ from __future__ import annotations
 
 import io
 import os
+import sys
 import tempfile
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any, Protocol
 
 import casadi
 import numpy as np
 from pyomo.repn.plugins.nl_writer import NLWriter
+
+from grasptask.errors import BadInputError
 
 _IPOPT_STATUS = {
     "Solve_Succeeded": "optimal",
@@ -52,6 +57,44 @@ class SolveResult:
     seconds: float
     x: np.ndarray | None
     message: str = ""
+
+
+#: IPOPT options that would make IPOPT write files of its own, outside the sweep's --out
+_FILE_OPTIONS = ("output_file", "print_options_documentation")
+
+
+@contextmanager
+def _quiet_stdout() -> Iterator[None]:
+    """Silence the C-level stdout, where IPOPT prints its own complaints about an option."""
+    sys.stdout.flush()
+    saved = os.dup(1)
+    with open(os.devnull, "w") as null:
+        os.dup2(null.fileno(), 1)
+    try:
+        yield
+    finally:
+        os.dup2(saved, 1)
+        os.close(saved)
+
+
+def check_ipopt_options(options: dict[str, Any], source: str | Path) -> None:
+    """Try each IPOPT option on a one-variable problem, so that a name or value IPOPT rejects fails before a
+    sweep starts, as one line naming it, and not as an error row on every start."""
+    x = casadi.SX.sym("x")
+    problem = {"x": x, "f": (x - 1) ** 2}
+    for name, value in options.items():
+        if name in _FILE_OPTIONS:
+            raise BadInputError(source, f"field 'ipopt.{name}': IPOPT would write a file of its own; not allowed")
+        settings = {"ipopt.print_level": 0, "ipopt.sb": "yes", f"ipopt.{name}": value}
+        try:
+            with _quiet_stdout():
+                solver = casadi.nlpsol("check", "ipopt", problem, {**settings, "print_time": False})
+                solver(x0=0.0)
+            rejected = solver.stats().get("return_status") == "Invalid_Option"
+        except RuntimeError:
+            rejected = True
+        if rejected:
+            raise BadInputError(source, f"field 'ipopt.{name}': IPOPT rejects the option or its value {value!r}")
 
 
 def write_nl(model: Any) -> tuple[str, list]:

@@ -1,10 +1,14 @@
-"""Solving many starts: the per-worker solver context, a process pool that survives crashed and hung workers,
-a Dask executor, and the result row of one start (solution, status, timing and the verifier's figures).
+"""Solving many starts: in this process, on a pool of processes that survives crashed and hung workers, or on a
+Dask cluster.
 
-Every worker builds the model once from a :class:`Job` (hand, object, task model, solver options) and then
-re-solves it from each start's initial point. A start whose worker dies is recorded as ``crashed``, one that
-outlives its time limit by the configured grace as ``hung``; either way the worker is replaced and the sweep
-goes on.
+An executor is started first (:meth:`Executor.start`): it returns the model size once a worker has built the
+model, or fails with one line when none can, so that nothing of an earlier sweep is touched before the run is
+known to work. :meth:`Executor.run` then solves the starts, handing each row to ``on_result`` as it finishes.
+A start whose worker dies is recorded as ``crashed``, one that outlives its time limit by the configured grace
+as ``hung``; either way the worker is replaced and the sweep goes on.
+
+Stopping (:func:`graceful_stop`): the first Ctrl-C or SIGTERM stops handing out starts and waits for the ones
+in progress, so they are recorded, not lost; a second one stops at once.
 """
 
 from __future__ import annotations
@@ -17,174 +21,108 @@ import signal
 import threading
 import time
 import traceback
-from collections.abc import Callable, Iterable
-from dataclasses import dataclass
-from typing import Any
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from typing import Any, Protocol
 
-import numpy as np
-
-from grasptask.io import solutions as schema
-from grasptask.synthesis.config import SolverConfig
+from grasptask.errors import BadInputError
+from grasptask.synthesis.context import Job, SolverContext, build_failure, failed_row, solve_guarded
 from grasptask.synthesis.starts import Start
 
-# a test hook: a start whose id is listed here makes its worker exit abruptly (to exercise crash handling)
-CRASH_ENV = "GRASPTASK_CRASH_STARTS"
-#: set by the sweep's SIGINT handler; the sweep stops once the starts in progress are recorded
+OnResult = Callable[[dict], None]
+#: set by the first SIGINT or SIGTERM: hand out no more starts, finish the ones in progress
 STOP = threading.Event()
+#: set by the second: stop now
+FORCE = threading.Event()
 
 
 def _check_stop() -> None:
-    if STOP.is_set():
+    if FORCE.is_set() or STOP.is_set():
         raise KeyboardInterrupt
 
 
-class stop_on_sigint:
-    """Within this block Ctrl-C only sets :data:`STOP`: IPOPT and CasADi finish the start they are on (so it
-    is recorded, not lost), and the sweep then stops with ``KeyboardInterrupt``."""
+@contextmanager
+def graceful_stop(notify: Callable[[str], Any] = print) -> Iterator[None]:
+    """Within this block the first SIGINT or SIGTERM sets :data:`STOP` (and says so), the second sets
+    :data:`FORCE` and interrupts at once."""
+    STOP.clear()
+    FORCE.clear()
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
 
-    def __enter__(self):
+    def handler(signum: int, frame: Any) -> None:
+        if STOP.is_set():
+            FORCE.set()
+            raise KeyboardInterrupt
+        STOP.set()
+        notify(f"{signal.Signals(signum).name}: finishing the starts in progress (again to stop at once)")
+
+    previous = {s: signal.signal(s, handler) for s in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield
+    finally:
+        for s, h in previous.items():
+            signal.signal(s, h)
         STOP.clear()
-        self.previous = None
-        if threading.current_thread() is threading.main_thread():
-            self.previous = signal.signal(signal.SIGINT, lambda *_: STOP.set())
-        return self
-
-    def __exit__(self, *exc):
-        if self.previous is not None:
-            signal.signal(signal.SIGINT, self.previous)
-        STOP.clear()
+        FORCE.clear()
 
 
-OnResult = Callable[[dict], None]
-OnModel = Callable[[dict[str, int]], None]
+class Executor(Protocol):
+    def start(self) -> dict[str, int]: ...
+
+    def run(self, starts: list[Start], on_result: OnResult) -> None: ...
+
+    def close(self) -> None: ...
 
 
-def _ignore(size: dict[str, int]) -> None:
-    pass
-
-
-@dataclass(frozen=True)
-class Job:
-    """Everything a worker needs to rebuild the model; plain paths and values, so it pickles."""
-
-    hand_path: str
-    object_path: str
-    tasks_path: str
-    task: str
-    backend: str = "casadi"
-    solver: SolverConfig = SolverConfig()
-    settings_path: str = ""
-
-
-class SolverContext:
-    """A worker's model and solver, built once; ``size`` is the model's variable and constraint count."""
+class SerialExecutor:
+    """Every start in this process, one after the other."""
 
     def __init__(self, job: Job):
-        from grasptask.grasp.settings import GraspSettings, load_grasp_settings
-        from grasptask.hand import load_hand
-        from grasptask.objects import load_object
-        from grasptask.synthesis.backends import BACKENDS, write_nl
-        from grasptask.synthesis.model import build_model
-        from grasptask.task.model import load_task_models
-
         self.job = job
-        self.hand = load_hand(job.hand_path)
-        self.obj = load_object(job.object_path)
-        self.task = load_task_models(job.tasks_path)[job.task]
-        self.settings = load_grasp_settings(job.settings_path) if job.settings_path else GraspSettings()
-        self.nlp = build_model(
-            self.hand, self.obj, self.task, self.settings, job.solver.bounds, job.solver.regularisation
-        )
-        self.size = self.nlp.size()
-        text, self.order = write_nl(self.nlp.model)
-        self.nlp.compile()  # now, so that its one-off cost is not counted in the first start's seconds
-        self.backend = BACKENDS[job.backend](text, job.solver.ipopt)
-        self.bounds = self.obj.bounds()
-        self.fingers = list(self.nlp.hand.fingers)
-        self.joint_names = self.nlp.hand.joint_names
+        self.context: SolverContext | None = None
 
-    def solve(self, start: Start) -> dict:
-        from grasptask.grasp.verify import Grasp, verify
-        from grasptask.io.solutions import grasp_columns
-        from grasptask.synthesis.placement import place
+    def start(self) -> dict[str, int]:
+        try:
+            self.context = SolverContext(self.job)
+        except BadInputError:
+            raise
+        except Exception as exc:  # noqa: BLE001 - one line, naming what failed
+            raise BadInputError("synthesize", f"the model could not be built: {build_failure(exc)}") from exc
+        return self.context.size
 
-        if str(start.start_id) in os.environ.get(CRASH_ENV, "").split(","):
-            os._exit(13)
-        row: dict[str, Any] = {
-            "start_id": start.start_id,
-            "orientation": start.orientation,
-            "position": start.position_name,
-        }
-        joints = self.nlp.hand.mid_range()
-        began = time.perf_counter()
-        if self.job.solver.placement:
-            row["placement_backoff_m"] = place(self.nlp, start, self.bounds, joints)
-        else:
-            self.nlp.initialise(start.palm_rotation, start.palm_position, joints)
-        row["placement_seconds"] = placed = time.perf_counter() - began
-        result = self.backend.solve(_values(self.order))
-        # a start's seconds are all it took to solve it: placement (or initialisation) and IPOPT
-        row.update(
-            status=result.status, iterations=result.iterations, seconds=result.seconds + placed, message=result.message
-        )
-        if result.x is None:
-            return {**row, "Q": float("nan"), "verified": False}
-        _assign(self.order, result.x)
-        solution = self.nlp.read()
-        row["Q"] = float(solution["Q"])
-        grasp = Grasp(solution["palm_rotation"], solution["palm_position"], solution["joint_angles"])
-        row.update(grasp_columns(grasp, self.joint_names, self.fingers, solution["contacts"], solution["normals"]))
-        check = verify(grasp, self.hand, self.obj, self.task, self.settings)
-        row.update(check.record(self.fingers))
-        return row
-
-
-def _values(order: list) -> np.ndarray:
-    return np.array([v.value if v.value is not None else 0.0 for v in order], dtype=float)
-
-
-def _assign(order: list, x: np.ndarray) -> None:
-    for var, value in zip(order, x, strict=True):
-        var.set_value(float(value), skip_validation=True)
-
-
-def failed_row(start: Start, status: str, seconds: float, message: str) -> dict:
-    return schema.failed_row(start.start_id, start.orientation, start.position_name, status, seconds, message)
-
-
-def run_serial(job: Job, starts: Iterable[Start], on_result: OnResult, on_model: OnModel = _ignore) -> None:
-    context = SolverContext(job)
-    on_model(context.size)
-    for start in starts:
-        on_result(_guarded(context, start))
+    def run(self, starts: list[Start], on_result: OnResult) -> None:
+        assert self.context is not None, "start() first"
+        for start in starts:
+            _check_stop()
+            on_result(solve_guarded(self.context, start))
         _check_stop()
 
-
-def _guarded(context: SolverContext, start: Start) -> dict:
-    began = time.perf_counter()
-    try:
-        return context.solve(start)
-    except Exception as exc:  # noqa: BLE001 - a failed start is a recorded status, never a crashed sweep
-        return failed_row(start, "error", time.perf_counter() - began, f"{type(exc).__name__}: {exc}"[:300])
+    def close(self) -> None:
+        self.context = None
 
 
-def _worker(job: Job, tasks, results, worker_id: int) -> None:
+def _worker(job: Job, tasks: Any, results: Any, worker_id: int) -> None:
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent decides when to stop and ends its workers
+    # the parent decides when to stop and ends its workers: a Ctrl-C or SIGTERM to the process group must not
+    # kill a start half-way (it would be recorded as crashed)
+    for s in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(s, signal.SIG_IGN)
     try:
         context = SolverContext(job)
-    except Exception:  # noqa: BLE001
-        results.put(("failed", worker_id, traceback.format_exc()))
+    except Exception as exc:  # noqa: BLE001
+        results.put(("failed", worker_id, (build_failure(exc), traceback.format_exc())))
         return
     results.put(("ready", worker_id, context.size))
     parent = mp.parent_process()
     while (start := _next_start(tasks, parent)) is not None:
-        results.put(("done", worker_id, _guarded(context, start)))
+        results.put(("done", worker_id, solve_guarded(context, start)))
 
 
-def _next_start(tasks, parent, poll_s: float = 1.0) -> Start | None:
-    """The worker's next start, or None when the parent says stop or has died: a sweep killed outright (SIGKILL,
-    SIGTERM) cannot end its workers, which would otherwise wait on their queues for ever."""
+def _next_start(tasks: Any, parent: Any, poll_s: float = 1.0) -> Start | None:
+    """The worker's next start, or None when the parent says stop or has died: a sweep killed outright
+    (SIGKILL) cannot end its workers, which would otherwise wait on their queues for ever."""
     while True:
         try:
             return tasks.get(timeout=poll_s)
@@ -193,134 +131,195 @@ def _next_start(tasks, parent, poll_s: float = 1.0) -> Start | None:
                 return None
 
 
-def run_pool(
-    job: Job,
-    starts: list[Start],
-    workers: int,
-    on_result: OnResult,
-    hang_after_s: float,
-    on_model: OnModel = _ignore,
-    max_restarts: int = 20,
-) -> None:
-    """Solve ``starts`` on ``workers`` processes; ``on_result`` gets each row as it finishes, ``on_model`` the
-    model size each worker reports when it is ready.
+class PoolExecutor:
+    """Starts on ``workers`` processes. The parent hands each worker one start at a time through the worker's
+    own queue, so it always knows which start a worker holds: a worker that dies (a message it was sending may
+    die with it) or outlives the hang limit is replaced, and its start is recorded as ``crashed`` or ``hung``."""
 
-    The parent hands each worker one start at a time through the worker's own queue, so it always knows which
-    start a worker holds: a worker that dies (a message it was sending may die with it) or outlives the hang
-    limit is replaced, and its start is recorded as ``crashed`` or ``hung``.
-    """
-    ctx = mp.get_context("spawn")
-    results = ctx.Queue()
-    pending = list(starts)
-    procs: dict[int, tuple] = {}  # worker id -> (process, its task queue)
-    holding: dict[int, tuple[Start, float]] = {}
-    restarts = 0
-    ids = itertools.count()
+    def __init__(self, job: Job, workers: int, hang_after_s: float, max_restarts: int = 20):
+        self.job, self.workers, self.hang_after_s, self.max_restarts = job, workers, hang_after_s, max_restarts
+        self.ctx = mp.get_context("spawn")
+        self.results = self.ctx.Queue()
+        self.procs: dict[int, tuple[Any, Any]] = {}  # worker id -> (process, its task queue)
+        self.ready: list[int] = []
+        self._ids = itertools.count()
+        self._restarts = 0
 
-    def spawn() -> None:
-        worker_id = next(ids)
-        tasks = ctx.Queue()
-        proc = ctx.Process(target=_worker, args=(job, tasks, results, worker_id), daemon=True)
+    def _spawn(self) -> None:
+        worker_id = next(self._ids)
+        tasks = self.ctx.Queue()
+        proc = self.ctx.Process(target=_worker, args=(self.job, tasks, self.results, worker_id), daemon=True)
         proc.start()
-        procs[worker_id] = (proc, tasks)
+        self.procs[worker_id] = (proc, tasks)
 
-    def assign(worker_id: int) -> None:
-        if pending and worker_id in procs:
-            start = pending.pop(0)
-            holding[worker_id] = (start, time.time())
-            procs[worker_id][1].put(start)
-
-    for _ in range(min(workers, len(starts))):
-        spawn()
-    outstanding = len(starts)
-    try:
-        while outstanding:
+    def start(self) -> dict[str, int]:
+        """Spawn the workers and wait until the first has built the model."""
+        for _ in range(self.workers):
+            self._spawn()
+        while True:
             _check_stop()
             try:
-                kind, worker_id, payload = results.get(timeout=0.5)
+                kind, worker_id, payload = self.results.get(timeout=0.5)
+            except queue.Empty:
+                if not any(proc.is_alive() for proc, _ in self.procs.values()):
+                    raise BadInputError("synthesize", "every solver worker died while building the model") from None
+                continue
+            if kind == "failed":
+                raise BadInputError("synthesize", f"a solver worker could not build the model: {payload[0]}")
+            if kind == "ready":
+                self.ready.append(worker_id)
+                return payload
+
+    def run(self, starts: list[Start], on_result: OnResult) -> None:
+        pending = list(starts)
+        holding: dict[int, tuple[Start, float]] = {}
+
+        def assign(worker_id: int) -> None:
+            if pending and worker_id in self.procs and not STOP.is_set():
+                start = pending.pop(0)
+                holding[worker_id] = (start, time.time())
+                self.procs[worker_id][1].put(start)
+
+        for worker_id in self.ready:
+            assign(worker_id)
+        while pending or holding:
+            if FORCE.is_set():
+                raise KeyboardInterrupt
+            if STOP.is_set() and not holding:
+                raise KeyboardInterrupt  # the starts in progress are recorded; the rest wait for --resume
+            try:
+                kind, worker_id, payload = self.results.get(timeout=0.5)
             except queue.Empty:
                 kind = None
             if kind == "failed":
-                raise RuntimeError(f"a solver worker could not build the model:\n{payload}")
+                raise BadInputError("synthesize", f"a solver worker could not build the model: {payload[0]}")
             if kind == "ready":
-                on_model(payload)
                 assign(worker_id)
             elif kind == "done" and worker_id in holding:
                 holding.pop(worker_id)
-                outstanding -= 1
                 on_result(payload)
                 assign(worker_id)
-            now = time.time()
-            for worker_id, (proc, _) in list(procs.items()):
-                held = holding.get(worker_id)
-                hung = held is not None and now - held[1] > hang_after_s
-                if proc.is_alive() and not hung:
-                    continue
-                if hung:
-                    proc.kill()
-                proc.join(timeout=5)
-                procs.pop(worker_id)
-                if held is not None:
-                    holding.pop(worker_id)
-                    start, began = held
-                    message = (
-                        f"worker killed after {now - began:.0f} s" if hung else f"worker exit code {proc.exitcode}"
-                    )
-                    outstanding -= 1
-                    on_result(failed_row(start, "hung" if hung else "crashed", now - began, message))
-                else:
-                    restarts += 1
-                    if restarts > max_restarts:
-                        raise RuntimeError("solver workers keep dying before they are ready")
-                if pending:
-                    spawn()
-    finally:
-        for _, tasks in procs.values():
+            self._replace_lost(holding, on_result, spawn=bool(pending) and not STOP.is_set())
+
+    def _replace_lost(self, holding: dict[int, tuple[Start, float]], on_result: OnResult, spawn: bool) -> None:
+        """Record the start of every worker that died or hung, and replace the worker."""
+        now = time.time()
+        for worker_id, (proc, _) in list(self.procs.items()):
+            held = holding.get(worker_id)
+            hung = held is not None and now - held[1] > self.hang_after_s
+            if proc.is_alive() and not hung:
+                continue
+            if hung:
+                proc.kill()
+            proc.join(timeout=5)
+            self.procs.pop(worker_id)
+            if held is not None:
+                holding.pop(worker_id)
+                start, began = held
+                message = f"worker killed after {now - began:.0f} s" if hung else f"worker exit code {proc.exitcode}"
+                on_result(failed_row(start, "hung" if hung else "crashed", now - began, message))
+            else:
+                self._restarts += 1
+                if self._restarts > self.max_restarts:
+                    raise BadInputError("synthesize", "solver workers keep dying before they are ready")
+            if spawn:
+                self._spawn()
+
+    def close(self) -> None:
+        for _, tasks in self.procs.values():
             tasks.put(None)
-        # idle workers exit at once, but one holding a GP object's model takes seconds to free it; after Ctrl-C
-        # or an error, workers still solving are not waited for
-        grace = 30 if outstanding == 0 else 2
-        for proc, _ in procs.values():
+        # idle workers exit at once, but one holding a GP object's model takes seconds to free it
+        grace = 2 if FORCE.is_set() else 30
+        for proc, _ in self.procs.values():
             proc.join(timeout=grace)
             if proc.is_alive():
                 proc.kill()
+        self.procs.clear()
 
 
 _DASK_CONTEXTS: dict = {}
 
 
-def _dask_solve(job: Job, start: Start) -> tuple[dict[str, int], dict]:
-    """Runs on a Dask worker: the context is built once per worker process and job. The model size and the row."""
+def _dask_context(job: Job) -> SolverContext:
+    """Runs on a Dask worker: the context is built once per worker process and job."""
     key = (os.getpid(), repr(job))
     if key not in _DASK_CONTEXTS:
         _DASK_CONTEXTS[key] = SolverContext(job)
-    context = _DASK_CONTEXTS[key]
-    return context.size, _guarded(context, start)
+    return _DASK_CONTEXTS[key]
 
 
-def run_dask(
-    job: Job,
-    starts: list[Start],
-    scheduler: str,
-    on_result: OnResult,
-    timeout_s: float,
-    on_model: OnModel = _ignore,
-) -> None:
-    """Solve the starts on a Dask cluster at ``scheduler``; a start whose task fails is recorded as crashed."""
-    from dask.distributed import Client, as_completed
+def _dask_size(job: Job) -> dict[str, int]:
+    return _dask_context(job).size
 
-    with Client(scheduler) as client:
+
+def _dask_solve(job: Job, start: Start) -> dict:
+    return solve_guarded(_dask_context(job), start)
+
+
+class DaskExecutor:
+    """Starts on a Dask cluster. The scheduler exchanges pickles, so its address is trusted to run code."""
+
+    def __init__(self, job: Job, scheduler: str, timeout_s: float, connect_timeout_s: float = 5.0):
+        self.job, self.scheduler, self.timeout_s, self.connect_timeout_s = job, scheduler, timeout_s, connect_timeout_s
+        self.client: Any = None
+
+    def _wait(self, future: Any) -> Any:
+        from dask.distributed import TimeoutError as DaskTimeout
+
+        while True:
+            _check_stop()
+            try:
+                return future.result(timeout=0.5)
+            except (DaskTimeout, TimeoutError):
+                continue
+
+    def start(self) -> dict[str, int]:
+        from dask.distributed import Client
+
+        try:
+            self.client = Client(self.scheduler, timeout=f"{self.connect_timeout_s}s")
+        except (OSError, TimeoutError, ValueError) as exc:
+            raise BadInputError(
+                self.scheduler, f"no Dask scheduler answered within {self.connect_timeout_s:g} s ({type(exc).__name__})"
+            ) from exc
+        try:
+            return self._wait(self.client.submit(_dask_size, self.job, pure=False))
+        except KeyboardInterrupt:
+            raise
+        except Exception as exc:  # noqa: BLE001
+            raise BadInputError("synthesize", f"a Dask worker could not build the model: {build_failure(exc)}") from exc
+
+    def run(self, starts: list[Start], on_result: OnResult) -> None:
+        from dask.distributed import as_completed
+
         futures = {
-            client.submit(_dask_solve, job, s, pure=False, key=f"grasp-start-{s.start_id}-{time.time_ns()}"): s
+            self.client.submit(
+                _dask_solve, self.job, s, pure=False, key=f"grasp-start-{s.start_id}-{time.time_ns()}"
+            ): s
             for s in starts
         }
-        for future in as_completed(futures):
-            _check_stop()
-            start = futures[future]
-            try:
-                size, row = future.result(timeout=timeout_s)
-            except Exception as exc:  # noqa: BLE001
-                on_result(failed_row(start, "crashed", 0.0, f"{type(exc).__name__}: {exc}"[:300]))
-                continue
-            on_model(size)
-            on_result(row)
+        try:
+            for future in as_completed(futures):
+                start = futures[future]
+                try:
+                    row = future.result(timeout=self.timeout_s)
+                except Exception as exc:  # noqa: BLE001
+                    row = failed_row(start, "crashed", 0.0, f"{type(exc).__name__}: {exc}"[:300])
+                on_result(row)
+                _check_stop()  # a cluster cannot say which starts are in progress: stopping cancels the rest
+        finally:
+            self.client.cancel([f for f in futures if not f.done()])
+
+    def close(self) -> None:
+        if self.client is not None:
+            self.client.close()
+            self.client = None
+
+
+def make_executor(job: Job, kind: str, workers: int, hang_after_s: float, scheduler: str | None = None) -> Executor:
+    if kind == "serial":
+        return SerialExecutor(job)
+    if kind == "dask":
+        assert scheduler is not None, "checked by SynthesisOptions"
+        return DaskExecutor(job, scheduler, hang_after_s)
+    return PoolExecutor(job, workers, hang_after_s)

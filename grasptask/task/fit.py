@@ -18,6 +18,7 @@ from grasptask.io.units import UNIT_TABLES
 from grasptask.task import preprocess
 from grasptask.task.ellipsoid import Ellipsoid, is_singular, second_moment
 from grasptask.task.frames import transform_wrenches
+from grasptask.task.spd import spd_problem
 
 
 @dataclass(frozen=True)
@@ -136,6 +137,11 @@ def read_ellipsoids(path: str | Path) -> pd.DataFrame:
     if frame.empty:
         raise BadInputError(path, "no ellipsoids")
     for row, s in enumerate(frame["S"], start=1):
-        if len(s) != 36 or not np.all(np.isfinite(np.asarray(s, dtype=float))):
-            raise BadInputError(path, "S must hold 36 finite numbers", row=row, column="S")
+        try:
+            matrix = np.asarray(s, dtype=float).reshape(6, 6)
+        except (TypeError, ValueError):
+            raise BadInputError(path, "S must hold 36 numbers", row=row, column="S") from None
+        problem = spd_problem(matrix)
+        if problem:
+            raise BadInputError(path, f"S {problem}", row=row, column="S")
     return frame

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -10,9 +9,10 @@ import numpy as np
 import pandas as pd
 
 from grasptask.errors import BadInputError
+from grasptask.io.config import read_json
 from grasptask.task.ellipsoid import Ellipsoid
 from grasptask.task.fit import ellipsoid_matrices
-from grasptask.task.spd import log_euclidean_mean
+from grasptask.task.spd import log_euclidean_mean, spd_problem
 from grasptask.task.stats import group_order
 
 WRENCH_ORDER = ["fx", "fy", "fz", "tx", "ty", "tz"]
@@ -75,13 +75,26 @@ def task_models_payload(ellipsoids: pd.DataFrame) -> dict:
     }
 
 
+def _model(path: Path, section: str, name: object, data: object) -> TaskModel:
+    where = f"field '{section}.{name}"
+    if not isinstance(name, str) or not name:
+        raise BadInputError(path, f"{where}': a task name must be a non-empty string")
+    if not isinstance(data, dict) or "S" not in data:
+        raise BadInputError(path, f"{where}' must be a mapping with S (the 6 x 6 second moment)")
+    problem = spd_problem(data["S"])
+    if problem:
+        raise BadInputError(path, f"{where}.S' {problem}")
+    count = data.get("n_recordings", 1)
+    if isinstance(count, bool) or not isinstance(count, int) or count < 1:
+        raise BadInputError(path, f"{where}.n_recordings' must be a positive whole number, got {count!r}")
+    return TaskModel(name, count, Ellipsoid.from_matrix(np.asarray(data["S"], dtype=float)))
+
+
 def load_task_models(path: str | Path, section: str = "tasks") -> dict[str, TaskModel]:
-    """Read ``task_models.json``: ``{task name: TaskModel}``."""
-    path = Path(path)
-    if not path.is_file():
-        raise BadInputError(path, "file not found")
-    try:
-        data = json.loads(path.read_text())
-        return {name: TaskModel.from_dict(name, d) for name, d in data[section].items()}
-    except (json.JSONDecodeError, KeyError, TypeError, ValueError) as exc:
-        raise BadInputError(path, f"not a task-models file ({type(exc).__name__}: {exc})") from exc
+    """Read ``task_models.json``: ``{task name: TaskModel}``, every ``S`` checked to be a 6 x 6 SPD matrix
+    (the axes, lengths and weights are derived from it again)."""
+    data = read_json(path)
+    models = data.get(section)
+    if not isinstance(models, dict) or not models:
+        raise BadInputError(path, f"not a task-models file: no '{section}' mapping of task models")
+    return {name: _model(Path(path), section, name, model) for name, model in models.items()}

@@ -47,3 +47,26 @@ def log_vectors(matrices: np.ndarray) -> np.ndarray:
 def log_euclidean_distance(x: np.ndarray, y: np.ndarray) -> float:
     """``||log X - log Y||_F`` for two SPD matrices."""
     return float(np.linalg.norm(spd_log(x) - spd_log(y)))
+
+
+def spd_problem(matrix: object, d: int = 6, rtol: float = 1e-9, ratio: float = 1e-12) -> str | None:
+    """Why ``matrix`` is not a ``(d, d)`` symmetric positive definite matrix of finite numbers, or None: it
+    must be symmetric to ``rtol`` and its smallest eigenvalue above ``ratio`` times its largest (the bound
+    under which ``fit-task`` calls an ellipsoid singular)."""
+    try:
+        m = np.asarray(matrix, dtype=float)
+    except (TypeError, ValueError):
+        return "is not a matrix of numbers"
+    if m.shape != (d, d):
+        return f"must be {d} x {d}, got shape {m.shape}"
+    if not np.isfinite(m).all():
+        return "holds NaN or infinite values"
+    scale = float(np.abs(m).max())
+    if scale == 0:
+        return "is all zero"
+    if np.abs(m - m.T).max() > rtol * scale:
+        return "is not symmetric"
+    values = np.linalg.eigvalsh(m)
+    if values[0] <= ratio * values[-1]:
+        return f"is not positive definite (smallest eigenvalue {values[0]:.3g})"
+    return None

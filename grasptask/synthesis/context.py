@@ -1,0 +1,122 @@
+"""A worker's solver context: the model built once from a :class:`Job`, then re-solved from each start's
+initial point, every solution checked by the independent verifier, and the result row of one start."""
+
+from __future__ import annotations
+
+import os
+import time
+import traceback
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from grasptask.io import solutions as schema
+from grasptask.synthesis.config import SolverConfig
+from grasptask.synthesis.starts import Start
+
+# a test hook: a start whose id is listed here makes its worker exit abruptly (to exercise crash handling)
+CRASH_ENV = "GRASPTASK_CRASH_STARTS"
+
+
+@dataclass(frozen=True)
+class Job:
+    """Everything a worker needs to rebuild the model; plain paths and values, so it pickles."""
+
+    hand_path: str
+    object_path: str
+    tasks_path: str
+    task: str
+    backend: str = "casadi"
+    solver: SolverConfig = SolverConfig()
+    settings_path: str = ""
+
+
+class SolverContext:
+    """A worker's model and solver, built once; ``size`` is the model's variable and constraint count."""
+
+    def __init__(self, job: Job):
+        from grasptask.grasp.settings import GraspSettings, load_grasp_settings
+        from grasptask.hand import load_hand
+        from grasptask.objects import load_object
+        from grasptask.synthesis.backends import BACKENDS, write_nl
+        from grasptask.synthesis.model import build_model
+        from grasptask.task.model import load_task_models
+
+        self.job = job
+        self.hand = load_hand(job.hand_path)
+        self.obj = load_object(job.object_path)
+        self.task = load_task_models(job.tasks_path)[job.task]
+        self.settings = load_grasp_settings(job.settings_path) if job.settings_path else GraspSettings()
+        self.nlp = build_model(
+            self.hand, self.obj, self.task, self.settings, job.solver.bounds, job.solver.regularisation
+        )
+        self.size = self.nlp.size()
+        text, self.order = write_nl(self.nlp.model)
+        self.nlp.compile()  # now, so that its one-off cost is not counted in the first start's seconds
+        self.backend = BACKENDS[job.backend](text, job.solver.ipopt)
+        self.bounds = self.obj.bounds()
+        self.fingers = list(self.nlp.hand.fingers)
+        self.joint_names = self.nlp.hand.joint_names
+
+    def solve(self, start: Start) -> dict:
+        from grasptask.grasp.verify import Grasp, verify
+        from grasptask.io.solutions import grasp_columns
+        from grasptask.synthesis.placement import place
+
+        if str(start.start_id) in os.environ.get(CRASH_ENV, "").split(","):
+            os._exit(13)
+        row: dict[str, Any] = {
+            "start_id": start.start_id,
+            "orientation": start.orientation,
+            "position": start.position_name,
+        }
+        joints = self.nlp.hand.mid_range()
+        began = time.perf_counter()
+        if self.job.solver.placement:
+            row["placement_backoff_m"] = place(self.nlp, start, self.bounds, joints)
+        else:
+            self.nlp.initialise(start.palm_rotation, start.palm_position, joints)
+        row["placement_seconds"] = placed = time.perf_counter() - began
+        result = self.backend.solve(_values(self.order))
+        # a start's seconds are all it took to solve it: placement (or initialisation) and IPOPT
+        row.update(
+            status=result.status, iterations=result.iterations, seconds=result.seconds + placed, message=result.message
+        )
+        if result.x is None:
+            return {**row, "Q": float("nan"), "verified": False}
+        _assign(self.order, result.x)
+        solution = self.nlp.read()
+        row["Q"] = float(solution["Q"])
+        grasp = Grasp(solution["palm_rotation"], solution["palm_position"], solution["joint_angles"])
+        row.update(grasp_columns(grasp, self.joint_names, self.fingers, solution["contacts"], solution["normals"]))
+        check = verify(grasp, self.hand, self.obj, self.task, self.settings)
+        row.update(check.record(self.fingers))
+        return row
+
+
+def _values(order: list) -> np.ndarray:
+    return np.array([v.value if v.value is not None else 0.0 for v in order], dtype=float)
+
+
+def _assign(order: list, x: np.ndarray) -> None:
+    for var, value in zip(order, x, strict=True):
+        var.set_value(float(value), skip_validation=True)
+
+
+def failed_row(start: Start, status: str, seconds: float, message: str) -> dict:
+    return schema.failed_row(start.start_id, start.orientation, start.position_name, status, seconds, message)
+
+
+def solve_guarded(context: SolverContext, start: Start) -> dict:
+    """``context.solve(start)``, with any exception a recorded ``error`` row: never a crashed sweep."""
+    began = time.perf_counter()
+    try:
+        return context.solve(start)
+    except Exception as exc:  # noqa: BLE001 - a failed start is a recorded status, never a crashed sweep
+        return failed_row(start, "error", time.perf_counter() - began, f"{type(exc).__name__}: {exc}"[:300])
+
+
+def build_failure(exc: BaseException) -> str:
+    """The last line of a model build's traceback, for a one-line error."""
+    return traceback.format_exception_only(type(exc), exc)[-1].strip()
