@@ -31,3 +31,13 @@ class BadInputError(ValueError):
             where.append(f"column '{column}'")
         location = f"{self.source}: " + (", ".join(where) + ": " if where else "")
         super().__init__(location + problem)
+
+
+def existing_file(path: str | Path, what: str = "file") -> Path:
+    """``path`` if it is a file, else a one-line error that says whether it is missing or a folder."""
+    path = Path(path)
+    if path.is_dir():
+        raise BadInputError(path, f"is a folder, not a {what}")
+    if not path.is_file():
+        raise BadInputError(path, f"{what} not found")
+    return path

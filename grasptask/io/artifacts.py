@@ -80,7 +80,7 @@ class Provenance:
         return cls(
             command=command,
             config_hash=config_hash(config),
-            inputs={str(p): path_hash(p) for p in inputs},
+            inputs={str(Path(p).resolve()): path_hash(p) for p in inputs},  # where it was really read
             seed=seed,
         )
 

@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 import yaml
 
-from grasptask.errors import BadInputError
+from grasptask.errors import BadInputError, existing_file
 
 #: the largest config file read; every bundled one is under 10 kB
 MAX_CONFIG_BYTES = 1 << 20
@@ -29,11 +29,7 @@ class _NoAliasLoader(yaml.SafeLoader):
 
 def load_yaml(path: str | Path) -> dict[str, Any]:
     """A YAML mapping from ``path`` (safe types only, no aliases), or a one-line error naming the file."""
-    path = Path(path)
-    if path.is_dir():
-        raise BadInputError(path, "is a folder, not a config file")
-    if not path.is_file():
-        raise BadInputError(path, "config file not found")
+    path = existing_file(path, "config file")
     if path.stat().st_size > MAX_CONFIG_BYTES:
         raise BadInputError(path, f"larger than {MAX_CONFIG_BYTES >> 20} MB: not a config file")
     try:
@@ -52,7 +48,7 @@ def load_yaml(path: str | Path) -> dict[str, Any]:
 
 def read_json(path: str | Path) -> dict[str, Any]:
     """A JSON object from ``path``, or a one-line error naming the file."""
-    path = Path(path)
+    path = existing_file(path)
     try:
         data = json.loads(path.read_text())
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:

@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from grasptask.errors import BadInputError
+from grasptask.errors import BadInputError, existing_file
 from grasptask.io.units import UNIT_TABLES
 
 REQUIRED = ("path", "task", "subject", "trial", "grasp")
@@ -60,13 +60,13 @@ def is_manifest(path: str | Path) -> bool:
 
 
 def read_manifest(path: str | Path) -> list[RecordingEntry]:
-    path = Path(path)
-    if not path.is_file():
-        raise BadInputError(path, "manifest not found")
+    path = existing_file(path, "manifest")
     try:
         frame = pd.read_csv(path, dtype=str, keep_default_na=False, skipinitialspace=True)
     except pd.errors.EmptyDataError:
         raise BadInputError(path, "empty manifest") from None
+    except (pd.errors.ParserError, UnicodeDecodeError) as exc:
+        raise BadInputError(path, f"not a readable CSV ({type(exc).__name__})") from None
     frame.columns = [c.strip() for c in frame.columns]
     for name in REQUIRED:
         if name not in frame.columns:

@@ -15,7 +15,7 @@ import pyarrow as pa
 import pyarrow.csv as pacsv
 import pyarrow.parquet as pq
 
-from grasptask.errors import BadInputError
+from grasptask.errors import BadInputError, existing_file
 from grasptask.io.tool import CANONICAL_COLUMNS
 
 MIN_SAMPLES = 10
@@ -34,8 +34,7 @@ def read_recording(
     or not strictly increasing in time raises :class:`BadInputError` naming the file, row and column.
     """
     path = Path(path)
-    if not path.is_file():
-        raise BadInputError(path, "file not found")
+    existing_file(path)
     if path.stat().st_size == 0:
         raise BadInputError(path, "empty file")
     suffix = path.suffix.lower()

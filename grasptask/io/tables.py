@@ -6,13 +6,11 @@ from pathlib import Path
 
 import pandas as pd
 
-from grasptask.errors import BadInputError
+from grasptask.errors import BadInputError, existing_file
 
 
 def read_table(path: str | Path, required: tuple[str, ...] | list[str] = ()) -> pd.DataFrame:
-    path = Path(path)
-    if not path.is_file():
-        raise BadInputError(path, "file not found")
+    path = existing_file(path)
     try:
         frame = pd.read_parquet(path)
     except Exception as exc:  # pyarrow raises several types for a file that is not Parquet

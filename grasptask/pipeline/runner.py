@@ -12,9 +12,11 @@ A pipeline file (YAML) lists stages; each runs one ``grasptask`` command with th
         inputs: [configs/simulate.yaml]          # files or folders the stage reads
         outputs: [results/demo/recordings]       # what it makes
 
-A stage is skipped when its outputs exist and the hash of its command, arguments and inputs (every file
-under an input folder included) matches the last successful run. Arguments that name existing files count
-as inputs too. Paths are relative to the folder the runner is started from.
+A stage is skipped when its outputs exist, are as it left them, and the hash of its command, arguments and
+inputs (every file under an input folder included) matches the last successful run. Arguments that name
+existing files count as inputs too. A stage whose outputs exist but were made or changed by someone else is
+not run (its files would be overwritten) unless ``--force``. Paths are relative to the folder the runner is
+started from.
 """
 
 from __future__ import annotations
@@ -118,16 +120,44 @@ def load_pipeline(path: str | Path) -> PipelineSpec:
     return PipelineSpec(name, path, stages, state, str(data.get("final_message", "")))
 
 
-def _load_state(path: Path) -> dict:
-    try:
-        return json.loads(path.read_text())
-    except (OSError, json.JSONDecodeError):
+def _load_state(path: Path, force: bool) -> dict[str, dict]:
+    """What the runner recorded of its last runs. An unreadable state file is an error, not a reason to rerun
+    (and overwrite) everything; ``--force`` sets it aside."""
+    if not path.exists():
         return {}
+    try:
+        state = json.loads(path.read_text())
+        if not isinstance(state, dict) or not all(isinstance(v, dict) for v in state.values()):
+            raise ValueError("not a mapping of stage records")
+    except (OSError, UnicodeDecodeError, ValueError) as exc:
+        if force:
+            return {}
+        raise BadInputError(
+            path, f"not a pipeline state file ({exc}); delete it, or run with --force to rerun every stage"
+        ) from exc
+    return state
 
 
 def _save_state(path: Path, state: dict) -> None:
     path.parent.mkdir(parents=True, exist_ok=True)
     write_json_atomic(path, state)
+
+
+def _outputs_hash(stage: Stage) -> str:
+    return config_hash({str(o): path_hash(o) if o.exists() else "missing" for o in stage.outputs})
+
+
+def _foreign_outputs(stage: Stage, record: dict) -> str | None:
+    """Why the stage's existing outputs are not what this pipeline last made (so that running it would
+    overwrite someone's files), or None."""
+    existing = [o for o in stage.outputs if o.exists()]
+    if not existing:
+        return None
+    if not record:
+        return f"{existing[0]} exists but this pipeline did not make it"
+    if "outputs" in record and record["outputs"] != _outputs_hash(stage):
+        return f"its outputs ({', '.join(map(str, existing))}) changed since this pipeline made them"
+    return None
 
 
 def run_pipeline(
@@ -137,17 +167,27 @@ def run_pipeline(
     dry_run: bool = False,
     echo: Callable[[str], Any] = print,
 ) -> Outcome:
-    """Run ``spec``'s stages in order with ``runner`` (a stage in, its exit code out), skipping fresh ones."""
-    state = _load_state(spec.state_path)
+    """Run ``spec``'s stages in order with ``runner`` (a stage in, its exit code out), skipping fresh ones.
+    A stage whose outputs someone else made or edited is not overwritten without ``force``."""
+    state = _load_state(spec.state_path, force)
     outcome = Outcome()
     for number, stage in enumerate(spec.stages, start=1):
         label = f"[{number}/{len(spec.stages)}] {stage.name}"
-        key = stage.key()
-        fresh = state.get(stage.name, {}).get("key") == key and all(o.exists() for o in stage.outputs)
+        record = state.get(stage.name, {})
+        fresh = (
+            record.get("key") == stage.key()
+            and all(o.exists() for o in stage.outputs)
+            and record.get("outputs", _outputs_hash(stage)) == _outputs_hash(stage)
+        )
         if fresh and not force:
             echo(f"{label}: unchanged, skipped")
             outcome.skipped.append(stage.name)
             continue
+        foreign = None if force else _foreign_outputs(stage, record)
+        if foreign:
+            echo(f"{label}: not run: {foreign}; rerun with --force to overwrite")
+            outcome.failed, outcome.exit_code = stage.name, 2
+            return outcome
         echo(f"{label}: grasptask {' '.join([*stage.run, *stage.args])}")
         if dry_run:
             outcome.ran.append(stage.name)
@@ -159,8 +199,9 @@ def run_pipeline(
             outcome.failed, outcome.exit_code = stage.name, code
             return outcome
         # the key is taken again after the run: a stage may have created inputs of its own (none do today)
-        state[stage.name] = {"key": stage.key(), "seconds": round(time.perf_counter() - start, 3)}
+        seconds = round(time.perf_counter() - start, 3)
+        state[stage.name] = {"key": stage.key(), "outputs": _outputs_hash(stage), "seconds": seconds}
         _save_state(spec.state_path, state)
         outcome.ran.append(stage.name)
-        echo(f"{label}: done in {time.perf_counter() - start:.1f} s")
+        echo(f"{label}: done in {seconds:.1f} s")
     return outcome

@@ -80,6 +80,15 @@ def comparison(stats: pd.DataFrame, reference: pd.DataFrame, table: PaperTable) 
     return wide.round(3).reset_index(drop=True)
 
 
+def groups_not_in_paper(stats: pd.DataFrame, reference: pd.DataFrame) -> pd.DataFrame:
+    """The axis-length statistics of the groups the paper does not have, one row per (group, domain, axis)."""
+    own = stats[~stats["group"].isin(set(reference["group"])) & stats["stat"].isin(RAW + NORMALISED)]
+    if own.empty:
+        return pd.DataFrame()
+    wide = own.pivot_table(index=["group", "domain", "axis"], columns="stat", values="value", sort=False)
+    return wide.reindex(columns=[s for s in RAW + NORMALISED if s in wide.columns]).round(3).reset_index()
+
+
 def largest_differences(stats: pd.DataFrame, reference: pd.DataFrame) -> dict:
     """A summary for the page: the largest absolute differences of normalised values and of raw means."""
     joined = compare_with_reference(stats, reference)

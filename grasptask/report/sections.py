@@ -8,7 +8,7 @@ from pathlib import Path
 import pandas as pd
 
 from grasptask.hand.model import Hand
-from grasptask.io.artifacts import StagedOutput
+from grasptask.io.artifacts import StagedOutput, file_stem
 from grasptask.io.config import read_json
 from grasptask.io.reference import PaperSynthesis
 from grasptask.paths import DEFAULT_GRASP_CONFIG, DEFAULT_HAND, DEFAULT_OBJECT, PAPER_ELLIPSOID_TABLES, ROOT
@@ -27,6 +27,8 @@ class Writer:
         self.tables: list[str] = []
 
     def figure(self, name: str) -> Path:
+        if name in self.figures:  # two labels that map to the same file stem
+            name = f"{name}_{sum(f.startswith(name) for f in self.figures)}"
         self.figures.append(name)
         return self.staged.path(f"figures/{name}.png")
 
@@ -48,7 +50,8 @@ def ellipsoid_tables_section(results: ResultsFolder, writer: Writer) -> Section:
         "tables",
         "Task ellipsoids beside the paper (Tables 1-10)",
         "Recomputed from the recordings; each statistic is shown with the paper's value and the difference "
-        "(ours minus paper). Axes 1-3 are the axes of the 3D force or torque ellipsoid, shortest first.",
+        "(ours minus paper). Axes 1-3 are the axes of the 3D force or torque ellipsoid, shortest first. Groups "
+        "the paper does not have are tabulated on their own.",
     )
     if not results.stats.is_file():
         section.blocks.append(_run_missing(str(results.stats), "grasptask fit-task MANIFEST --out DIR/tasks"))
@@ -57,20 +60,30 @@ def ellipsoid_tables_section(results: ResultsFolder, writer: Writer) -> Section:
     reference = read_reference(PAPER_ELLIPSOID_TABLES)
     for table in paper_tables.PAPER_TABLES:
         frame = paper_tables.comparison(stats, reference, table)
-        caption = f"Table {table.number}: {table.title}"
         if frame.empty:
-            section.blocks.append(Note(f"{caption}: none of the groups {', '.join(table.groups)} in {results.stats}"))
-            continue
+            continue  # none of this table's groups: nothing to compare
+        section.blocks.append(writer.table(f"table_{table.number:02d}", f"Table {table.number}: {table.title}", frame))
         missing = sorted(set(table.groups) - set(frame["group"]))
-        section.blocks.append(writer.table(f"table_{table.number:02d}", caption, frame))
         if missing:
             section.blocks.append(Note(f"Table {table.number}: no results for {', '.join(missing)}"))
+    own = paper_tables.groups_not_in_paper(stats, reference)
+    if not own.empty:
+        section.blocks.append(
+            writer.table(
+                "own_groups",
+                "Groups the paper does not have: ellipsoid axis lengths (N, N.cm), shortest axis first",
+                own,
+            )
+        )
     summary = paper_tables.largest_differences(stats, reference)
-    section.summary = (
-        f"Tables 1-10: {summary['compared_values']} values compared with the paper; largest difference of a "
-        f"normalised value {summary['max_abs_diff_normalised']:.3f}, largest relative difference of a raw mean "
-        f"axis length {summary['max_rel_diff_raw_mu']:.0%}"
-    )
+    if summary["compared_values"]:
+        section.summary = (
+            f"Tables 1-10: {summary['compared_values']} values compared with the paper; largest difference of a "
+            f"normalised value {summary['max_abs_diff_normalised']:.3f}, largest relative difference of a raw mean "
+            f"axis length {summary['max_rel_diff_raw_mu']:.0%}"
+        )
+    else:
+        section.blocks.insert(0, Note(f"none of the groups in {results.stats} is one of the paper's: nothing compared"))
     return section
 
 
@@ -95,7 +108,7 @@ def ellipsoid_figures_section(results: ResultsFolder, writer: Writer) -> Section
         members = ellipsoids[ellipsoids["task"] == task]
         if members.empty:
             continue
-        path = writer.figure(f"ellipsoids_{task}")
+        path = writer.figure(f"ellipsoids_{file_stem(task)}")
         plot_task_ellipsoids(task, members, models[task].ellipsoid.S, path, samples, tasks)
         lengths = models[task].lengths
         section.blocks.append(
@@ -245,7 +258,7 @@ def grasps_section(
         for _, optimum in progress(rows, desc=f"report: {task} grasps", unit="grasp"):
             grasp = grasp_from_row(optimum, hand.grasping_hand().joint_names)
             number = int(optimum["optimum_id"])
-            path = writer.figure(f"grasp_{task}_{number:02d}")
+            path = writer.figure(f"grasp_{file_stem(task)}_{number:02d}")
             contacts = contacts_from_row(optimum, fingers)
             normals = normals_from_row(optimum, fingers)
             title = f"{task}, optimum {number}: Q = {optimum['Q']:.4g} ({int(optimum['members'])} starts)"

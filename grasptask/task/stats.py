@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from grasptask.errors import BadInputError
 from grasptask.io.units import PAPER_TORQUE_UNIT, TORQUE_UNITS
 from grasptask.task.ellipsoid import FORCE, TORQUE, block_extents, block_lengths
 from grasptask.task.fit import ellipsoid_matrices
@@ -61,7 +62,18 @@ def statistics_table(ellipsoids: pd.DataFrame) -> pd.DataFrame:
 
 
 def read_reference(path: str | Path) -> pd.DataFrame:
-    return pd.read_csv(path, comment="#", dtype={"axis": str})
+    """A statistics table in the reference CSV's long format (``stats.csv``, or the paper's)."""
+    try:
+        frame = pd.read_csv(path, comment="#", dtype={"axis": str})
+    except (OSError, UnicodeDecodeError, pd.errors.ParserError, pd.errors.EmptyDataError) as exc:
+        raise BadInputError(path, f"not a readable statistics CSV ({type(exc).__name__})") from exc
+    for column in STATS_COLUMNS:
+        if column not in frame.columns:
+            raise BadInputError(path, "missing column", column=column)
+    values = pd.to_numeric(frame["value"], errors="coerce")
+    if values.isna().any():
+        raise BadInputError(path, "not a number", row=int(values.isna().to_numpy().argmax()) + 1, column="value")
+    return frame.assign(value=values, group=frame["group"].astype(str), axis=frame["axis"].astype(str))
 
 
 def compare_with_reference(stats: pd.DataFrame, reference: pd.DataFrame) -> pd.DataFrame:
