@@ -21,6 +21,8 @@ class BadInputError(ValueError):
         column: str | None = None,
     ):
         self.source = str(source)
+        # one line, always: messages quoted from parsers (YAML, IPOPT) can run over several
+        problem = " ".join(part.strip() for part in str(problem).splitlines() if part.strip())
         self.problem = problem
         self.row = row
         self.column = column

@@ -6,7 +6,7 @@ from dataclasses import dataclass, fields
 from pathlib import Path
 
 from grasptask.errors import BadInputError
-from grasptask.io.config import load_yaml, reject_unknown
+from grasptask.io.config import load_yaml, number, reject_unknown, whole
 from grasptask.paths import DEFAULT_GRASP_CONFIG
 
 
@@ -23,7 +23,13 @@ def load_grasp_settings(path: str | Path = DEFAULT_GRASP_CONFIG) -> GraspSetting
     data = load_yaml(path)
     names = {f.name for f in fields(GraspSettings)}
     reject_unknown(data, names, path)
-    settings = GraspSettings(**{k: type(getattr(GraspSettings, k))(v) for k, v in data.items()})
+    values: dict[str, float | int] = {}
+    for key, value in data.items():
+        if isinstance(getattr(GraspSettings, key), int):
+            values[key] = whole(value, path, key)
+        else:
+            values[key] = number(value, path, key, minimum=0.0)
+    settings = GraspSettings(**values)  # type: ignore[arg-type]
     if settings.friction_coefficient <= 0 or settings.cone_edges < 3 or not 0 < settings.pad_angle_max_deg <= 90:
         raise BadInputError(path, "need friction_coefficient > 0, cone_edges >= 3 and 0 < pad_angle_max_deg <= 90")
     return settings

@@ -54,7 +54,7 @@ def is_manifest(path: str | Path) -> bool:
     path = Path(path)
     if path.suffix.lower() != ".csv" or not path.is_file():
         return False
-    with open(path) as handle:
+    with open(path, errors="replace") as handle:
         header = handle.readline()
     return "path" in [c.strip().strip('"') for c in header.split(",")]
 

@@ -53,15 +53,18 @@ def read_recording(
 
 def _read_header(path: Path, suffix: str) -> list[str]:
     if suffix == ".csv":
-        with open(path, newline="") as handle:
-            header = next(csv.reader(handle), [])
+        try:
+            with open(path, newline="") as handle:
+                header = next(csv.reader(handle), [])
+        except (UnicodeDecodeError, csv.Error) as exc:
+            raise BadInputError(path, f"not a readable CSV ({type(exc).__name__})") from exc
         if not header:
             raise BadInputError(path, "empty file")
         return [c.strip() for c in header]
     try:
         return list(pq.read_schema(path).names)
-    except (pa.ArrowInvalid, OSError) as exc:
-        raise BadInputError(path, f"not a readable Parquet file ({exc})") from exc
+    except (pa.ArrowException, OSError) as exc:
+        raise BadInputError(path, f"not a readable Parquet file ({type(exc).__name__})") from exc
 
 
 def _check_columns(path: Path, names: list[str], rename: Mapping[str, str]) -> None:
@@ -83,14 +86,20 @@ def _check_columns(path: Path, names: list[str], rename: Mapping[str, str]) -> N
 
 def _read_table(path: Path, suffix: str, wanted: list[str], file_columns: list[str]) -> pa.Table:
     if suffix != ".csv":
-        return pq.read_table(path, columns=wanted)
+        try:
+            return pq.read_table(path, columns=wanted)
+        except (pa.ArrowException, OSError) as exc:
+            raise BadInputError(path, f"not a readable Parquet file ({type(exc).__name__})") from exc
     try:
         # pandas' C parser reads numeric CSV faster than pyarrow's on this machine's two cores
         # (usecols would double the parse time; the header is already checked, so read all and drop the rest)
         frame = pd.read_csv(path, dtype={c: np.float64 for c in wanted}, engine="c")[wanted]
-    except (ValueError, pd.errors.ParserError):
-        _locate_non_numeric(path, wanted)
-        raise BadInputError(path, "malformed CSV (ragged rows or bad quoting)") from None
+    except (ValueError, pd.errors.ParserError):  # UnicodeDecodeError is a ValueError
+        try:
+            _locate_non_numeric(path, wanted)
+        except (ValueError, pd.errors.ParserError):
+            pass
+        raise BadInputError(path, "malformed CSV (ragged rows, bad quoting or bytes that are not text)") from None
     return pa.Table.from_pandas(frame, preserve_index=False)
 
 

@@ -83,8 +83,24 @@ def find_results(root: str | Path) -> ResultsFolder:
     return ResultsFolder(root)
 
 
+#: what the report reads of run.json, and the types it must have
+RUN_FIELDS: dict[str, type | tuple[type, ...]] = {
+    "task": str,
+    "hand": str,
+    "object": str,
+    "grasp_config": str,
+    "model_size": (dict, type(None)),
+}
+
+
 def read_sweep(folder: Path) -> SweepResult:
     run = read_json(folder / "run.json")
+    for name, kind in RUN_FIELDS.items():
+        if name in run and not isinstance(run[name], kind):
+            raise BadInputError(folder / "run.json", f"field '{name}' has the wrong type: {run[name]!r}")
+    size = run.get("model_size") or {}
+    if not all(isinstance(size.get(k), int) for k in ("variables", "constraints")) and size:
+        raise BadInputError(folder / "run.json", f"field 'model_size' must hold two counts, got {size!r}")
     solutions = read_table(folder / "solutions.parquet", ("start_id", "status", "seconds", "verified"))
     optima = read_table(folder / "optima.parquet")
     return SweepResult(str(run.get("task", folder.name)), folder, run, solutions, optima)

@@ -14,7 +14,7 @@ import sys
 import tempfile
 import time
 from collections.abc import Callable, Iterator
-from contextlib import contextmanager
+from contextlib import contextmanager, redirect_stdout
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Protocol
@@ -65,13 +65,15 @@ _FILE_OPTIONS = ("output_file", "print_options_documentation")
 
 @contextmanager
 def _quiet_stdout() -> Iterator[None]:
-    """Silence the C-level stdout, where IPOPT prints its own complaints about an option."""
+    """Silence IPOPT's own complaints about an option: CasADi prints them through Python's stdout, IPOPT's
+    other output goes to the C-level one."""
     sys.stdout.flush()
     saved = os.dup(1)
     with open(os.devnull, "w") as null:
         os.dup2(null.fileno(), 1)
     try:
-        yield
+        with redirect_stdout(io.StringIO()):
+            yield
     finally:
         os.dup2(saved, 1)
         os.close(saved)

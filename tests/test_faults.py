@@ -1,0 +1,311 @@
+"""Fault injection: nothing finished is lost and nothing lands outside --out, under concurrent runs, resumes that
+do not match, cut-short logs, kill -9 of the parent or a worker, SIGTERM, a full disk and a read-only folder.
+
+Sweeps run as real subprocesses (``python -m grasptask.cli``) so that signals and kills are the real ones.
+"""
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+from grasptask.io.artifacts import Provenance, StagedOutput
+from grasptask.io.locking import lock_path
+from grasptask.io.sweep_log import read_log
+
+FAST = Path("tests/data/solver_fast.yaml")
+
+
+@pytest.fixture(scope="module")
+def tasks(simulated):
+    return simulated[0] / "tasks" / "task_models.json"
+
+
+def command(tasks, out, *extra):
+    return [
+        sys.executable, "-m", "grasptask.cli", "synthesize", "--tasks", str(tasks), "--task", "drawing",
+        "--out", str(out), "--solver-config", str(FAST), *map(str, extra),
+    ]  # fmt: skip
+
+
+def start_sweep(tasks, out, *extra):
+    return subprocess.Popen(command(tasks, out, *extra), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+
+
+def run_sweep(tasks, out, *extra, timeout=300):
+    return subprocess.run(command(tasks, out, *extra), capture_output=True, text=True, timeout=timeout)
+
+
+def log_rows(out) -> list[dict]:
+    path = Path(out) / "drawing" / "solutions.jsonl"
+    return [json.loads(line) for line in path.read_text().splitlines()] if path.exists() else []
+
+
+def wait_for(condition, timeout=120, what="condition"):
+    deadline = time.time() + timeout
+    while time.time() < deadline:
+        if condition():
+            return
+        time.sleep(0.1)
+    raise AssertionError(f"timed out waiting for {what}")
+
+
+def workers_of(pid: int) -> list[int]:
+    """The pool workers (spawned processes) among a process's children."""
+    try:
+        children = Path(f"/proc/{pid}/task/{pid}/children").read_text().split()
+    except OSError:
+        return []
+    found = []
+    for child in map(int, children):
+        try:
+            if b"spawn_main" in Path(f"/proc/{child}/cmdline").read_bytes():
+                found.append(child)
+        except OSError:
+            pass
+    return found
+
+
+def alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+    return state != "Z"
+
+
+def one_error_line(result) -> str:
+    lines = [line for line in (result.stderr + result.stdout).splitlines() if line.strip()]
+    error = [line for line in lines if line.startswith("error:")]
+    assert result.returncode == 2 and len(error) == 1, result.stderr + result.stdout
+    assert "Traceback" not in result.stderr
+    return error[0]
+
+
+def dead_pid() -> int:
+    process = subprocess.Popen(["true"])
+    process.wait()
+    return process.pid
+
+
+def test_a_second_run_on_a_folder_in_use_is_refused(tasks, tmp_path):
+    first = start_sweep(tasks, tmp_path, "--starts", "2", "--executor", "serial")
+    wait_for(lambda: lock_path(tmp_path / "drawing").exists(), what="the first run's lock")
+    for extra in ((), ("--resume",)):
+        second = run_sweep(tasks, tmp_path, "--starts", "2", "--executor", "serial", *extra)
+        assert "in use by another run" in one_error_line(second)
+    assert first.wait(timeout=300) == 0, first.stderr
+    rows = log_rows(tmp_path)
+    assert sorted(r["start_id"] for r in rows) == [0, 125]  # each start once
+    assert not lock_path(tmp_path / "drawing").exists()
+
+
+def test_a_stale_lock_of_a_dead_process_is_taken_over(tasks, tmp_path):
+    lock = lock_path(tmp_path / "drawing")
+    lock.parent.mkdir(parents=True, exist_ok=True)
+    lock.write_text(json.dumps({"pid": dead_pid(), "start": "1", "host": os.uname().nodename, "purpose": "x"}))
+    result = run_sweep(tasks, tmp_path, "--starts", "1", "--executor", "serial")
+    assert result.returncode == 0, result.stderr
+    assert not lock.exists()
+
+
+def test_resume_refuses_another_run(tasks, tmp_path):
+    assert run_sweep(tasks, tmp_path, "--starts", "3", "--executor", "serial").returncode == 0
+    before = (tmp_path / "drawing" / "solutions.jsonl").read_bytes()
+    other_solver = tmp_path / "solver.yaml"
+    other_solver.write_text(FAST.read_text().replace("max_iter: 400", "max_iter: 300"))
+    for extra, expected in (
+        (("--seed", "1"), "seed (0, now 1)"),
+        (("--solver-config", other_solver), "solver config"),
+        (("--starts", "4"), "not among the 4"),
+    ):
+        result = run_sweep(tasks, tmp_path, "--starts", "3", "--executor", "serial", "--resume", *extra)
+        assert expected in one_error_line(result)
+    assert (tmp_path / "drawing" / "solutions.jsonl").read_bytes() == before
+
+
+def test_a_cut_short_last_line_is_dropped_and_every_start_stays_unique(tasks, tmp_path):
+    assert run_sweep(tasks, tmp_path, "--starts", "2", "--executor", "serial").returncode == 0
+    log = tmp_path / "drawing" / "solutions.jsonl"
+    first = log.read_text().splitlines()[0]
+    with open(log, "a") as handle:  # a duplicate row, then what a full disk leaves: half a line
+        handle.write(first + "\n" + '{"start_id": 62, "status": "opt')
+    result = run_sweep(tasks, tmp_path, "--starts", "3", "--executor", "serial", "--resume")
+    assert result.returncode == 0, result.stderr
+    assert "dropped an incomplete last line" in result.stdout and "kept the first" in result.stdout
+    rows = log_rows(tmp_path)
+    assert sorted(r["start_id"] for r in rows) == [0, 62, 125]
+    assert len(pd.read_parquet(tmp_path / "drawing" / "solutions.parquet")) == 3
+
+
+def test_nothing_is_touched_before_the_run_is_known_to_work(tasks, tmp_path):
+    assert run_sweep(tasks, tmp_path, "--starts", "1", "--executor", "serial").returncode == 0
+    folder = tmp_path / "drawing"
+    before = {p.name: p.read_bytes() for p in folder.iterdir()}
+    bad_ipopt = tmp_path / "bad_ipopt.yaml"
+    bad_ipopt.write_text(FAST.read_text().replace("mu_strategy: adaptive", "mu_strategy: sideways"))
+    began = time.time()
+    for extra, expected in (
+        (("--executor", "dask"), "needs --scheduler"),
+        (("--solver-config", bad_ipopt), "ipopt.mu_strategy"),
+        (("--executor", "dask", "--scheduler", "tcp://127.0.0.1:9"), "no Dask scheduler answered"),
+        (("--starts", "100000"), "there are 126 starts"),
+    ):
+        assert expected in one_error_line(run_sweep(tasks, tmp_path, "--starts", "1", *extra))
+    assert time.time() - began < 60
+    assert {p.name: p.read_bytes() for p in folder.iterdir()} == before
+    # an unreachable cluster leaves no empty log (nor an empty --out) behind in a new folder
+    fresh = tmp_path / "fresh"
+    one_error_line(run_sweep(tasks, fresh, "--executor", "dask", "--scheduler", "tcp://127.0.0.1:9"))
+    assert not fresh.exists()
+
+
+def test_kill_9_of_the_parent_then_resume(tasks, tmp_path):
+    sweep = start_sweep(tasks, tmp_path, "--starts", "4", "--workers", "2")
+    wait_for(lambda: len(log_rows(tmp_path)) >= 1, what="a finished start")
+    workers = workers_of(sweep.pid)
+    assert workers
+    sweep.kill()
+    sweep.wait()
+    wait_for(lambda: not any(alive(w) for w in workers), timeout=40, what="the orphaned workers to exit")
+    kept = [r["start_id"] for r in log_rows(tmp_path)]
+    result = run_sweep(tasks, tmp_path, "--starts", "4", "--workers", "2", "--resume")
+    assert result.returncode == 0, result.stderr
+    rows = [r["start_id"] for r in log_rows(tmp_path)]
+    assert rows[: len(kept)] == kept and sorted(rows) == [0, 42, 83, 125]
+
+
+def test_kill_9_of_a_worker_is_recorded_and_the_sweep_goes_on(tasks, tmp_path):
+    sweep = start_sweep(tasks, tmp_path, "--starts", "4", "--workers", "2")
+    wait_for(lambda: len(workers_of(sweep.pid)) == 2 and len(log_rows(tmp_path)) >= 1, what="two busy workers")
+    os.kill(workers_of(sweep.pid)[0], signal.SIGKILL)
+    _, err = sweep.communicate(timeout=300)
+    assert sweep.returncode == 0, err
+    solutions = pd.read_parquet(tmp_path / "drawing" / "solutions.parquet")
+    assert sorted(solutions["start_id"]) == [0, 42, 83, 125]
+    assert (solutions["status"] == "crashed").sum() <= 1
+
+
+@pytest.mark.parametrize("executor", ["serial", "pool"])
+def test_sigterm_finishes_the_starts_in_progress_then_resume_completes(tasks, tmp_path, executor):
+    extra = ("--executor", "serial") if executor == "serial" else ("--workers", "2")
+    sweep = start_sweep(tasks, tmp_path, "--starts", "4", *extra)
+    wait_for(lambda: len(log_rows(tmp_path)) >= 1, what="a finished start")
+    sweep.send_signal(signal.SIGTERM)
+    out, err = sweep.communicate(timeout=120)
+    assert sweep.returncode == 130, err
+    assert "finishing the starts in progress" in out and "--resume" in err
+    kept = log_rows(tmp_path)
+    assert 1 <= len(kept) <= 4 and all(r["status"] not in ("crashed", "hung") for r in kept)
+    assert not lock_path(tmp_path / "drawing").exists()
+    result = run_sweep(tasks, tmp_path, "--starts", "4", *extra, "--resume")
+    assert result.returncode == 0, result.stderr
+    assert sorted(r["start_id"] for r in log_rows(tmp_path)) == [0, 42, 83, 125]
+
+
+@pytest.fixture
+def small_disk(tmp_path):
+    """A 3 MB tmpfs (root only): a full disk that the test can fill on purpose."""
+    mount = tmp_path / "disk"
+    mount.mkdir()
+    if os.geteuid() != 0:
+        pytest.skip("mounting a tmpfs needs root; the full-disk test runs where the suite runs as root")
+    made = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=3m", "tmpfs", str(mount)], capture_output=True)
+    if made.returncode != 0:
+        pytest.skip(f"could not mount a tmpfs here: {made.stderr.decode().strip()}")
+    yield mount
+    subprocess.run(["umount", "-l", str(mount)], check=False)
+
+
+def fill(folder: Path) -> Path:
+    """Fill the filesystem under ``folder`` up to its last byte."""
+    filler = folder / "filler"
+    with open(filler, "wb", buffering=0) as handle:
+        try:
+            while True:
+                handle.write(b"\0" * 4096)
+        except OSError:
+            pass
+    return filler
+
+
+def test_a_full_disk_keeps_the_finished_starts(tasks, small_disk):
+    sweep = start_sweep(tasks, small_disk, "--starts", "3", "--executor", "serial")
+    wait_for(lambda: len(log_rows(small_disk)) >= 1, what="a finished start")
+    filler = fill(small_disk)
+    _, err = sweep.communicate(timeout=120)
+    assert sweep.returncode == 2 and "no space left on device" in err and "Traceback" not in err, err
+    contents = read_log(small_disk / "drawing" / "solutions.jsonl")
+    assert contents.rows and not contents.repairs  # every finished row kept, no fragment left
+    filler.unlink()
+    result = run_sweep(tasks, small_disk, "--starts", "3", "--executor", "serial", "--resume")
+    assert result.returncode == 0, result.stderr
+    assert sorted(r["start_id"] for r in log_rows(small_disk)) == [0, 62, 125]
+
+
+def test_a_read_only_output_folder_is_one_line(tasks, small_disk, cli):
+    subprocess.run(["mount", "-o", "remount,ro", str(small_disk)], check=True)
+    result = cli("simulate", "--out", small_disk / "recordings")
+    assert result.exit_code == 2 and "Read-only file system" in result.output
+    assert len(result.output.strip().splitlines()) == 1
+    result = run_sweep(tasks, small_disk, "--starts", "1", "--executor", "serial")
+    assert "Read-only file system" in one_error_line(result)
+
+
+def test_a_stage_commit_is_all_or_nothing(tmp_path, monkeypatch):
+    out = tmp_path / "out"
+    with StagedOutput(out, Provenance.of("t", {})) as staged:
+        staged.write_with("a.txt", lambda p: p.write_text("old a"))
+        staged.write_with("b.txt", lambda p: p.write_text("old b"))
+        staged.write_with("keep.txt", lambda p: p.write_text("other stage"))
+    import grasptask.io.artifacts as artifacts
+
+    def killed(a, b):
+        raise KeyboardInterrupt  # a kill at the moment of the swap
+
+    monkeypatch.setattr(artifacts, "exchange", killed)
+    with pytest.raises(KeyboardInterrupt), StagedOutput(out, Provenance.of("t", {})) as staged:
+        staged.write_with("a.txt", lambda p: p.write_text("new a"))
+        staged.write_with("b.txt", lambda p: p.write_text("new b"))
+    assert (out / "a.txt").read_text() == "old a" and (out / "b.txt").read_text() == "old b"
+    monkeypatch.undo()
+    with StagedOutput(out, Provenance.of("t", {})) as staged:
+        staged.write_with("a.txt", lambda p: p.write_text("new a"))
+        staged.write_with("b.txt", lambda p: p.write_text("new b"))
+    assert [(out / n).read_text() for n in ("a.txt", "b.txt", "keep.txt")] == ["new a", "new b", "other stage"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]  # no staging folder, no lock
+
+
+def test_a_killed_stage_leaves_nothing_that_the_next_run_does_not_clean(tmp_path, simulated):
+    results = simulated[0]
+    out = tmp_path / "report"
+    report = subprocess.Popen(
+        [sys.executable, "-m", "grasptask.cli", "report", "--results", str(results), "--out", str(out)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+    )
+    wait_for(lambda: any(p.name.startswith(".report.staging-") for p in tmp_path.iterdir()), what="staging")
+    report.kill()
+    report.wait()
+    assert not out.exists()
+    assert any(p.name.startswith(".report.staging-") for p in tmp_path.iterdir())
+    done = subprocess.run(
+        [sys.executable, "-m", "grasptask.cli", "report", "--results", str(results), "--out", str(out)],
+        capture_output=True,
+        text=True,
+    )
+    assert done.returncode == 0, done.stderr
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["report"]
+
+
+def test_artifact_names_from_inputs_stay_inside_the_output_folder(tmp_path):
+    with pytest.raises(Exception, match="must stay inside"), StagedOutput(tmp_path / "o", Provenance.of("t", {})) as s:
+        s.path("x/../../../escaped.png")
+    assert not (tmp_path / "escaped.png").exists() and not (tmp_path / "o").exists()
