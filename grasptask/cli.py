@@ -260,7 +260,11 @@ def _model_options(f):
     show_default=True,
     help="IPOPT through CasADi's nlpsol, or the same CasADi functions through cyipopt.",
 )
-@click.option("--resume", is_flag=True, help="Keep the starts already in solutions.jsonl and solve only the rest.")
+@click.option(
+    "--resume",
+    is_flag=True,
+    help="Keep the starts already in solutions.jsonl and solve only the rest; refused if the folder holds another run.",
+)
 def synthesize(
     tasks_path,
     task,

@@ -38,6 +38,31 @@ def corpus(simulated, tmp_path_factory):
     first = pd.read_csv(recordings / "manifest.csv").iloc[0]
     recording_csv = root / "recording.csv"
     pd.read_parquet(recordings / first["path"]).iloc[:300].to_csv(recording_csv, index=False)
+    pipeline = root / "pipeline.yaml"
+    pipeline.write_text(
+        yaml.safe_dump(
+            {
+                "name": "corpus",
+                "state": str(root / "state.json"),
+                "final_message": "done",
+                "stages": [
+                    {
+                        "name": "fit",
+                        "run": "fit-task",
+                        "args": [str(recordings / "manifest.csv"), "--out", str(root / "pipeline-tasks")],
+                        "inputs": [str(recordings)],
+                        "outputs": [str(root / "pipeline-tasks" / "ellipsoids.parquet")],
+                    },
+                    {
+                        "name": "distances",
+                        "run": "distances",
+                        "args": [str(root / "pipeline-tasks" / "ellipsoids.parquet"), "--out", str(root / "pt")],
+                        "outputs": [str(root / "pt" / "distances.parquet")],
+                    },
+                ],
+            }
+        )
+    )
     return {
         "results": results,
         "tasks": tasks,
@@ -54,7 +79,7 @@ def corpus(simulated, tmp_path_factory):
             "object.yaml": Path("configs/objects/tool.yaml"),
             "grasp.yaml": Path("configs/grasp.yaml"),
             "solver.yaml": FAST,
-            "pipeline.yaml": Path("pipelines/demo.yaml"),
+            "pipeline.yaml": pipeline,
             "stats.csv": results / "tasks" / "stats.csv",
             "run.json": results / "grasps" / "drawing" / "run.json",
             "distances.parquet": results / "tasks" / "distances.parquet",

@@ -11,6 +11,7 @@ import pytest
 import yaml
 
 from grasptask.cli import run_stage
+from grasptask.errors import BadInputError
 from grasptask.pipeline.runner import load_pipeline, run_pipeline
 
 FAST = Path("tests/data/solver_fast.yaml")
@@ -184,11 +185,11 @@ def test_the_pipeline_never_overwrites_edited_or_foreign_outputs_without_force(t
     recording = next((tmp_path / "recordings" / "recordings").glob("*.csv"))
     recording.write_text(recording.read_text().replace("0.0", "0.5", 1))  # a user's edit
     edited = recording.read_text()
-    outcome = run_pipeline(spec, run_stage, echo=messages.append)
-    assert outcome.exit_code == 2 and "changed since this pipeline made them" in messages[-1]
+    with pytest.raises(BadInputError, match="changed since this pipeline made them.*--force"):
+        run_pipeline(spec, run_stage, echo=messages.append)
     (tmp_path / "state.json").unlink()
-    outcome = run_pipeline(spec, run_stage, echo=messages.append)
-    assert outcome.exit_code == 2 and "did not make it" in messages[-1]
+    with pytest.raises(BadInputError, match="did not make it"):
+        run_pipeline(spec, run_stage, echo=messages.append)
     assert recording.read_text() == edited
     assert run_pipeline(spec, run_stage, force=True, echo=messages.append).ran == ["simulate"]
     assert recording.read_text() != edited

@@ -143,7 +143,7 @@ def test_bad_object_configs(tmp_path):
     with pytest.raises(BadInputError, match="mesh file not found"):
         load_object(tmp_path / "b.yaml")
     (tmp_path / "c.yaml").write_text("type: superquadric\nsize_m: [0.01, -1, 0.1]\nexponents: [1, 1]\n")
-    with pytest.raises(BadInputError, match="positive half-sizes"):
+    with pytest.raises(BadInputError, match="3 half-sizes in"):
         load_object(tmp_path / "c.yaml")
 
 

@@ -97,8 +97,10 @@ def _read_table(path: Path, suffix: str, wanted: list[str], file_columns: list[s
     except (ValueError, pd.errors.ParserError):  # UnicodeDecodeError is a ValueError
         try:
             _locate_non_numeric(path, wanted)
+        except BadInputError:
+            raise
         except (ValueError, pd.errors.ParserError):
-            pass
+            pass  # not even the slow reader can parse it: malformed
         raise BadInputError(path, "malformed CSV (ragged rows, bad quoting or bytes that are not text)") from None
     return pa.Table.from_pandas(frame, preserve_index=False)
 

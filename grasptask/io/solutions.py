@@ -9,6 +9,7 @@ A solutions row holds ``start_id``, ``orientation``, ``position``, ``status``, `
 
 from __future__ import annotations
 
+import numbers
 from collections.abc import Mapping
 from typing import Any
 
@@ -60,6 +61,23 @@ def failed_row(start_id: int, orientation: int, position: str, status: str, seco
         "Q": float("nan"),
         "verified": False,
     }
+
+
+#: the largest plausible magnitudes of a solution's palm position (m, object frame), rotation entries and joint
+#: angles (rad): a row beyond them was not written by a sweep
+PLAUSIBLE = {"palm": 10.0, "rotation": 1.5, "joint": 100.0}
+
+
+def implausible_column(row: Row, joint_names: list[str]) -> str | None:
+    """The first grasp column of ``row`` that is not a finite number within :data:`PLAUSIBLE`, or None."""
+    limits = [(f"palm_{a}", PLAUSIBLE["palm"]) for a in AXES]
+    limits += [(f"palm_r{i}{j}", PLAUSIBLE["rotation"]) for i in range(3) for j in range(3)]
+    limits += [(c, PLAUSIBLE["joint"]) for c in joint_columns(joint_names)]
+    for column, limit in limits:
+        value = row[column]
+        if isinstance(value, bool) or not isinstance(value, numbers.Real) or not abs(float(value)) <= limit:
+            return column
+    return None
 
 
 def grasp_from_row(row: Row, joint_names: list[str]) -> Grasp:

@@ -36,6 +36,8 @@ from grasptask.objects.superquadric import Superquadric
 from grasptask.objects.surface import ImplicitObject, Symmetry
 from grasptask.paths import DEFAULT_OBJECT
 
+#: the largest half-size of an object, in metres: a hand grasps nothing bigger
+MAX_SIZE_M = 2.0
 POINT_COLUMNS = ["x", "y", "z", "nx", "ny", "nz"]
 
 
@@ -51,14 +53,16 @@ def load_object(path: str | Path = DEFAULT_OBJECT) -> ImplicitObject:
         reject_unknown(data, common | {"size_m", "exponents", "pose"}, path)
         size = numbers(data.get("size_m"), path, "size_m", 3)
         e1, e2 = numbers(data.get("exponents"), path, "exponents", 2)
-        if np.any(size <= 0) or not (0 < e1 <= 2 and 0 < e2 <= 2):
-            raise BadInputError(path, "need 3 positive half-sizes and exponents in (0, 2]")
+        if np.any(size < 1e-3) or np.any(size > MAX_SIZE_M) or not (0.05 <= e1 <= 2 and 0.05 <= e2 <= 2):
+            raise BadInputError(path, f"need 3 half-sizes in [0.001, {MAX_SIZE_M:g}] m and exponents in [0.05, 2]")
         pose = data.get("pose") or {}
         if not isinstance(pose, dict):
             raise BadInputError(path, f"field 'pose' must be a mapping, got {pose!r}")
         reject_unknown(pose, {"position_m", "rotation_rpy_deg"}, path, "pose.")
         rpy = numbers(pose.get("rotation_rpy_deg", [0, 0, 0]), path, "pose.rotation_rpy_deg", 3)
         position = numbers(pose.get("position_m", [0, 0, 0]), path, "pose.position_m", 3)
+        if np.abs(position).max() > MAX_SIZE_M:
+            raise BadInputError(path, f"field 'pose.position_m' must lie within {MAX_SIZE_M:g} m of the origin")
         rotation = Rotation.from_euler("xyz", rpy, degrees=True).as_matrix()
         return Superquadric(size, float(e1), float(e2), rotation, position, name, symmetry)
     if kind == "gp":

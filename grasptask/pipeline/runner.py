@@ -185,9 +185,7 @@ def run_pipeline(
             continue
         foreign = None if force else _foreign_outputs(stage, record)
         if foreign:
-            echo(f"{label}: not run: {foreign}; rerun with --force to overwrite")
-            outcome.failed, outcome.exit_code = stage.name, 2
-            return outcome
+            raise BadInputError(spec.path, f"stage '{stage.name}' not run: {foreign}; rerun with --force to overwrite")
         echo(f"{label}: grasptask {' '.join([*stage.run, *stage.args])}")
         if dry_run:
             outcome.ran.append(stage.name)

@@ -10,6 +10,7 @@ Any part may be missing; the report makes what it can from the rest.
 
 from __future__ import annotations
 
+import json
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -17,6 +18,7 @@ import pandas as pd
 
 from grasptask.errors import BadInputError
 from grasptask.io.config import read_json
+from grasptask.io.sweep_log import read_log
 from grasptask.io.tables import read_table
 
 
@@ -71,9 +73,17 @@ class ResultsFolder:
         return self._task_folders_with("run.json")
 
     def unfinished_sweeps(self) -> list[Path]:
-        """Task folders with a per-start log but no summary: a sweep interrupted or still running."""
-        finished = set(self.sweep_folders())
-        return [f for f in self._task_folders_with("solutions.jsonl") if f not in finished]
+        """Task folders whose per-start log holds rows that no summary includes: a sweep interrupted or still
+        running (with or without the run.json of an earlier, finished sweep)."""
+        unfinished = []
+        for folder in self._task_folders_with("solutions.jsonl"):
+            try:
+                summarised = json.loads((folder / "run.json").read_text()).get("log_rows")
+            except (OSError, ValueError, AttributeError):
+                summarised = None
+            if summarised != len(read_log(folder / "solutions.jsonl").rows):
+                unfinished.append(folder)
+        return unfinished
 
 
 def find_results(root: str | Path) -> ResultsFolder:

@@ -77,10 +77,11 @@ def ellipsoid_tables_section(results: ResultsFolder, writer: Writer) -> Section:
         )
     summary = paper_tables.largest_differences(stats, reference)
     if summary["compared_values"]:
+        normalised, raw = summary["max_abs_diff_normalised"], summary["max_rel_diff_raw_mu"]
         section.summary = (
             f"Tables 1-10: {summary['compared_values']} values compared with the paper; largest difference of a "
-            f"normalised value {summary['max_abs_diff_normalised']:.3f}, largest relative difference of a raw mean "
-            f"axis length {summary['max_rel_diff_raw_mu']:.0%}"
+            f"normalised value {'n/a' if normalised is None else f'{normalised:.3f}'}, largest relative "
+            f"difference of a raw mean axis length {'n/a' if raw is None else f'{raw:.0%}'}"
         )
     else:
         section.blocks.insert(0, Note(f"none of the groups in {results.stats} is one of the paper's: nothing compared"))
@@ -188,7 +189,10 @@ def sweeps_section(
     )
     for folder in results.unfinished_sweeps():
         section.blocks.append(
-            Note(f"{folder}: solutions.jsonl but no run.json (interrupted?); finish it with synthesize --resume")
+            Note(
+                f"{folder}: solutions.jsonl holds starts that no run.json summarises (interrupted?); finish the sweep"
+                " with synthesize --resume"
+            )
         )
     if not sweeps:
         section.blocks.append(_no_sweeps(results))

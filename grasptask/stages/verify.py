@@ -11,7 +11,7 @@ from grasptask.grasp.settings import load_grasp_settings
 from grasptask.grasp.verify import verify
 from grasptask.hand import load_hand
 from grasptask.io.artifacts import Provenance, StagedOutput
-from grasptask.io.solutions import grasp_from_row, joint_columns
+from grasptask.io.solutions import grasp_from_row, implausible_column, joint_columns
 from grasptask.io.tables import read_table
 from grasptask.objects import load_object
 from grasptask.paths import DEFAULT_GRASP_CONFIG, DEFAULT_HAND, DEFAULT_OBJECT
@@ -40,12 +40,17 @@ def run_verify(
     for column in joint_columns(hand.joint_names):
         if column not in solutions.columns:
             raise BadInputError(solutions_path, "missing column", column=column)
+    if not pd.api.types.is_integer_dtype(solutions["start_id"]):
+        raise BadInputError(solutions_path, "must hold whole numbers", column="start_id")
     rows = []
-    for _, row in solutions.iterrows():
+    for number, row in enumerate(solutions.to_dict("records"), start=1):
         record: dict[str, object] = {"start_id": int(row["start_id"])}
         if pd.isna(row["palm_x"]):
             record.update({"verified": False, "verify_failures": "no solution"})
         else:
+            wrong = implausible_column(row, hand.joint_names)
+            if wrong is not None:
+                raise BadInputError(solutions_path, f"not a plausible value: {row[wrong]!r}", row=number, column=wrong)
             check = verify(grasp_from_row(row, hand.joint_names), hand, obj, models[task], settings)
             record.update(check.record(list(hand.fingers)))
         rows.append(record)

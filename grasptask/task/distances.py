@@ -153,8 +153,12 @@ def read_distances(path: str | Path, ellipsoids: pd.DataFrame) -> Distances:
     k = len(ids)
     if (rows < 0).any() or (cols < 0).any() or len(long) != k * k:
         raise BadInputError(path, f"does not hold the {k} x {k} distances of the ellipsoids it is read with")
+    values = pd.to_numeric(long["distance"], errors="coerce").to_numpy(dtype=float)
+    bad = ~(np.isfinite(values) & (values >= 0))
+    if bad.any():
+        raise BadInputError(path, "not a finite distance >= 0", row=int(bad.argmax()) + 1, column="distance")
     raw = np.full((k, k), np.nan)
-    raw[rows, cols] = long["distance"].to_numpy(dtype=float)
+    raw[rows, cols] = values
     if np.isnan(raw).any():
         raise BadInputError(path, "a pair of ellipsoids is missing or repeated")
     return Distances(table=table, raw=raw, embedding=embedding_from_distances(raw))

@@ -136,6 +136,10 @@ def read_ellipsoids(path: str | Path) -> pd.DataFrame:
     frame = read_table(path, ("id", "task", "group", "S"))
     if frame.empty:
         raise BadInputError(path, "no ellipsoids")
+    repeated = frame["id"].astype(str).duplicated().to_numpy()
+    if repeated.any():
+        row = int(repeated.argmax()) + 1
+        raise BadInputError(path, f"duplicate id {frame['id'].iloc[row - 1]!r}", row=row, column="id")
     for row, s in enumerate(frame["S"], start=1):
         try:
             matrix = np.asarray(s, dtype=float).reshape(6, 6)
