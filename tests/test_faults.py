@@ -198,9 +198,11 @@ def test_sigterm_finishes_the_starts_in_progress_then_resume_completes(tasks, tm
     extra = ("--executor", "serial") if executor == "serial" else ("--workers", "2")
     sweep = start_sweep(tasks, tmp_path, "--starts", "4", *extra)
     wait_for(lambda: len(log_rows(tmp_path)) >= 1, what="a finished start")
+    workers = workers_of(sweep.pid)
     sweep.send_signal(signal.SIGTERM)
     out, err = sweep.communicate(timeout=120)
     assert sweep.returncode == 130, err
+    assert not any(alive(w) for w in workers)  # the parent ended its workers before it exited
     assert "finishing the starts in progress" in out and "--resume" in err
     kept = log_rows(tmp_path)
     assert 1 <= len(kept) <= 4 and all(r["status"] not in ("crashed", "hung") for r in kept)

@@ -209,3 +209,15 @@ def test_the_bundled_pipelines_declare_every_output_of_a_sweep():
         for stage in load_pipeline(f"pipelines/{name}.yaml").stages:
             if stage.run == ["synthesize"]:
                 assert {o.name for o in stage.outputs} == {"solutions.parquet", "optima.parquet", "run.json"}
+
+
+def test_recordings_outside_the_manifest_folder_are_read_and_their_resolved_path_recorded(
+    tmp_path, cli, recording_factory
+):
+    recording = recording_factory("rec.csv")
+    (tmp_path / "sub").mkdir()
+    rows = [{"path": "../rec.csv", "task": "drawing", "subject": "1", "trial": 1, "grasp": "tripod"}]
+    pd.DataFrame(rows).to_csv(tmp_path / "sub" / "manifest.csv", index=False)
+    assert cli("fit-task", tmp_path / "sub" / "manifest.csv", "--out", tmp_path / "o").exit_code == 0
+    ledger = json.loads((tmp_path / "o" / "provenance.json").read_text())
+    assert str(recording.resolve()) in ledger["ellipsoids.parquet"]["inputs"]
