@@ -28,6 +28,16 @@ class PaperSynthesis:
     def seconds(self) -> str:
         return f"{self.mean_s:.0f} +- {self.sd_s:.0f} s"
 
+    def figures_for(self, task: str) -> dict[str, object]:
+        """What a sweep's ``run.json`` records of the paper beside its own figures."""
+        return {
+            "variables": self.variables,
+            "constraints": self.constraints,
+            "seconds_per_solution_mean": self.mean_s,
+            "seconds_per_solution_sd": self.sd_s,
+            "distinct_optima": self.optima.get(task),
+        }
+
 
 def read_paper_synthesis(path: str | Path = PAPER_SYNTHESIS) -> PaperSynthesis:
     table = pd.read_csv(path, comment="#")

@@ -322,13 +322,7 @@ def summarise(
         },
         "sweep_wall_seconds_this_run": wall_seconds,
         "model_size": model_size,
-        "paper": {
-            "variables": paper.variables,
-            "constraints": paper.constraints,
-            "seconds_per_solution_mean": paper.mean_s,
-            "seconds_per_solution_sd": paper.sd_s,
-            "distinct_optima": paper.optima.get(options.task),
-        },
+        "paper": paper.figures_for(options.task),
         "versions": {"casadi": casadi.CasadiMeta.version(), "pyomo": pyomo.version.version},
     }
     config = {k: str(v) for k, v in asdict(options).items() if k != "out"}
