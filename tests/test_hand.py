@@ -40,10 +40,10 @@ def test_every_joint_and_tendon_table_carries_a_source():
 def test_index_tendons_match_the_reference_table():
     reference = pd.read_csv(REFERENCE_DIR / "paper_tendons.csv", comment="#").fillna(0.0)
     index = HAND.fingers["index"]
-    assert list(index.muscles) == list(reference["tendon"])
-    np.testing.assert_allclose(index.max_forces, reference["max_force_N"])
+    assert list(index.actuators) == list(reference["tendon"])
     arms = reference[["arm_mcp_abd_mm", "arm_mcp_flex_mm", "arm_pip_flex_mm", "arm_dip_flex_mm"]].to_numpy()
-    np.testing.assert_allclose(index.moment_arms, arms.T * 1e-3)
+    np.testing.assert_allclose(index.torque_map, arms.T * 1e-3 * reference["max_force_N"].to_numpy())
+    assert index.capability.kind == "tendons" and index.capability.is_direct
     np.testing.assert_allclose(HAND.fingers["middle"].torque_map, index.torque_map)
 
 
@@ -93,8 +93,10 @@ def test_pad_is_offset_from_the_bone_by_the_finger_radius():
 def test_straight_index_reaches_its_length():
     q = np.zeros(HAND.n_joints)
     index = forward(HAND, q).fingers["index"]
-    length = sum(j.link for j in HAND.fingers["index"].joints)
-    np.testing.assert_allclose(index.joint_positions[0, -1], HAND.fingers["index"].base_position + [length, 0, 0])
+    finger = HAND.fingers["index"]
+    length = sum(j.offset[0] for j in finger.joints[1:]) + finger.tip[0]  # the links, end to end
+    assert abs(length - 0.190 * (0.245 + 0.143 + 0.097)) < 1e-3  # [BA92] ratios of a 190 mm hand, rounded
+    np.testing.assert_allclose(index.joint_positions[0, -1], finger.joints[0].offset + [length, 0, 0])
 
 
 def test_flexion_curls_towards_the_palm_side():
@@ -109,7 +111,7 @@ def test_flexion_curls_towards_the_palm_side():
 def test_torques_from_activations_in_range_are_producible(seed):
     rng = np.random.default_rng(seed)
     for finger in HAND.fingers.values():
-        a = rng.uniform(0, 1, len(finger.muscles))
+        a = rng.uniform(0, 1, len(finger.actuators))
         result = activation_for(finger, finger.torque_map @ a)
         assert result.feasible and result.effort <= a.max() + 1e-7
         np.testing.assert_allclose(finger.torque_map @ result.activations, finger.torque_map @ a, atol=1e-8)

@@ -85,23 +85,24 @@ class Verification:
 
 def _torque_effort(edges, points, jacobians, hand: Hand, task: TaskModel) -> float:
     """Smallest ``t`` such that, for every task axis and both signs, contact forces inside the friction cones
-    apply ``+-gamma_i u_i`` to the object with joint torques ``J^T f = M P a``, ``0 <= a <= t`` (eq. 1, 10).
+    apply ``+-gamma_i u_i`` to the object with joint torques ``T J^T f = A a``, ``0 <= a <= t`` (eq. 1, 10;
+    ``T`` and ``A`` are the finger's :class:`~grasptask.hand.model.Capability`: tendons or motors).
 
     One LP over all twelve wrenches (each with its own forces and activations, sharing ``t``); infinite when
     some wrench cannot be applied at all."""
     b, m, _ = edges.shape
-    torque_maps = [f.torque_map for f in hand.fingers.values()]
-    n_act = sum(t.shape[1] for t in torque_maps)
+    capabilities = [f.capability for f in hand.fingers.values()]
+    n_act = sum(c.torque_map.shape[1] for c in capabilities)
     n_force = b * m
-    # one block: [wrench of the cone edges, 0; J_j^T L_j per finger, -M_j P_j per finger]
-    rows_q = sum(j.shape[1] for j in jacobians)
+    # one block: [wrench of the cone edges, 0; T_j J_j^T L_j per finger, -A_j per finger]
+    rows_q = sum(c.transmission.shape[0] for c in capabilities)
     block = np.zeros((6 + rows_q, n_force + n_act))
     block[:6, :n_force] = primitive_wrenches(points, edges).reshape(n_force, 6).T
     row, col = 6, n_force
-    for j, (jac, torque_map) in enumerate(zip(jacobians, torque_maps, strict=True)):
-        q_j, m_j = torque_map.shape
-        block[row : row + q_j, j * m : (j + 1) * m] = jac.T @ edges[j].T
-        block[row : row + q_j, col : col + m_j] = -torque_map
+    for j, (jac, capability) in enumerate(zip(jacobians, capabilities, strict=True)):
+        q_j, m_j = capability.torque_map.shape
+        block[row : row + q_j, j * m : (j + 1) * m] = capability.transmission @ jac.T @ edges[j].T
+        block[row : row + q_j, col : col + m_j] = -capability.torque_map
         row, col = row + q_j, col + m_j
     targets = [s * g * u for g, u in zip(task.lengths, task.axes, strict=True) for s in (1.0, -1.0)]
     k, width = len(targets), n_force + n_act
@@ -158,9 +159,9 @@ def verify(
     A = internal_forces(G)
     singular = np.linalg.svd(J.T @ A, compute_uv=False) if A.size else np.zeros(0)
     rank = int((singular > tol.rank_rtol * max(1.0, singular.max(initial=0.0))).sum())
-    # cones oriented by each distal phalanx's axis, as eq. 24 attaches them to the finger frame
-    distal_axes = np.stack([f.link_rotations[0, -1, :, 0] for f in pose.fingers.values()])
-    edges = friction_cone_edges(inward, settings.friction_coefficient, settings.cone_edges, distal_axes)
+    # cones oriented by each pad's own tangent (the distal phalanx's axis for a human finger), as eq. 24
+    # attaches them to the finger frame
+    edges = friction_cone_edges(inward, settings.friction_coefficient, settings.cone_edges, pose.pad_tangents()[0])
     scale = obj.characteristic_length
     epsilon = ferrari_canny(primitive_wrenches(surface_points, edges, obj.centre, scale))
     Q, _ = task_quality(G, J, task.axes, task.weights)

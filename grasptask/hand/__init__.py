@@ -1,6 +1,7 @@
-"""The human hand: kinematic chains, contact pads, collision samples and tendon force capabilities (Section 3)."""
+"""Hands: kinematic chains, contact pads, collision spheres and force capabilities (paper Section 3)."""
 
 from grasptask.hand.kinematics import HandPose, forward
-from grasptask.hand.model import Finger, Hand, Joint, load_hand
+from grasptask.hand.loading import load_hand
+from grasptask.hand.model import Capability, Finger, Hand, Joint, Pad, Palm, Sphere
 
-__all__ = ["Finger", "Hand", "HandPose", "Joint", "forward", "load_hand"]
+__all__ = ["Capability", "Finger", "Hand", "HandPose", "Joint", "Pad", "Palm", "Sphere", "forward", "load_hand"]

@@ -1,8 +1,9 @@
 """Forward kinematics of the hand, vectorised over configurations (paper eq. 2, Appendix 10.2).
 
-Each finger is a chain from its base in the palm frame: joint k turns about its axis (in the frame of the link
-before it), then link k extends along its own x. Everything is computed for a batch of ``N`` configurations
-at once and returned in the object frame, given the palm pose ``(R_h, d_h)``.
+Each finger is a chain from the palm frame: joint k sits at its offset in the frame of the link before it,
+turned by its fixed rotation, and turns about its axis; its collision spheres and, on the last link, the pad
+move with the link after it. Everything is computed for a batch of ``N`` configurations at once and returned
+in the object frame, given the palm pose ``(R_h, d_h)``.
 """
 
 from __future__ import annotations
@@ -30,16 +31,18 @@ class FingerPose:
     link_rotations: np.ndarray  # (N, n, 3, 3): each link's frame after its joint
     contact: np.ndarray  # (N, 3): the fingertip pad point
     pad_normal: np.ndarray  # (N, 3): outward normal of the pad
+    pad_tangent: np.ndarray  # (N, 3): the direction the first friction-cone edge follows
     jacobian: np.ndarray  # (N, 3, n): d contact / d joint angles
-    samples: np.ndarray  # (N, s, 3): collision sample points on the phalanges
-    radius: float
+    samples: np.ndarray  # (N, s, 3): collision sphere centres on the links
+    radii: np.ndarray  # (s,)
+    radius: float  # for drawing the links
 
 
 @dataclass
 class HandPose:
     fingers: dict[str, FingerPose]
     palm_samples: np.ndarray  # (N, k, 3)
-    palm_radius: float
+    palm_radii: np.ndarray  # (k,)
 
     def contacts(self) -> np.ndarray:
         """``(N, b, 3)`` pad points of the fingers, in order."""
@@ -48,45 +51,48 @@ class HandPose:
     def pad_normals(self) -> np.ndarray:
         return np.stack([f.pad_normal for f in self.fingers.values()], axis=1)
 
+    def pad_tangents(self) -> np.ndarray:
+        return np.stack([f.pad_tangent for f in self.fingers.values()], axis=1)
+
     def collision_spheres(self) -> tuple[np.ndarray, np.ndarray]:
-        """All sample points ``(N, s, 3)`` and their radii ``(s,)``: phalanges, then palm."""
+        """All sphere centres ``(N, s, 3)`` and their radii ``(s,)``: the fingers' links, then the palm."""
         points = [f.samples for f in self.fingers.values()] + [self.palm_samples]
-        radii = [np.full(f.samples.shape[1], f.radius) for f in self.fingers.values()]
-        radii.append(np.full(self.palm_samples.shape[1], self.palm_radius))
+        radii = [f.radii for f in self.fingers.values()] + [self.palm_radii]
         return np.concatenate(points, axis=1), np.concatenate(radii)
 
 
 def finger_forward(finger: Finger, q: np.ndarray) -> FingerPose:
     """Finger ``finger`` at joint angles ``q`` ``(N, n)``, in the palm frame."""
     n_conf = len(q)
-    rotation = np.broadcast_to(finger.base_rotation, (n_conf, 3, 3))
-    position = np.broadcast_to(finger.base_position, (n_conf, 3))
-    positions, axes, rotations, samples = [position], [], [], []
-    last_link = max(k for k, j in enumerate(finger.joints) if j.link > 0)
+    rotation = np.broadcast_to(np.eye(3), (n_conf, 3, 3))
+    position = np.zeros((n_conf, 3))
+    positions, axes, rotations = [], [], []
     for k, joint in enumerate(finger.joints):
+        position = position + rotation @ joint.offset
+        if joint.rotation is not None:
+            rotation = rotation @ joint.rotation
+        positions.append(position)
         axes.append(rotation @ joint.axis)
         rotation = rotation @ axis_rotations(joint.axis, q[:, k])
         rotations.append(rotation)
-        if joint.link > 0:
-            fractions = finger.distal_sample_fractions if k == last_link else finger.sample_fractions
-            for f in fractions:
-                samples.append(position + rotation[:, :, 0] * (f * joint.link))
-            distal_start, distal_rotation, distal_length = position, rotation, joint.link
-            position = position + rotation[:, :, 0] * joint.link
-        positions.append(position)
-    contact = distal_start + distal_rotation[:, :, 0] * (finger.pad_along * distal_length)
-    contact = contact + distal_rotation[:, :, 2] * finger.radius
-    joint_positions = np.stack(positions[:-1], axis=1)
+    link_rotations, joint_positions = np.stack(rotations, axis=1), np.stack(positions, axis=1)
+    pad = finger.pad
+    contact = position + rotation @ pad.point
+    centres = np.array([s.center for s in finger.spheres]).reshape(-1, 3)
+    links = [s.link for s in finger.spheres]
+    samples = joint_positions[:, links] + np.einsum("nsij,sj->nsi", link_rotations[:, links], centres)
     axes_arr = np.stack(axes, axis=1)
     jacobian = np.cross(axes_arr, contact[:, None, :] - joint_positions).transpose(0, 2, 1)
     return FingerPose(
-        joint_positions=np.stack(positions, axis=1),
+        joint_positions=np.concatenate([joint_positions, (position + rotation @ finger.tip)[:, None]], axis=1),
         joint_axes=axes_arr,
-        link_rotations=np.stack(rotations, axis=1),
+        link_rotations=link_rotations,
         contact=contact,
-        pad_normal=distal_rotation[:, :, 2],
+        pad_normal=rotation @ pad.normal,
+        pad_tangent=rotation @ pad.tangent,
         jacobian=jacobian,
-        samples=np.stack(samples, axis=1),
+        samples=samples,
+        radii=np.array([s.radius for s in finger.spheres]),
         radius=finger.radius,
     )
 
@@ -104,8 +110,10 @@ def _to_object(pose: FingerPose, rotation: np.ndarray, position: np.ndarray) -> 
         link_rotations=np.einsum("nij,nkjl->nkil", rotation, pose.link_rotations),
         contact=point(pose.contact[:, None, :])[:, 0],
         pad_normal=vector(pose.pad_normal[:, None, :])[:, 0],
+        pad_tangent=vector(pose.pad_tangent[:, None, :])[:, 0],
         jacobian=rotation @ pose.jacobian,
         samples=point(pose.samples),
+        radii=pose.radii,
         radius=pose.radius,
     )
 
@@ -129,4 +137,4 @@ def forward(
         for (name, finger), cols in zip(hand.fingers.items(), hand.slices().values(), strict=True)
     }
     palm = np.einsum("nij,kj->nki", rotation, hand.palm.points) + position[:, None, :]
-    return HandPose(fingers, palm, hand.palm.radius)
+    return HandPose(fingers, palm, hand.palm.radii)

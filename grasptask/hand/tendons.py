@@ -1,4 +1,5 @@
-"""Finger force capabilities (paper eq. 1 and 10): joint torques ``M P a`` with activations ``0 <= a <= 1``."""
+"""Finger force capabilities (paper eq. 1 and 10): joint torques ``tau`` with ``T tau = A a`` and activations
+``0 <= a <= 1``, for tendons (``A = M P``) and motors alike (:class:`grasptask.hand.model.Capability`)."""
 
 from __future__ import annotations
 
@@ -20,12 +21,12 @@ class Activation:
 
 
 def activation_for(finger: Finger, torque: np.ndarray, cap: float = 1.0) -> Activation:
-    """Activations ``a`` with ``M P a = torque``, minimising the largest activation ``max(a)``.
+    """Activations ``a`` with ``A a = T torque``, minimising the largest activation ``max(a)``.
 
-    The LP is ``min t`` subject to ``M P a = torque``, ``0 <= a <= t``; the torque is producible when
-    ``t <= cap`` (1: every muscle at most fully active).
+    The LP is ``min t`` subject to ``A a = T torque``, ``0 <= a <= t``; the torque is producible when
+    ``t <= cap`` (1: every actuator at most fully active).
     """
-    mp = finger.torque_map
+    mp = finger.capability.torque_map
     m = mp.shape[1]
     cost = np.zeros(m + 1)
     cost[-1] = 1.0
@@ -36,7 +37,7 @@ def activation_for(finger: Finger, torque: np.ndarray, cap: float = 1.0) -> Acti
         A_ub=a_ub,
         b_ub=np.zeros(m),
         A_eq=a_eq,
-        b_eq=np.asarray(torque, dtype=float),
+        b_eq=finger.capability.transmission @ np.asarray(torque, dtype=float),
         bounds=[(0, None)] * (m + 1),
         method="highs",
     )
@@ -47,5 +48,5 @@ def activation_for(finger: Finger, torque: np.ndarray, cap: float = 1.0) -> Acti
 
 
 def producible(finger: Finger, torque: np.ndarray) -> bool:
-    """Whether ``torque`` (one per joint of ``finger``) lies in ``{M P a : 0 <= a <= 1}``."""
+    """Whether ``torque`` (one per joint of ``finger``) is producible with every activation in ``[0, 1]``."""
     return activation_for(finger, torque).feasible

@@ -5,13 +5,14 @@ family of variables and constraints, in this order, and the component names carr
 
     palm_and_joints          eq. 16-23  palm rotation orthonormal; joint limits as bounds (eq. 20-21); DIP = k PIP
     kinematics               eq. 2      link frames, joint positions, pad contact points
-    contacts_and_collisions  eq. 3, 14  contacts on the surface; hand samples outside it; inward unit normals,
-                                        the cone tangent along the distal phalanx (App. 10.3); pads facing it
+    contacts_and_collisions  eq. 3, 14  contacts on the surface; hand spheres outside it; inward unit normals,
+                                        the cone tangent along the pad's own tangent (App. 10.3); pads facing it
     cones_and_wrenches       eq. 24, 5  friction cone edges and the torque parts of the primitive wrenches
     jacobians                eq. 7      finger Jacobian columns and the joint torques of each unit cone edge
     force_closure            eq. 4      phi >= eps, sum phi = 1, sum phi w = 0
     task_forces_and_quality  eq. 8, 12  G f_i = u_i and Q = sum_i gamma_i tau_i^T tau_i, tau_i = J^T f_i (eq. 13)
-    torque_feasibility       eq. 1, 10  every +-gamma_i u_i applied with cone forces and activations in [0, cap]
+    torque_feasibility       eq. 1, 10  every +-gamma_i u_i applied with cone forces, the joint torques carried by
+                                        the finger's tendons or motors with activations in [0, cap]
     objective                eq. 12     Q plus the small terms of :class:`Regularisation`
 
 Every quantity that several constraints share (frames, contacts, normals, cone edges, wrenches, Jacobians, edge
@@ -60,7 +61,8 @@ class NLPBuilder:
     palm_rotation: Matrix = field(default_factory=list)
     joint_axes: list[list[Vector]] = field(default_factory=list)  # per finger and joint, in the object frame
     joint_positions: list[list[Vector]] = field(default_factory=list)
-    distal: list[Matrix] = field(default_factory=list)  # each finger's distal frame
+    pad_normals: list[Vector] = field(default_factory=list)  # each pad's outward normal
+    pad_tangents: list[Vector] = field(default_factory=list)  # the direction each cone's first edge follows
     samples: list[tuple[Vector, float]] = field(default_factory=list)  # collision spheres: centre, radius
     contacts: list[Vector] = field(default_factory=list)  # p^j
     edges: list[list[Vector]] = field(default_factory=list)  # l_i^j
@@ -111,16 +113,47 @@ def palm_and_joints(nlp: NLPBuilder) -> None:
     nlp.palm_rotation = [[m.R_h[i, j] for j in XYZ] for i in XYZ]
 
 
+def _moved(start: Vector, frame: Matrix, offset: np.ndarray) -> Vector:
+    """``start + frame offset``, written with the offset's non-zero components only."""
+    point = list(start)
+    for c in XYZ:
+        if offset[c] != 0:
+            point = [point[i] + float(offset[c]) * frame[i][c] for i in XYZ]
+    return point
+
+
+def _direction(frame: Matrix, vector: np.ndarray) -> Vector:
+    """``frame vector``: a column of the frame when ``vector`` is a coordinate axis."""
+    for c in XYZ:
+        if vector[c] == 1 and np.count_nonzero(vector) == 1:
+            return [frame[i][c] for i in XYZ]
+    return [sum(frame[i][c] * float(vector[c]) for c in XYZ) for i in XYZ]
+
+
+def _turned(frame: Matrix, rotation: np.ndarray) -> Matrix:
+    """``frame rotation`` for a constant rotation."""
+    return [[sum(frame[i][k] * rotation[k, c] for k in XYZ) for c in XYZ] for i in XYZ]
+
+
+def _in_palm(nlp: NLPBuilder, point: np.ndarray) -> Vector:
+    """A point fixed in the palm frame, in the object frame: ``d_h + R_h point``."""
+    m, R_h = nlp.model, nlp.palm_rotation
+    return [m.d_h[i] + sum(R_h[i][k] * point[k] for k in XYZ) for i in XYZ]
+
+
 def _finger_chain(nlp: NLPBuilder, j: int, finger: Finger, first_column: int) -> None:
     """Eq. 2 along one finger: each link's frame defined, its joints' axes and positions, its collision
-    samples, and the pad contact point on the distal phalanx."""
-    m, R_h = nlp.model, nlp.palm_rotation
-    base = [[sum(R_h[i][k] * finger.base_rotation[k, c] for k in XYZ) for c in XYZ] for i in XYZ]
-    position = [m.d_h[i] + sum(R_h[i][k] * finger.base_position[k] for k in XYZ) for i in XYZ]
-    previous = base
-    axes_j, positions_j = [], []
-    last_link = max(i for i, jt in enumerate(finger.joints) if jt.link > 0)
+    spheres, and the pad contact point on the last link."""
+    m = nlp.model
+    previous = nlp.palm_rotation
+    axes_j: list[Vector] = []
+    positions_j: list[Vector] = []
+    position: Vector = []
     for k, joint in enumerate(finger.joints):
+        # the first joint's place is fixed in the palm; each later one in the link before it
+        position = _in_palm(nlp, joint.offset) if k == 0 else _moved(position, previous, joint.offset)
+        if joint.rotation is not None:
+            previous = _turned(previous, joint.rotation)
         theta = m.theta[first_column + k]
         axes_j.append([sum(previous[i][c] * joint.axis[c] for c in XYZ) for i in XYZ])
         positions_j.append(position)
@@ -128,27 +161,22 @@ def _finger_chain(nlp: NLPBuilder, j: int, finger: Finger, first_column: int) ->
         for r in XYZ:
             for c in XYZ:
                 nlp.define(m.eq2_frame, m.frame[j, k, r, c], sum(previous[r][q] * rot[q][c] for q in XYZ))
-        current = [[m.frame[j, k, r, c] for c in XYZ] for r in XYZ]
-        if joint.link > 0:
-            fractions = finger.distal_sample_fractions if k == last_link else finger.sample_fractions
-            for f in fractions:
-                nlp.samples.append(([position[i] + f * joint.link * current[i][0] for i in XYZ], finger.radius))
-            distal_start, distal_frame, distal_length = position, current, joint.link
-            position = [position[i] + joint.link * current[i][0] for i in XYZ]
-        previous = current
-    for i in XYZ:
-        expr = (
-            distal_start[i] + finger.pad_along * distal_length * distal_frame[i][0] + finger.radius * distal_frame[i][2]
-        )
+        previous = [[m.frame[j, k, r, c] for c in XYZ] for r in XYZ]
+        for sphere in finger.spheres:
+            if sphere.link == k:
+                nlp.samples.append((_moved(position, previous, sphere.center), sphere.radius))
+    pad = finger.pad
+    for i, expr in enumerate(_moved(position, previous, pad.point)):
         nlp.define(m.eq2_contact_point, m.p[j, i], expr)
     nlp.joint_axes.append(axes_j)
     nlp.joint_positions.append(positions_j)
-    nlp.distal.append(distal_frame)
+    nlp.pad_normals.append(_direction(previous, pad.normal))
+    nlp.pad_tangents.append(_direction(previous, pad.tangent))
 
 
 def kinematics(nlp: NLPBuilder) -> None:
     """Eq. 2: every link's frame in the object frame, the joint positions and the pad contact points p^j; the
-    palm's collision samples."""
+    palm's collision spheres."""
     m, fingers = nlp.model, nlp.fingers
     link_index = [(j, k) for j, f in enumerate(fingers) for k in range(f.n_joints)]
     m.frame = pyo.Var(link_index, XYZ, XYZ, doc="link frames R_k^j (object frame)")
@@ -159,9 +187,9 @@ def kinematics(nlp: NLPBuilder) -> None:
     for j, finger in enumerate(fingers):
         _finger_chain(nlp, j, finger, column)
         column += finger.n_joints
-    palm, R_h = nlp.hand.palm, nlp.palm_rotation
-    for point in palm.points:
-        nlp.samples.append(([m.d_h[i] + sum(R_h[i][k] * point[k] for k in XYZ) for i in XYZ], palm.radius))
+    palm = nlp.hand.palm
+    for point, radius in zip(palm.points, palm.radii, strict=True):
+        nlp.samples.append((_in_palm(nlp, point), float(radius)))
     nlp.contacts = [[m.p[j, i] for i in XYZ] for j in range(nlp.b)]
 
 
@@ -169,7 +197,7 @@ def contacts_and_collisions(nlp: NLPBuilder) -> None:
     """Eq. 3 and 14: the contacts on the surface and every hand sample outside it by its radius; the inward unit
     normal -grad g / |grad g| at each contact, the first cone tangent (the distal phalanx's axis projected on the
     tangent plane, App. 10.3), and the pad facing the surface within the configured angle."""
-    m, surface, p, samples, distal = nlp.model, nlp.surface, nlp.contacts, nlp.samples, nlp.distal
+    m, surface, p, samples = nlp.model, nlp.surface, nlp.contacts, nlp.samples
     b = nlp.b
     m.eq3_contact = pyo.Constraint(range(b), rule=lambda _, j: surface.contact(p[j]) == 0)
     m.eq14_collision = pyo.Constraint(
@@ -186,7 +214,7 @@ def contacts_and_collisions(nlp: NLPBuilder) -> None:
             m.normal_definition.add(m.n[j, i] * norm == -grad[i])
             nlp.definitions.append((m.n[j, i], -grad[i] / norm))
         n_j = [m.n[j, i] for i in XYZ]
-        x_d = [distal[j][i][0] for i in XYZ]
+        x_d = nlp.pad_tangents[j]
         along = dot(x_d, n_j)
         w = [x_d[i] - along * n_j[i] for i in XYZ]
         w_norm = sum(c * c for c in w) ** 0.5
@@ -195,7 +223,7 @@ def contacts_and_collisions(nlp: NLPBuilder) -> None:
             nlp.definitions.append((m.t[j, i], w[i] / w_norm))
     cos_bound = float(np.cos(np.radians(nlp.settings.pad_angle_max_deg)))
     m.pad_facing = pyo.Constraint(
-        range(b), rule=lambda _, j: sum(distal[j][i][2] * m.n[j, i] for i in XYZ) >= cos_bound
+        range(b), rule=lambda _, j: sum(nlp.pad_normals[j][i] * m.n[j, i] for i in XYZ) >= cos_bound
     )
 
 
@@ -292,7 +320,7 @@ def torque_feasibility(nlp: NLPBuilder) -> None:
     m.lam = pyo.Var(
         blocks, cells, bounds=(0, nlp.bounds.edge_force_n), doc="cone-edge force magnitudes per task wrench"
     )
-    muscles = [(j, q) for j, f in enumerate(fingers) for q in range(len(f.muscles))]
+    muscles = [(j, q) for j, f in enumerate(fingers) for q in range(len(f.actuators))]
     cap = 1.0 - nlp.settings.activation_margin
     m.act = pyo.Var(blocks, muscles, bounds=(0, cap), doc="tendon activations per task wrench (eq. 1)")
     m.eq10_wrench = pyo.ConstraintList()
@@ -302,11 +330,16 @@ def torque_feasibility(nlp: NLPBuilder) -> None:
         for r in range(6):
             m.eq10_wrench.add(sum(m.lam[a, s, j, e] * wrenches[j][e][r] for j, e in cells) == float(target[r]))
         for j, finger in enumerate(fingers):
-            torque_map = finger.torque_map
-            for k in range(finger.n_joints):
-                tau = sum(m.lam[a, s, j, e] * m.edge_torque[j, e, k] for e in range(m_edges))
-                produced = sum(float(torque_map[k, q]) * m.act[a, s, j, q] for q in range(len(finger.muscles)))
-                m.eq10_torque.add(tau == produced)
+            capability = finger.capability
+            taus = [
+                sum(m.lam[a, s, j, e] * m.edge_torque[j, e, k] for e in range(m_edges)) for k in range(finger.n_joints)
+            ]
+            for r, row in enumerate(capability.transmission):
+                carried = taus[r] if capability.is_direct else sum(float(t) * taus[k] for k, t in enumerate(row) if t)
+                produced = sum(
+                    float(capability.torque_map[r, q]) * m.act[a, s, j, q] for q in range(len(finger.actuators))
+                )
+                m.eq10_torque.add(carried == produced)
 
 
 def objective(nlp: NLPBuilder) -> None:
