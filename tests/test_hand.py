@@ -39,12 +39,12 @@ def test_every_joint_and_tendon_table_carries_a_source():
 
 def test_index_tendons_match_the_reference_table():
     reference = pd.read_csv(REFERENCE_DIR / "paper_tendons.csv", comment="#").fillna(0.0)
-    index = HAND.fingers["index"]
+    index = HAND.subset(["index"]).capability
     assert list(index.actuators) == list(reference["tendon"])
     arms = reference[["arm_mcp_abd_mm", "arm_mcp_flex_mm", "arm_pip_flex_mm", "arm_dip_flex_mm"]].to_numpy()
     np.testing.assert_allclose(index.torque_map, arms.T * 1e-3 * reference["max_force_N"].to_numpy())
-    assert index.capability.kind == "tendons" and index.capability.is_direct
-    np.testing.assert_allclose(HAND.fingers["middle"].torque_map, index.torque_map)
+    assert index.kind == "tendons" and np.array_equal(index.transmission, np.eye(4))
+    np.testing.assert_allclose(HAND.subset(["middle"]).capability.torque_map, index.torque_map)
 
 
 @settings(max_examples=40, deadline=None)
@@ -110,7 +110,8 @@ def test_flexion_curls_towards_the_palm_side():
 @given(seeds)
 def test_torques_from_activations_in_range_are_producible(seed):
     rng = np.random.default_rng(seed)
-    for finger in HAND.fingers.values():
+    for name in HAND.fingers:
+        finger = HAND.subset([name]).capability
         a = rng.uniform(0, 1, len(finger.actuators))
         result = activation_for(finger, finger.torque_map @ a)
         assert result.feasible and result.effort <= a.max() + 1e-7
@@ -118,7 +119,7 @@ def test_torques_from_activations_in_range_are_producible(seed):
 
 
 def test_torque_beyond_capability_is_not_producible():
-    index = HAND.fingers["index"]
+    index = HAND.subset(["index"]).capability
     all_flexors = index.torque_map @ np.array([1, 1, 0, 0, 0, 0, 0.0])
     assert producible(index, all_flexors)
     assert not producible(index, 2.5 * all_flexors)

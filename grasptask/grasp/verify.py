@@ -86,24 +86,25 @@ class Verification:
 def _torque_effort(edges, points, jacobians, hand: Hand, task: TaskModel) -> float:
     """Smallest ``t`` such that, for every task axis and both signs, contact forces inside the friction cones
     apply ``+-gamma_i u_i`` to the object with joint torques ``T J^T f = A a``, ``0 <= a <= t`` (eq. 1, 10;
-    ``T`` and ``A`` are the finger's :class:`~grasptask.hand.model.Capability`: tendons or motors).
+    ``T`` and ``A`` are the hand's :class:`~grasptask.hand.model.Capability`: tendons or motors).
 
     One LP over all twelve wrenches (each with its own forces and activations, sharing ``t``); infinite when
     some wrench cannot be applied at all."""
     b, m, _ = edges.shape
-    capabilities = [f.capability for f in hand.fingers.values()]
-    n_act = sum(c.torque_map.shape[1] for c in capabilities)
+    capability = hand.capability
+    n_act = capability.torque_map.shape[1]
     n_force = b * m
-    # one block: [wrench of the cone edges, 0; T_j J_j^T L_j per finger, -A_j per finger]
-    rows_q = sum(c.transmission.shape[0] for c in capabilities)
+    # one block: [wrench of the cone edges, 0; T J^T L, -A], J^T L the joint torques of each unit edge force
+    edge_torques = np.zeros((sum(j.shape[1] for j in jacobians), n_force))
+    row = 0
+    for j, jac in enumerate(jacobians):
+        edge_torques[row : row + jac.shape[1], j * m : (j + 1) * m] = jac.T @ edges[j].T
+        row += jac.shape[1]
+    rows_q = capability.transmission.shape[0]
     block = np.zeros((6 + rows_q, n_force + n_act))
     block[:6, :n_force] = primitive_wrenches(points, edges).reshape(n_force, 6).T
-    row, col = 6, n_force
-    for j, (jac, capability) in enumerate(zip(jacobians, capabilities, strict=True)):
-        q_j, m_j = capability.torque_map.shape
-        block[row : row + q_j, j * m : (j + 1) * m] = capability.transmission @ jac.T @ edges[j].T
-        block[row : row + q_j, col : col + m_j] = -capability.torque_map
-        row, col = row + q_j, col + m_j
+    block[6:, :n_force] = capability.transmission @ edge_torques
+    block[6:, n_force:] = -capability.torque_map
     targets = [s * g * u for g, u in zip(task.lengths, task.axes, strict=True) for s in (1.0, -1.0)]
     k, width = len(targets), n_force + n_act
     a_eq = sp.hstack([sp.kron(sp.identity(k), sp.csr_matrix(block)), sp.csr_matrix((k * block.shape[0], 1))])

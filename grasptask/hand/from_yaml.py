@@ -114,13 +114,11 @@ def _finger(data: dict, name: str, spec: Any, source: Path) -> Finger:
     distal = parsed[-1][1]
     pad_along = number(spec.get("pad_along", 0.65), source, f"{where}.pad_along", minimum=0.0)
     pad = Pad(np.array([pad_along * distal, 0.0, radius]), np.array([0.0, 0.0, 1.0]), np.array([1.0, 0.0, 0.0]))
-    muscles, arms, forces = _tendons(data, name, tuple(joints), source)
     return Finger(
         name=name,
         joints=tuple(joints),
         spheres=tuple(spheres),
         pad=pad,
-        capability=Capability.tendons(muscles, arms, forces),
         tip=np.array([distal, 0.0, 0.0]),
         radius=radius,
     )
@@ -151,6 +149,9 @@ def hand_from_yaml(data: dict, path: Path) -> Hand:
     for name in grasping:
         if name not in fingers:
             raise BadInputError(path, f"grasping finger '{name}' is not defined")
+    capability = Capability.combined(
+        [Capability.tendons(*_tendons(data, name, finger.joints, path)) for name, finger in fingers.items()]
+    )
     tendons = data.get("tendons", {})
     sources = {name: str(t.get("source", "")) for name, t in tendons.items() if isinstance(t, dict)}
-    return Hand(str(data.get("name", path.stem)), fingers, _palm(data, path), tuple(grasping), sources)
+    return Hand(str(data.get("name", path.stem)), fingers, _palm(data, path), tuple(grasping), capability, sources)

@@ -46,13 +46,13 @@ class Pad:
 
 @dataclass(frozen=True)
 class Capability:
-    """The joint torques a finger can produce (eq. 1 and 10): ``T tau = A a`` with ``0 <= a <= 1``.
+    """The joint torques a hand can produce (eq. 1 and 10): ``T tau = A a`` with ``0 <= a <= 1``.
 
     ``transmission`` ``T`` (r x joints) maps joint torques onto what the actuators carry: the identity for a
-    human finger, whose tendons act on every joint, and for a robot finger with a motor per joint; one row
-    for a motor driving a joint and the joints that mimic it. ``torque_map`` ``A`` (r x actuators) is what a
-    fully active actuator gives: ``M P`` for tendons, ``[E, -E]`` for motors with efforts ``E`` (a motor
-    pushes both ways, as two one-sided actuators)."""
+    human hand, whose tendons act on every joint, and for a robot with a motor per joint; one row for a motor
+    driving a joint and the joints that mimic it, in whatever finger they are. ``torque_map`` ``A``
+    (r x actuators) is what a fully active actuator gives: ``M P`` for tendons, ``[E, -E]`` for motors with
+    efforts ``E`` (a motor pushes both ways, as two one-sided actuators)."""
 
     kind: str  # "tendons" or "motors"
     actuators: tuple[str, ...]
@@ -70,11 +70,41 @@ class Capability:
         both = np.hstack([np.diag(efforts), -np.diag(efforts)])
         return cls("motors", tuple(f"{n}+" for n in names) + tuple(f"{n}-" for n in names), both, transmission)
 
-    @property
-    def is_direct(self) -> bool:
-        """Every joint carries its own torque (no shared transmission)."""
-        t = self.transmission
-        return t.shape[0] == t.shape[1] and np.array_equal(t, np.eye(t.shape[0]))
+    @classmethod
+    def combined(cls, parts: list[Capability]) -> Capability:
+        """The capabilities of consecutive groups of joints (the fingers), side by side."""
+        if not parts:
+            return cls("none", (), np.zeros((0, 0)), np.zeros((0, 0)))
+        kinds = {p.kind for p in parts}
+        return cls(
+            kinds.pop() if len(kinds) == 1 else "mixed",
+            tuple(a for p in parts for a in p.actuators),
+            _block_diagonal([p.torque_map for p in parts]),
+            _block_diagonal([p.transmission for p in parts]),
+        )
+
+    def subset(self, columns: list[int]) -> Capability:
+        """The capability of the joints ``columns`` only (the grasping fingers'): a transmission row that also
+        drives other joints keeps its limit, for those carry no load; actuators no kept row uses are dropped."""
+        transmission = self.transmission[:, columns]
+        rows = np.flatnonzero(np.abs(transmission).sum(axis=1))
+        used = np.flatnonzero(np.abs(self.torque_map[rows]).sum(axis=0))
+        return Capability(
+            self.kind,
+            tuple(self.actuators[q] for q in used),
+            self.torque_map[np.ix_(rows, used)],
+            transmission[rows],
+        )
+
+
+def _block_diagonal(blocks: list[np.ndarray]) -> np.ndarray:
+    rows, cols = sum(b.shape[0] for b in blocks), sum(b.shape[1] for b in blocks)
+    out = np.zeros((rows, cols))
+    r = c = 0
+    for block in blocks:
+        out[r : r + block.shape[0], c : c + block.shape[1]] = block
+        r, c = r + block.shape[0], c + block.shape[1]
+    return out
 
 
 @dataclass(frozen=True)
@@ -83,7 +113,6 @@ class Finger:
     joints: tuple[Joint, ...]
     spheres: tuple[Sphere, ...]
     pad: Pad
-    capability: Capability
     tip: np.ndarray  # the fingertip's end, in the last link's frame (for drawing the chain)
     radius: float  # the links' radius, for drawing
 
@@ -99,14 +128,6 @@ class Finger:
     def upper(self) -> np.ndarray:
         return np.array([j.upper for j in self.joints])
 
-    @property
-    def torque_map(self) -> np.ndarray:
-        return self.capability.torque_map
-
-    @property
-    def actuators(self) -> tuple[str, ...]:
-        return self.capability.actuators
-
 
 @dataclass(frozen=True)
 class Palm:
@@ -120,6 +141,8 @@ class Hand:
     fingers: dict[str, Finger]
     palm: Palm
     grasping: tuple[str, ...]
+    #: what the joints (in :attr:`joint_names` order) can carry: one description for the NLP and the verifier
+    capability: Capability
     sources: dict[str, str] = field(default_factory=dict)
 
     @property
@@ -144,7 +167,10 @@ class Hand:
         unknown = [n for n in names if n not in self.fingers]
         if unknown:
             raise KeyError(f"no finger '{unknown[0]}' in hand '{self.name}'")
-        return Hand(self.name, {n: self.fingers[n] for n in names}, self.palm, tuple(names), self.sources)
+        slices = self.slices()
+        columns = [c for n in names for c in range(slices[n].start, slices[n].stop)]
+        fingers = {n: self.fingers[n] for n in names}
+        return Hand(self.name, fingers, self.palm, tuple(names), self.capability.subset(columns), self.sources)
 
     def grasping_hand(self) -> Hand:
         return self.subset(self.grasping)

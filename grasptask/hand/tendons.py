@@ -8,7 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import linprog
 
-from grasptask.hand.model import Finger
+from grasptask.hand.model import Capability
 
 
 @dataclass(frozen=True)
@@ -20,13 +20,13 @@ class Activation:
     effort: float  # the largest activation needed (inf when no activation pattern produces the torque)
 
 
-def activation_for(finger: Finger, torque: np.ndarray, cap: float = 1.0) -> Activation:
+def activation_for(capability: Capability, torque: np.ndarray, cap: float = 1.0) -> Activation:
     """Activations ``a`` with ``A a = T torque``, minimising the largest activation ``max(a)``.
 
     The LP is ``min t`` subject to ``A a = T torque``, ``0 <= a <= t``; the torque is producible when
     ``t <= cap`` (1: every actuator at most fully active).
     """
-    mp = finger.capability.torque_map
+    mp = capability.torque_map
     m = mp.shape[1]
     cost = np.zeros(m + 1)
     cost[-1] = 1.0
@@ -37,7 +37,7 @@ def activation_for(finger: Finger, torque: np.ndarray, cap: float = 1.0) -> Acti
         A_ub=a_ub,
         b_ub=np.zeros(m),
         A_eq=a_eq,
-        b_eq=finger.capability.transmission @ np.asarray(torque, dtype=float),
+        b_eq=capability.transmission @ np.asarray(torque, dtype=float),
         bounds=[(0, None)] * (m + 1),
         method="highs",
     )
@@ -47,6 +47,6 @@ def activation_for(finger: Finger, torque: np.ndarray, cap: float = 1.0) -> Acti
     return Activation(effort <= cap + 1e-9, result.x[:m], effort)
 
 
-def producible(finger: Finger, torque: np.ndarray) -> bool:
-    """Whether ``torque`` (one per joint of ``finger``) is producible with every activation in ``[0, 1]``."""
-    return activation_for(finger, torque).feasible
+def producible(capability: Capability, torque: np.ndarray) -> bool:
+    """Whether ``torque`` (one per joint) is producible with every activation in ``[0, 1]``."""
+    return activation_for(capability, torque).feasible

@@ -312,34 +312,34 @@ def task_forces_and_quality(nlp: NLPBuilder) -> None:
 
 def torque_feasibility(nlp: NLPBuilder) -> None:
     """Eq. 1 and 10: for each task axis and sign, cone-edge forces lam >= 0 that apply +-gamma_i u_i, with joint
-    torques J^T f = M P a and activations 0 <= a <= 1 - margin (the margin keeps the verifier's own LP from
-    reading a hair over 1 at an active bound)."""
+    torques tau = J^T f carried by the hand's tendons or motors, T tau = A a (:class:`Capability`), and
+    activations 0 <= a <= 1 - margin (the margin keeps the verifier's own LP from reading a hair over 1 at an
+    active bound)."""
     m, fingers, cells, wrenches = nlp.model, nlp.fingers, nlp.cells, nlp.wrenches
     axes, lengths, m_edges = nlp.task.axes, nlp.task.lengths, nlp.settings.cone_edges
     blocks = [(a, s) for a in range(len(nlp.task.weights)) for s in (0, 1)]
     m.lam = pyo.Var(
         blocks, cells, bounds=(0, nlp.bounds.edge_force_n), doc="cone-edge force magnitudes per task wrench"
     )
-    muscles = [(j, q) for j, f in enumerate(fingers) for q in range(len(f.actuators))]
+    capability = nlp.hand.capability
     cap = 1.0 - nlp.settings.activation_margin
-    m.act = pyo.Var(blocks, muscles, bounds=(0, cap), doc="tendon activations per task wrench (eq. 1)")
+    actuators = range(len(capability.actuators))
+    m.act = pyo.Var(blocks, actuators, bounds=(0, cap), doc="tendon or motor activations per task wrench (eq. 1)")
     m.eq10_wrench = pyo.ConstraintList()
     m.eq10_torque = pyo.ConstraintList()
+    joints = [(j, k) for j, f in enumerate(fingers) for k in range(f.n_joints)]
     for a, s in blocks:
         target = (1.0 if s == 0 else -1.0) * lengths[a] * axes[a]
         for r in range(6):
             m.eq10_wrench.add(sum(m.lam[a, s, j, e] * wrenches[j][e][r] for j, e in cells) == float(target[r]))
-        for j, finger in enumerate(fingers):
-            capability = finger.capability
-            taus = [
-                sum(m.lam[a, s, j, e] * m.edge_torque[j, e, k] for e in range(m_edges)) for k in range(finger.n_joints)
-            ]
-            for r, row in enumerate(capability.transmission):
-                carried = taus[r] if capability.is_direct else sum(float(t) * taus[k] for k, t in enumerate(row) if t)
-                produced = sum(
-                    float(capability.torque_map[r, q]) * m.act[a, s, j, q] for q in range(len(finger.actuators))
-                )
-                m.eq10_torque.add(carried == produced)
+        taus = [sum(m.lam[a, s, j, e] * m.edge_torque[j, e, k] for e in range(m_edges)) for j, k in joints]
+        for r, row in enumerate(capability.transmission):
+            used = np.flatnonzero(row)
+            carried = taus[used[0]] if len(used) == 1 and row[used[0]] == 1 else sum(row[k] * taus[k] for k in used)
+            produced = sum(
+                float(capability.torque_map[r, q]) * m.act[a, s, q] for q in np.flatnonzero(capability.torque_map[r])
+            )
+            m.eq10_torque.add(carried == produced)
 
 
 def objective(nlp: NLPBuilder) -> None:
