@@ -201,6 +201,25 @@ def distances(ellipsoids, out):
     click.echo(f"wrote {out}/distances.parquet, distance_summary.json, distance_heatmap.png, distance_embedding.png")
 
 
+def _finger_list(ctx, param, value):
+    if value is None:
+        return None
+    names = tuple(n.strip() for n in value.split(",") if n.strip())
+    if not names:
+        raise click.BadParameter("name the fingers, e.g. thumb,index,middle,ring")
+    return names
+
+
+def _fingers_option(f):
+    return click.option(
+        "--fingers",
+        default=None,
+        callback=_finger_list,
+        help="Grasping fingers, comma-separated (e.g. thumb,index,middle,ring) [default: the hand file's choice, "
+        "for a URDF or MJCF hand all its fingers].",
+    )(f)
+
+
 def _model_options(f):
     """--hand, --object and --grasp-config, shared by synthesize and verify."""
     f = click.option(
@@ -219,7 +238,11 @@ def _model_options(f):
         help="Object config (YAML): superquadric or GP.",
     )(f)
     f = click.option(
-        "--hand", type=click.Path(path_type=Path), default=DEFAULT_HAND, show_default=True, help="Hand config (YAML)."
+        "--hand",
+        type=click.Path(path_type=Path),
+        default=DEFAULT_HAND,
+        show_default=True,
+        help="Hand: the project's YAML, a URDF, an MJCF file, or a YAML pointing at one (model: FILE).",
     )(f)
     return f
 
@@ -265,6 +288,7 @@ def _model_options(f):
     is_flag=True,
     help="Keep the starts already in solutions.jsonl and solve only the rest; refused if the folder holds another run.",
 )
+@_fingers_option
 def synthesize(
     tasks_path,
     task,
@@ -280,6 +304,7 @@ def synthesize(
     scheduler,
     backend,
     resume,
+    fingers,
 ):
     """Synthesize task-oriented grasps: the NLP of the paper's Sections 5-6 solved from many starts, every
     solution checked by the independent verifier. Writes OUT/TASK/solutions.parquet (one row per start),
@@ -300,6 +325,7 @@ def synthesize(
         scheduler=scheduler,
         backend=backend,
         resume=resume,
+        fingers=fingers,
     )
     try:
         run = stages.run_synthesize(options, echo=click.echo)

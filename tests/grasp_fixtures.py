@@ -27,7 +27,7 @@ def drawing_like_task(scale: float = 0.2) -> TaskModel:
 def ball_grasp() -> tuple[Grasp, Superquadric]:
     """Thumb, index and middle pads on a ball, pads facing its centre; the ball is placed to fit the hand."""
     hand = load_hand().grasping_hand()
-    free = [i for i in range(hand.n_joints) if i not in {d for d, _, _ in hand.couplings()}]
+    free = [i for i in range(hand.n_joints) if i not in {d for d, *_ in hand.couplings()}]
     lower, upper = hand.lower[free], hand.upper[free]
 
     def unpack(x):

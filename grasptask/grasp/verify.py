@@ -150,7 +150,7 @@ def verify(
     pad_normals = pose.pad_normals()[0]
     pad_angle = np.degrees(np.arccos(np.clip((pad_normals * inward).sum(axis=1), -1.0, 1.0)))
     margin = np.minimum(q - hand.lower, hand.upper - q).min()
-    coupling = max((abs(q[d] - r * q[i]) for d, i, r in hand.couplings()), default=0.0)
+    coupling = max((abs(q[d] - r * q[i] - o) for d, i, r, o in hand.couplings()), default=0.0)
     rotation_error = max(np.abs(rotation.T @ rotation - np.eye(3)).max(), abs(np.linalg.det(rotation) - 1.0))
     spheres, radii = pose.collision_spheres()
     clearance = float((obj.signed_distance(spheres[0]) - radii).min())

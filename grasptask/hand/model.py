@@ -4,7 +4,7 @@ spheres, its fingertip pad and its force capability, whatever file it came from 
 from __future__ import annotations
 
 from collections.abc import Iterable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -23,6 +23,7 @@ class Joint:
     rotation: np.ndarray | None = None
     coupled_to: str | None = None
     ratio: float = 1.0
+    coupling_offset: float = 0.0  # rad: q = ratio * q_coupled_to + coupling_offset
 
 
 @dataclass(frozen=True)
@@ -144,6 +145,8 @@ class Hand:
     #: what the joints (in :attr:`joint_names` order) can carry: one description for the NLP and the verifier
     capability: Capability
     sources: dict[str, str] = field(default_factory=dict)
+    #: the approach frame in the palm frame (z towards the object, as the starts' palm normal); None: the palm's
+    approach: np.ndarray | None = None
 
     @property
     def joint_names(self) -> list[str]:
@@ -170,7 +173,16 @@ class Hand:
         slices = self.slices()
         columns = [c for n in names for c in range(slices[n].start, slices[n].stop)]
         fingers = {n: self.fingers[n] for n in names}
-        return Hand(self.name, fingers, self.palm, tuple(names), self.capability.subset(columns), self.sources)
+        capability = self.capability.subset(columns)
+        return Hand(self.name, fingers, self.palm, tuple(names), capability, self.sources, self.approach)
+
+    def with_grasping(self, names: Iterable[str]) -> Hand:
+        """The same hand grasping with the fingers ``names`` (``KeyError`` naming one it does not have)."""
+        names = tuple(names)
+        for name in names:
+            if name not in self.fingers:
+                raise KeyError(name)
+        return replace(self, grasping=names)
 
     def grasping_hand(self) -> Hand:
         return self.subset(self.grasping)
@@ -187,18 +199,19 @@ class Hand:
         """Joint angles halfway between the limits, with the coupling applied."""
         return self.apply_coupling(0.5 * (self.lower + self.upper))
 
-    def couplings(self) -> list[tuple[int, int, float]]:
-        """``(dependent, independent, ratio)`` joint indices: ``q[dependent] = ratio * q[independent]``."""
+    def couplings(self) -> list[tuple[int, int, float, float]]:
+        """``(dependent, independent, ratio, offset)`` joint indices and values:
+        ``q[dependent] = ratio * q[independent] + offset``, among the joints of these fingers."""
         index = {n: i for i, n in enumerate(self.joint_names)}
         out = []
         for finger in self.fingers.values():
             for joint in finger.joints:
-                if joint.coupled_to is not None:
-                    out.append((index[joint.name], index[joint.coupled_to], joint.ratio))
+                if joint.coupled_to is not None and joint.coupled_to in index:
+                    out.append((index[joint.name], index[joint.coupled_to], joint.ratio, joint.coupling_offset))
         return out
 
     def apply_coupling(self, q: np.ndarray) -> np.ndarray:
         q = np.array(q, dtype=float, copy=True)
-        for dependent, independent, ratio in self.couplings():
-            q[..., dependent] = ratio * q[..., independent]
+        for dependent, independent, ratio, offset in self.couplings():
+            q[..., dependent] = ratio * q[..., independent] + offset
         return q

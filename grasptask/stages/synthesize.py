@@ -50,6 +50,8 @@ class SynthesisOptions:
     scheduler: str | None = None
     backend: str = "casadi"
     resume: bool = False
+    #: the grasping fingers; None: the hand file's choice (the human hand's thumb, index and middle)
+    fingers: tuple[str, ...] | None = None
 
     def __post_init__(self) -> None:
         for name in ("tasks", "out", "hand", "object", "solver_config", "grasp_config"):
@@ -111,6 +113,14 @@ def _prepare(options: SynthesisOptions) -> _Prepared:
     check_ipopt_options(solver.ipopt, options.solver_config)
     load_grasp_settings(options.grasp_config)
     hand = load_hand(options.hand)
+    if options.fingers:
+        try:
+            hand = hand.with_grasping(options.fingers)
+        except KeyError as exc:
+            known = ", ".join(hand.fingers)
+            raise BadInputError("--fingers", f"hand '{hand.name}' has no finger {exc} (it has {known})") from None
+        if len(set(options.fingers)) < 2 or len(set(options.fingers)) != len(options.fingers):
+            raise BadInputError("--fingers", "name at least two different fingers")
     obj = load_object(options.object)
     every = make_starts(obj.bounds(), options.seed)
     if options.starts is not None and options.starts > len(every):
@@ -124,6 +134,7 @@ def _prepare(options: SynthesisOptions) -> _Prepared:
         "object": config_hash([path_hash(p) for p in object_files(options.object)]),
         "solver config": path_hash(options.solver_config),
         "grasp config": path_hash(options.grasp_config),
+        "fingers": list(hand.grasping),
     }
     job = Job(
         hand_path=str(options.hand),
@@ -133,6 +144,7 @@ def _prepare(options: SynthesisOptions) -> _Prepared:
         backend=options.backend,
         solver=solver,
         settings_path=str(options.grasp_config),
+        fingers=hand.grasping,
     )
     return _Prepared(
         job,
@@ -304,6 +316,7 @@ def summarise(
         "object": str(options.object),
         "hand": str(options.hand),
         "grasp_config": str(options.grasp_config),
+        "fingers": fingers,
         "backend": options.backend,
         "executor": options.executor,
         "workers": options.workers,

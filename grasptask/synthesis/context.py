@@ -6,7 +6,7 @@ from __future__ import annotations
 import os
 import time
 import traceback
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -30,6 +30,8 @@ class Job:
     backend: str = "casadi"
     solver: SolverConfig = SolverConfig()
     settings_path: str = ""
+    #: the grasping fingers, when not the hand file's own choice
+    fingers: tuple[str, ...] | None = None
 
 
 class SolverContext:
@@ -45,6 +47,8 @@ class SolverContext:
 
         self.job = job
         self.hand = load_hand(job.hand_path)
+        if job.fingers:
+            self.hand = self.hand.with_grasping(job.fingers)
         self.obj = load_object(job.object_path)
         self.task = load_task_models(job.tasks_path)[job.task]
         self.settings = load_grasp_settings(job.settings_path) if job.settings_path else GraspSettings()
@@ -56,6 +60,7 @@ class SolverContext:
         self.nlp.compile()  # now, so that its one-off cost is not counted in the first start's seconds
         self.backend = BACKENDS[job.backend](text, job.solver.ipopt)
         self.bounds = self.obj.bounds()
+        self.approach = self.hand.approach
         self.fingers = list(self.nlp.hand.fingers)
         self.joint_names = self.nlp.hand.joint_names
 
@@ -66,6 +71,8 @@ class SolverContext:
 
         if str(start.start_id) in os.environ.get(CRASH_ENV, "").split(","):
             os._exit(13)
+        if self.approach is not None:  # the start's palm normal is the hand's approach direction
+            start = replace(start, palm_rotation=start.palm_rotation @ self.approach.T)
         row: dict[str, Any] = {
             "start_id": start.start_id,
             "orientation": start.orientation,

@@ -108,8 +108,9 @@ def palm_and_joints(nlp: NLPBuilder) -> None:
                 expr = sum(m.R_h[k, i] * m.R_h[k, j] for k in XYZ)
                 m.eq16_23_palm_orthonormal.add(expr == (1.0 if i == j else 0.0))
     m.eq22_coupling = pyo.ConstraintList(doc="DIP = k PIP")
-    for dependent, independent, ratio in hand.couplings():
-        m.eq22_coupling.add(m.theta[dependent] == ratio * m.theta[independent])
+    for dependent, independent, ratio, offset in hand.couplings():
+        coupled = ratio * m.theta[independent]
+        m.eq22_coupling.add(m.theta[dependent] == (coupled + offset if offset else coupled))
     nlp.palm_rotation = [[m.R_h[i, j] for j in XYZ] for i in XYZ]
 
 

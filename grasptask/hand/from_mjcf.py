@@ -1,0 +1,177 @@
+"""MJCF hands, compiled with ``mujoco``: bodies with their hinge joints, collision geoms, actuators (for the
+torque limits) and joint equalities (for coupled joints). Visual-only geoms (``contype`` and ``conaffinity``
+0) and the assets only they use are dropped before compiling, so a missing visual mesh does not stop loading.
+
+MuJoCo turns a body about its joint's position inside it; the project's link frame sits on the joint, so each
+body's geoms and children are shifted by that position. A joint's torque limit is the smallest of its own
+``actuatorfrcrange``, an actuator's ``forcerange`` and a motor's ``ctrlrange``, times the actuator's gear.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from grasptask.errors import BadInputError
+from grasptask.hand import spheres as cover
+from grasptask.hand.tree import Tree, TreeJoint, TreeLink
+
+
+def _frame(position: np.ndarray, quaternion: np.ndarray | None = None) -> np.ndarray:
+    import mujoco
+
+    frame = np.eye(4)
+    if quaternion is not None:
+        rotation = np.zeros(9)
+        mujoco.mju_quat2Mat(rotation, np.asarray(quaternion, dtype=float))
+        frame[:3, :3] = rotation.reshape(3, 3)
+    frame[:3, 3] = position
+    return frame
+
+
+def _compile(source: Path):
+    """The compiled model, without the visual-only geoms and the assets only they need."""
+    import mujoco
+
+    try:
+        spec = mujoco.MjSpec.from_file(str(source))
+    except ValueError as exc:
+        raise BadInputError(source, f"not an MJCF file MuJoCo can read: {str(exc).strip()}") from exc
+    used_meshes = set()
+    for geom in list(spec.geoms):
+        if geom.contype == 0 and geom.conaffinity == 0:
+            spec.delete(geom)
+        elif geom.meshname:
+            used_meshes.add(geom.meshname)
+    for mesh in list(spec.meshes):
+        if mesh.name not in used_meshes:
+            spec.delete(mesh)
+    for texture in list(spec.textures):
+        spec.delete(texture)
+    for material in list(spec.materials):
+        material.textures = [""] * len(material.textures)
+    try:
+        return spec.compile()
+    except ValueError as exc:
+        raise BadInputError(source, f"MuJoCo cannot compile it: {str(exc).strip()}") from exc
+
+
+def _name(model, kind, index: int, fallback: str) -> str:
+    import mujoco
+
+    return mujoco.mj_id2name(model, kind, index) or f"{fallback}{index}"
+
+
+def _geom_spheres(model, g: int, shift: np.ndarray) -> tuple[list, bool]:
+    import mujoco
+
+    kind, size = int(model.geom_type[g]), model.geom_size[g]  # an int: numpy's does not match enums with `in`
+    transform = _frame(-shift) @ _frame(model.geom_pos[g], model.geom_quat[g])
+    if kind == mujoco.mjtGeom.mjGEOM_SPHERE:
+        return [(transform[:3, 3].copy(), float(size[0]))], True
+    if kind == mujoco.mjtGeom.mjGEOM_CAPSULE:
+        return cover.capsule(float(size[0]), float(size[1]), transform), True
+    if kind == mujoco.mjtGeom.mjGEOM_CYLINDER:
+        return cover.cylinder(float(size[0]), 2 * float(size[1]), transform), False
+    if kind in (mujoco.mjtGeom.mjGEOM_BOX, mujoco.mjtGeom.mjGEOM_ELLIPSOID):
+        return cover.box(np.asarray(size, dtype=float), transform), False
+    if kind == mujoco.mjtGeom.mjGEOM_MESH:
+        mesh = model.geom_dataid[g]
+        start, count = model.mesh_vertadr[mesh], model.mesh_vertnum[mesh]
+        return cover.mesh_box(np.asarray(model.mesh_vert[start : start + count], dtype=float), transform), False
+    return [], False  # planes and height fields are scenery, not hand
+
+
+def _efforts(model) -> dict[int, float]:
+    """The torque limit of every joint an actuator drives (N.m)."""
+    import mujoco
+
+    limits: dict[int, float] = {}
+    for a in range(model.nu):
+        if model.actuator_trntype[a] != mujoco.mjtTrn.mjTRN_JOINT:
+            continue
+        joint, gear = int(model.actuator_trnid[a, 0]), abs(float(model.actuator_gear[a, 0]))
+        candidates = []
+        if model.actuator_forcelimited[a]:
+            candidates.append(np.abs(model.actuator_forcerange[a]).max() * gear)
+        motor = model.actuator_gaintype[a] == mujoco.mjtGain.mjGAIN_FIXED and model.actuator_biastype[a] == 0
+        if motor and model.actuator_ctrllimited[a]:
+            candidates.append(np.abs(model.actuator_ctrlrange[a]).max() * abs(model.actuator_gainprm[a, 0]) * gear)
+        if candidates:
+            limits[joint] = min(limits.get(joint, np.inf), min(candidates))
+    for j in range(model.njnt):
+        if model.jnt_actfrclimited[j]:
+            limits[j] = min(limits.get(j, np.inf), float(np.abs(model.jnt_actfrcrange[j]).max()))
+    return limits
+
+
+def _couplings(model, source: Path) -> dict[int, tuple[int, float, float]]:
+    """Joint equalities: ``slave -> (master, multiplier, offset)``, linear ones only."""
+    import mujoco
+
+    out = {}
+    for e in range(model.neq):
+        if model.eq_type[e] != mujoco.mjtEq.mjEQ_JOINT or not model.eq_active0[e]:
+            continue
+        slave, master = int(model.eq_obj1id[e]), int(model.eq_obj2id[e])
+        if master < 0:
+            name = _name(model, mujoco.mjtObj.mjOBJ_JOINT, slave, "joint")
+            raise BadInputError(source, f"joint '{name}': its equality names no second joint")
+        polynomial = model.eq_data[e, :5]
+        if np.any(np.abs(polynomial[2:]) > 1e-12):
+            name = _name(model, mujoco.mjtObj.mjOBJ_JOINT, slave, "joint")
+            raise BadInputError(source, f"joint '{name}': only a linear joint coupling (polycoef a0 a1) is supported")
+        out[slave] = (master, float(polynomial[1]), float(polynomial[0]))
+    return out
+
+
+def read_mjcf(source: Path) -> Tree:
+    """The kinematic tree of an MJCF file."""
+    import mujoco
+
+    model = _compile(source)
+    body_name = [_name(model, mujoco.mjtObj.mjOBJ_BODY, b, "body") for b in range(model.nbody)]
+    joint_name = [_name(model, mujoco.mjtObj.mjOBJ_JOINT, j, "joint") for j in range(model.njnt)]
+    shifts = {0: np.zeros(3)}
+    for b in range(1, model.nbody):
+        count = model.body_jntnum[b]
+        if count > 1:
+            raise BadInputError(source, f"body '{body_name[b]}' has {count} joints; one joint per body is supported")
+        shifts[b] = model.jnt_pos[model.body_jntadr[b]].copy() if count else np.zeros(3)
+    efforts, couplings = _efforts(model), _couplings(model, source)
+    links, joints = {}, []
+    for b in range(1, model.nbody):
+        link = TreeLink(body_name[b])
+        for g in np.flatnonzero(model.geom_bodyid == b):
+            found, rounded = _geom_spheres(model, int(g), shifts[b])
+            link.spheres += found
+            if rounded:
+                link.rounded += found
+        links[link.name] = link
+        parent = int(model.body_parentid[b])
+        if parent == 0:
+            continue  # a child of the world: a root
+        origin = _frame(-shifts[parent]) @ _frame(model.body_pos[b], model.body_quat[b]) @ _frame(shifts[b])
+        tree_joint = TreeJoint(f"fixed_{body_name[b]}", "fixed", body_name[parent], body_name[b], origin)
+        if model.body_jntnum[b]:
+            j = int(model.body_jntadr[b])
+            limited = bool(model.jnt_limited[j])
+            if model.jnt_type[j] == mujoco.mjtJoint.mjJNT_HINGE:
+                kind = "revolute" if limited else "continuous"
+            else:
+                kind = "prismatic" if model.jnt_type[j] == mujoco.mjtJoint.mjJNT_SLIDE else "floating"
+            tree_joint = TreeJoint(
+                name=joint_name[j],
+                kind=kind,
+                parent=body_name[parent],
+                child=body_name[b],
+                origin=origin,
+                axis=np.asarray(model.jnt_axis[j], dtype=float),
+                lower=float(model.jnt_range[j, 0]) if limited else None,
+                upper=float(model.jnt_range[j, 1]) if limited else None,
+                effort=efforts.get(j),
+                mimic=None if j not in couplings else (joint_name[couplings[j][0]], *couplings[j][1:]),
+            )
+        joints.append(tree_joint)
+    return Tree(links, joints)

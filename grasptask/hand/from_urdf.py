@@ -1,0 +1,106 @@
+"""URDF hands, parsed with ``yourdfpy``: links with their collision geometry, joints with origins, axes,
+limits, efforts and ``mimic`` relations. Visual meshes are never read, so a missing ``package://`` visual does
+not stop loading; a collision mesh is read with trimesh and covered by spheres."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from grasptask.errors import BadInputError
+from grasptask.hand import spheres as cover
+from grasptask.hand.tree import Tree, TreeJoint, TreeLink
+
+
+def resolve_mesh(filename: str, source: Path) -> Path | None:
+    """Where a mesh a hand file names lies: relative to the file, ``file://``, or ``package://pkg/...`` looked
+    up in the folders above the file (as a ROS workspace holds it)."""
+    folder = source.resolve().parent
+    if filename.startswith("package://"):
+        package, _, rest = filename[len("package://") :].partition("/")
+        candidates = [d / package / rest for d in (folder, *folder.parents)] + [folder / rest]
+    elif filename.startswith("file://"):
+        candidates = [Path(filename[len("file://") :])]
+    else:
+        candidates = [folder / filename]
+    return next((c for c in candidates if c.is_file()), None)
+
+
+def _geometry_spheres(geometry, transform: np.ndarray, link: str, source: Path) -> tuple[list, bool]:
+    """The spheres covering one collision geometry, and whether it was a sphere (a fingertip's shape)."""
+    import trimesh
+
+    if geometry.sphere is not None:
+        return [(transform[:3, 3].copy(), float(geometry.sphere.radius))], True
+    if geometry.cylinder is not None:
+        return cover.cylinder(float(geometry.cylinder.radius), float(geometry.cylinder.length), transform), False
+    if geometry.box is not None:
+        return cover.box(np.asarray(geometry.box.size, dtype=float) / 2, transform), False
+    if geometry.mesh is not None:
+        path = resolve_mesh(geometry.mesh.filename, source)
+        if path is None:
+            raise BadInputError(source, f"link '{link}': collision mesh '{geometry.mesh.filename}' not found")
+        try:
+            mesh = trimesh.load(path, force="mesh")
+        except Exception as exc:  # noqa: BLE001 - trimesh raises many kinds for a broken file
+            raise BadInputError(path, f"link '{link}': not a mesh trimesh can read ({type(exc).__name__})") from exc
+        scale = np.ones(3) if geometry.mesh.scale is None else np.broadcast_to(geometry.mesh.scale, 3)
+        vertices = np.array(getattr(mesh, "vertices", np.zeros((0, 3))), dtype=np.float64) * scale
+        if len(vertices) < 4:
+            raise BadInputError(path, f"link '{link}': the collision mesh has no volume")
+        return cover.mesh_box(vertices, transform), False
+    return [], False
+
+
+def read_urdf(source: Path) -> Tree:
+    """The kinematic tree of a URDF file."""
+    import yourdfpy
+    from lxml import etree
+
+    try:
+        urdf = yourdfpy.URDF.load(
+            str(source),
+            build_scene_graph=False,
+            build_collision_scene_graph=False,
+            load_meshes=False,
+            load_collision_meshes=False,
+        )
+    except etree.XMLSyntaxError as exc:
+        raise BadInputError(source, f"malformed XML: {exc.msg}", row=exc.lineno) from exc
+    except (ValueError, KeyError, TypeError, AttributeError) as exc:
+        raise BadInputError(source, f"not a URDF yourdfpy can read ({type(exc).__name__}: {exc})") from exc
+    robot = urdf.robot
+    links = {}
+    for link in robot.links:
+        tree_link = TreeLink(link.name)
+        for collision in link.collisions:
+            origin = np.eye(4) if collision.origin is None else np.asarray(collision.origin, dtype=float)
+            found, rounded = _geometry_spheres(collision.geometry, origin, link.name, source)
+            tree_link.spheres += found
+            if rounded:
+                tree_link.rounded += found
+        links[link.name] = tree_link
+    joints = []
+    for joint in robot.joints:
+        limit = joint.limit
+        mimic = (
+            None
+            if joint.mimic is None
+            else (joint.mimic.joint, float(joint.mimic.multiplier or 1.0), float(joint.mimic.offset or 0.0))
+        )
+        joints.append(
+            TreeJoint(
+                name=joint.name,
+                kind=joint.type,
+                parent=joint.parent,
+                child=joint.child,
+                origin=np.eye(4) if joint.origin is None else np.asarray(joint.origin, dtype=float),
+                axis=np.array([1.0, 0.0, 0.0]) if joint.axis is None else np.asarray(joint.axis, dtype=float),
+                lower=None if limit is None or limit.lower is None else float(limit.lower),
+                upper=None if limit is None or limit.upper is None else float(limit.upper),
+                effort=None if limit is None or limit.effort is None else float(limit.effort),
+                mimic=mimic,
+            )
+        )
+    return Tree(links, joints)

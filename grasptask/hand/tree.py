@@ -1,0 +1,362 @@
+"""A hand file's kinematic tree, and the hand it describes.
+
+The URDF and MJCF loaders only parse: each gives a :class:`Tree` of links (with their collision spheres) and
+joints (with their origins, axes, limits, efforts and mimic relations). :func:`hand_from_tree` then makes the
+project's :class:`~grasptask.hand.model.Hand` from it, the same way for both formats:
+
+- the palm is the root link (or ``palm_link``); links fixed to it are the palm's collision geometry;
+- fingertips are the leaf links that carry a sphere or capsule (or the named ``fingertips``); each finger is
+  the chain of revolute joints from the palm to its tip, fixed joints folded into the next joint's origin;
+- the pad is on the tip's sphere, facing the centroid of the fingertips at mid-range joints, and the first
+  friction-cone edge follows the distal link, from its joint to the tip;
+- the approach direction for the starts runs from the palm's origin to the pads' centroid at mid-range;
+- each motor limits ``|tau| <= effort``; a joint that mimics another shares its motor and its limit.
+
+Choices where the files allow more than the NLP can take: prismatic, planar and floating joints are refused,
+as is a movable joint that moves two fingers; a continuous joint is a revolute joint over one turn,
+[-pi, pi]; links behind a movable joint that leads to no fingertip are left out.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+import numpy as np
+
+from grasptask.errors import BadInputError
+from grasptask.hand.kinematics import forward
+from grasptask.hand.model import Capability, Finger, Hand, Joint, Pad, Palm, Sphere
+
+REVOLUTE = ("revolute", "continuous")
+
+
+@dataclass
+class TreeLink:
+    name: str
+    #: collision spheres (centre in the link's frame, radius), and whether one came from a sphere or capsule
+    spheres: list[tuple[np.ndarray, float]] = field(default_factory=list)
+    rounded: list[tuple[np.ndarray, float]] = field(default_factory=list)
+
+
+@dataclass
+class TreeJoint:
+    name: str
+    kind: str
+    parent: str
+    child: str
+    origin: np.ndarray  # 4 x 4: the joint frame in the parent link's frame
+    axis: np.ndarray = field(default_factory=lambda: np.array([1.0, 0.0, 0.0]))
+    lower: float | None = None
+    upper: float | None = None
+    effort: float | None = None
+    mimic: tuple[str, float, float] | None = None  # (joint, multiplier, offset)
+
+
+@dataclass
+class Tree:
+    links: dict[str, TreeLink]
+    joints: list[TreeJoint]
+
+
+@dataclass(frozen=True)
+class HandOptions:
+    """What a hand file cannot say, from the optional YAML beside it."""
+
+    name: str | None = None
+    palm_link: str | None = None
+    fingertips: tuple[str, ...] | None = None
+    finger_names: tuple[str, ...] | None = None
+    pads: dict[str, Pad] = field(default_factory=dict)  # by fingertip link, in its own frame
+    grasping: tuple[str, ...] | None = None
+    approach: np.ndarray | None = None  # 3 x 3: the approach frame (z towards the object) in the palm frame
+
+
+def _check(tree: Tree, source: Path) -> dict[str, TreeJoint]:
+    """Every joint between known links, every link with one parent at most, no cycle: the joint into each
+    child."""
+    into: dict[str, TreeJoint] = {}
+    for joint in tree.joints:
+        for end in (joint.parent, joint.child):
+            if end not in tree.links:
+                raise BadInputError(source, f"joint '{joint.name}': link '{end}' is not defined")
+        if joint.child in into:
+            first = into[joint.child].name
+            raise BadInputError(source, f"link '{joint.child}' has two parent joints ('{first}', '{joint.name}')")
+        into[joint.child] = joint
+    for link in tree.links:
+        seen, current = set(), link
+        while current in into:
+            if current in seen:
+                raise BadInputError(source, f"link '{link}': the joints form a cycle through '{current}'")
+            seen.add(current)
+            current = into[current].parent
+    return into
+
+
+def _root(tree: Tree, into: dict[str, TreeJoint], source: Path) -> str:
+    roots = [name for name in tree.links if name not in into]
+    if len(roots) != 1:
+        raise BadInputError(source, f"needs one root link, found {len(roots)} ({', '.join(roots[:4])})")
+    return roots[0]
+
+
+def _path(into: dict[str, TreeJoint], palm: str, tip: str, source: Path) -> list[TreeJoint]:
+    path, current = [], tip
+    while current != palm:
+        if current not in into:
+            raise BadInputError(source, f"fingertip '{tip}' does not hang from the palm link '{palm}'")
+        path.append(into[current])
+        current = into[current].parent
+    return path[::-1]
+
+
+def _default_tips(tree: Tree, into: dict[str, TreeJoint], palm: str) -> list[str]:
+    parents = {j.parent for j in tree.joints}
+    return [
+        name
+        for name, link in tree.links.items()
+        if name not in parents and link.rounded and name != palm and _hangs_from(into, name, palm)
+    ]
+
+
+def _hangs_from(into: dict[str, TreeJoint], link: str, palm: str) -> bool:
+    while link in into:
+        link = into[link].parent
+        if link == palm:
+            return True
+    return False
+
+
+def _limits(joint: TreeJoint, source: Path) -> tuple[float, float]:
+    if joint.kind == "continuous" and (joint.lower is None or joint.upper is None or joint.lower >= joint.upper):
+        return -np.pi, np.pi
+    if joint.lower is None or joint.upper is None:
+        raise BadInputError(source, f"joint '{joint.name}' has no limits; a revolute joint needs them")
+    if not joint.lower < joint.upper:
+        raise BadInputError(source, f"joint '{joint.name}': lower limit {joint.lower} is not below {joint.upper}")
+    return joint.lower, joint.upper
+
+
+def _unit_axis(joint: TreeJoint, source: Path) -> np.ndarray:
+    norm = np.linalg.norm(joint.axis)
+    if not np.isfinite(norm) or norm < 1e-9:
+        raise BadInputError(source, f"joint '{joint.name}' has no axis")
+    return np.asarray(joint.axis, dtype=float) / norm
+
+
+Spheres = list[tuple[np.ndarray, float]]
+
+
+def _transform_spheres(spheres: Spheres, transform: np.ndarray) -> Spheres:
+    return [(transform[:3, :3] @ c + transform[:3, 3], r) for c, r in spheres]
+
+
+@dataclass
+class _Chain:
+    """One finger as it is built: its joints, the spheres per link, and the tip's frame in the last link."""
+
+    joints: list[Joint]
+    spheres: list[Sphere]
+    tip_frame: np.ndarray
+    tip_spheres: list[tuple[np.ndarray, float]]
+
+
+def _fixed_descendants(tree: Tree, link: str, skip: set[str]) -> list[tuple[str, np.ndarray]]:
+    """Links fixed to ``link`` (directly or through other fixed joints), with their frames in its frame."""
+    found, stack = [], [(link, np.eye(4))]
+    while stack:
+        current, frame = stack.pop()
+        for joint in tree.joints:
+            if joint.parent == current and joint.kind == "fixed" and joint.child not in skip:
+                child_frame = frame @ joint.origin
+                found.append((joint.child, child_frame))
+                stack.append((joint.child, child_frame))
+    return found
+
+
+def _chain(tree: Tree, path: list[TreeJoint], source: Path, on_path: set[str]) -> _Chain:
+    joints: list[Joint] = []
+    spheres: list[Sphere] = []
+    pending = np.eye(4)  # fixed transforms since the last movable joint's link
+    for tree_joint in path:
+        if tree_joint.kind == "fixed":
+            pending = pending @ tree_joint.origin
+            if joints:
+                for c, r in _transform_spheres(tree.links[tree_joint.child].spheres, pending):
+                    spheres.append(Sphere(len(joints) - 1, c, r))
+            continue
+        if tree_joint.kind not in REVOLUTE:
+            kind = tree_joint.kind
+            raise BadInputError(source, f"joint '{tree_joint.name}' is {kind}: only revolute joints move fingers")
+        frame = pending @ tree_joint.origin
+        lower, upper = _limits(tree_joint, source)
+        rotation = frame[:3, :3]
+        joints.append(
+            Joint(
+                name=tree_joint.name,
+                axis=_unit_axis(tree_joint, source),
+                lower=float(lower),
+                upper=float(upper),
+                offset=frame[:3, 3].copy(),
+                rotation=None if np.allclose(rotation, np.eye(3), atol=1e-15) else rotation.copy(),
+            )
+        )
+        pending = np.eye(4)
+        k = len(joints) - 1
+        child = tree_joint.child
+        for c, r in tree.links[child].spheres:
+            spheres.append(Sphere(k, c, r))
+        for link, link_frame in _fixed_descendants(tree, child, on_path):
+            for c, r in _transform_spheres(tree.links[link].spheres, link_frame):
+                spheres.append(Sphere(k, c, r))
+    if not joints:
+        raise BadInputError(source, f"fingertip '{path[-1].child}': no revolute joint between it and the palm")
+    tip = tree.links[path[-1].child]
+    return _Chain(joints, spheres, pending, _transform_spheres(tip.rounded, pending))
+
+
+def _mimic(tree: Tree, chains: dict[str, _Chain], source: Path) -> dict[str, tuple[str, float, float]]:
+    """Coupled joints: ``slave -> (master, multiplier, offset)``, checked against the fingers' joints."""
+    finger_joints = {j.name for chain in chains.values() for j in chain.joints}
+    couplings = {}
+    for joint in tree.joints:
+        if joint.mimic is None or joint.name not in finger_joints:
+            continue
+        master, multiplier, offset = joint.mimic
+        if master not in finger_joints:
+            known = {j.name for j in tree.joints}
+            where = "is not a joint of the hand" if master not in known else "does not move a finger"
+            raise BadInputError(source, f"joint '{joint.name}' mimics '{master}', which {where}")
+        couplings[joint.name] = (master, multiplier, offset)
+    return couplings
+
+
+def _capability(joint_names: list[str], efforts: dict[str, float | None], couplings: dict, source: Path) -> Capability:
+    """A motor per joint that no other joint drives; a mimicking joint adds its torque to its master's row."""
+    masters = [n for n in joint_names if n not in couplings]
+    rows = {n: i for i, n in enumerate(masters)}
+    transmission = np.zeros((len(masters), len(joint_names)))
+    for column, name in enumerate(joint_names):
+        master, multiplier = (couplings[name][0], couplings[name][1]) if name in couplings else (name, 1.0)
+        while master in couplings:  # a chain of mimics ends at one motor
+            master, multiplier = couplings[master][0], multiplier * couplings[master][1]
+        transmission[rows[master], column] = multiplier
+    limits = []
+    for name in masters:
+        effort = efforts.get(name)
+        if effort is None or not np.isfinite(effort) or effort <= 0:
+            raise BadInputError(source, f"joint '{name}': effort must be a positive torque (N.m), got {effort}")
+        limits.append(float(effort))
+    return Capability.motors(tuple(masters), np.array(limits), transmission)
+
+
+def _provisional(fingers: dict[str, Finger]) -> Hand:
+    """The fingers alone, for their forward kinematics while the hand is being made."""
+    return Hand("provisional", fingers, Palm(np.zeros((0, 3)), np.zeros(0)), tuple(fingers), Capability.combined([]))
+
+
+def _pads(
+    hand_fingers: dict[str, Finger], chains: dict[str, _Chain], tips: list[str], options: HandOptions
+) -> dict[str, Finger]:
+    """Each pad on its tip's sphere, facing the way the tip moves when the last joint closes it (the flexion
+    side), unless the YAML places it; the first friction-cone edge follows the distal link."""
+    out = {}
+    for (name, finger), tip in zip(hand_fingers.items(), tips, strict=True):
+        chain, last = chains[name], finger.joints[-1]
+        if tip in options.pads:
+            pad, frame = options.pads[tip], chain.tip_frame
+            pad = Pad(frame[:3, :3] @ pad.point + frame[:3, 3], frame[:3, :3] @ pad.normal, frame[:3, :3] @ pad.tangent)
+        else:
+            centre, radius = chain.tip_spheres[-1] if chain.tip_spheres else (chain.tip_frame[:3, 3], 0.0)
+            along = centre / max(np.linalg.norm(centre), 1e-12)  # from the last joint to the tip, in its frame
+            closing = 1.0 if last.upper + last.lower >= 0 else -1.0  # most of the range turns the finger shut
+            normal = closing * np.cross(last.axis, centre)
+            if np.linalg.norm(normal) < 1e-9:  # a tip on the joint's axis: face away from the palm
+                normal = np.cross(along, [0.0, 0.0, 1.0]) if abs(along[2]) < 0.9 else np.cross(along, [1.0, 0.0, 0.0])
+            normal = normal / np.linalg.norm(normal)
+            tangent = along - (along @ normal) * normal
+            pad = Pad(centre + radius * normal, normal, tangent / max(np.linalg.norm(tangent), 1e-12))
+        out[name] = Finger(name, finger.joints, finger.spheres, pad, finger.tip, finger.radius)
+    return out
+
+
+def _approach(fingers: dict[str, Finger], options: HandOptions) -> np.ndarray:
+    """The approach frame in the palm frame: z from the palm's origin to the pads at mid-range."""
+    if options.approach is not None:
+        return options.approach
+    hand = _provisional(fingers)
+    pads = forward(hand, hand.mid_range()).contacts()[0].mean(axis=0)
+    z = pads / np.linalg.norm(pads)
+    reference = np.array([1.0, 0.0, 0.0]) if abs(z[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    x = reference - (reference @ z) * z
+    x /= np.linalg.norm(x)
+    return np.column_stack([x, np.cross(z, x), z])
+
+
+def _coupled(joint: Joint, coupling: tuple[str, float, float] | None) -> Joint:
+    if coupling is None:
+        return joint
+    master, ratio, offset = coupling
+    return replace(joint, coupled_to=master, ratio=ratio, coupling_offset=offset)
+
+
+def hand_from_tree(tree: Tree, source: Path, options: HandOptions = HandOptions()) -> Hand:
+    """The hand a parsed file describes (see the module docstring for the rules and the defaults)."""
+    into = _check(tree, source)
+    palm = options.palm_link or _root(tree, into, source)
+    if palm not in tree.links:
+        raise BadInputError(source, f"palm link '{palm}' is not defined")
+    tips = list(options.fingertips) if options.fingertips else _default_tips(tree, into, palm)
+    for tip in tips:
+        if tip not in tree.links:
+            raise BadInputError(source, f"unknown fingertip '{tip}' (no such link)")
+    if len(tips) < 2:
+        found = ", ".join(tips) or "none"
+        raise BadInputError(
+            source, f"a hand needs at least two fingertips, found {len(tips)} ({found}): name them under 'fingertips'"
+        )
+    names = list(options.finger_names) if options.finger_names else tips
+    if len(names) != len(tips):
+        raise BadInputError(source, f"{len(names)} finger names for {len(tips)} fingertips")
+    paths = {name: _path(into, palm, tip, source) for name, tip in zip(names, tips, strict=True)}
+    owner: dict[str, str] = {}
+    for name, path in paths.items():
+        for joint in path:
+            if joint.kind != "fixed" and owner.setdefault(joint.name, name) != name:
+                raise BadInputError(
+                    source,
+                    f"joint '{joint.name}' moves fingers '{owner[joint.name]}' and '{name}'; each finger must be its "
+                    "own chain from the palm (choose a palm_link after it)",
+                )
+    on_path = {j.child for path in paths.values() for j in path}
+    chains = {name: _chain(tree, path, source, on_path) for name, path in paths.items()}
+    couplings = _mimic(tree, chains, source)
+    fingers = {}
+    unset = Pad(np.zeros(3), np.array([0.0, 0.0, 1.0]), np.array([1.0, 0.0, 0.0]))
+    for name, chain in chains.items():
+        joints = tuple(
+            replace(
+                j, coupled_to=couplings[j.name][0], ratio=couplings[j.name][1], coupling_offset=couplings[j.name][2]
+            )
+            if j.name in couplings
+            else j
+            for j in chain.joints
+        )
+        radius = float(np.median([s.radius for s in chain.spheres])) if chain.spheres else 0.008
+        fingers[name] = Finger(name, joints, tuple(chain.spheres), unset, chain.tip_frame[:3, 3].copy(), radius)
+    fingers = _pads(fingers, chains, tips, options)
+    palm_spheres = list(tree.links[palm].spheres)
+    for link, frame in _fixed_descendants(tree, palm, on_path):
+        palm_spheres += _transform_spheres(tree.links[link].spheres, frame)
+    palm_model = Palm(np.array([c for c, _ in palm_spheres]).reshape(-1, 3), np.array([r for _, r in palm_spheres]))
+    joint_names = [j.name for f in fingers.values() for j in f.joints]
+    efforts = {j.name: j.effort for j in tree.joints}
+    capability = _capability(joint_names, efforts, couplings, source)
+    grasping = tuple(options.grasping) if options.grasping else tuple(fingers)
+    for finger in grasping:
+        if finger not in fingers:
+            known = ", ".join(fingers)
+            raise BadInputError(source, f"grasping finger '{finger}' is not a finger of this hand ({known})")
+    approach = _approach(fingers, options)
+    return Hand(options.name or source.stem, fingers, palm_model, grasping, capability, approach=approach)
