@@ -58,6 +58,10 @@ def read_urdf(source: Path) -> Tree:
     import yourdfpy
     from lxml import etree
 
+    try:  # yourdfpy recovers from broken XML on its own; a hand file must be well-formed
+        etree.parse(str(source))
+    except etree.XMLSyntaxError as exc:
+        raise BadInputError(source, f"malformed XML: {exc.msg}", row=exc.lineno) from exc
     try:
         urdf = yourdfpy.URDF.load(
             str(source),
@@ -66,9 +70,7 @@ def read_urdf(source: Path) -> Tree:
             load_meshes=False,
             load_collision_meshes=False,
         )
-    except etree.XMLSyntaxError as exc:
-        raise BadInputError(source, f"malformed XML: {exc.msg}", row=exc.lineno) from exc
-    except (ValueError, KeyError, TypeError, AttributeError) as exc:
+    except (ValueError, KeyError, TypeError, AttributeError, etree.XMLSyntaxError) as exc:
         raise BadInputError(source, f"not a URDF yourdfpy can read ({type(exc).__name__}: {exc})") from exc
     robot = urdf.robot
     links = {}

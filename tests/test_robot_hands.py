@@ -1,0 +1,242 @@
+"""Robot hands from URDF and MJCF files: their kinematics against the parsing library's own, Jacobians against
+finite differences, mimic couplings, effort limits in the NLP and the verifier, and bad hand files."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from pyomo.repn import generate_standard_repn
+
+from grasptask.errors import BadInputError
+from grasptask.hand import forward, load_hand
+from grasptask.hand.tendons import activation_for
+
+BARRETT = Path("configs/hands/barrett_bh8_282.urdf")
+ALLEGRO = Path("configs/hands/allegro.yaml")
+ALLEGRO_MJCF = Path("configs/hands/allegro.xml")
+seeds = st.integers(0, 2**32 - 1)
+
+
+def random_q(hand, rng):
+    return hand.apply_coupling(rng.uniform(hand.lower, hand.upper))
+
+
+@settings(max_examples=15, deadline=None)
+@given(seeds)
+def test_urdf_kinematics_agree_with_yourdfpy(seed):
+    import yourdfpy
+
+    hand = load_hand(BARRETT)
+    urdf = yourdfpy.URDF.load(str(BARRETT), build_scene_graph=True, load_meshes=False, load_collision_meshes=False)
+    q = random_q(hand, np.random.default_rng(seed))
+    values = dict(zip(hand.joint_names, q, strict=True))
+    urdf.update_cfg({name: values[name] for name in urdf.actuated_joint_names})
+    pose = forward(hand, q)
+    children = {j.name: j.child for j in urdf.robot.joints}
+    for name, finger in hand.fingers.items():
+        posed = pose.fingers[name]
+        for k, joint in enumerate(finger.joints):
+            expected = urdf.get_transform(children[joint.name], "palm")
+            np.testing.assert_allclose(posed.joint_positions[0, k], expected[:3, 3], atol=1e-9)
+            np.testing.assert_allclose(posed.link_rotations[0, k], expected[:3, :3], atol=1e-9)
+        tip_centre = posed.contact[0] - finger.spheres[-1].radius * posed.pad_normal[0]
+        np.testing.assert_allclose(tip_centre, urdf.get_transform(name, "palm")[:3, 3], atol=1e-9)
+
+
+MJCF_WITH_OFFSETS = """<mujoco model="offsets">
+  <compiler angle="radian" autolimits="true"/>
+  <worldbody><body name="palm"><geom type="box" size="0.03 0.03 0.01"/>
+    <body name="a1" pos="0.03 0.01 0.01" quat="0.9 0.1 0.3 0.2">
+      <joint name="ja1" axis="0 1 0.2" pos="0.004 -0.002 0.003" range="-0.5 1.5"/>
+      <geom type="capsule" size="0.008 0.015" pos="0 0 0.02" quat="0.9 0 0.2 0"/>
+      <body name="a2" pos="0.002 0 0.04"><joint name="ja2" axis="0 1 0" pos="0 0 0.002" range="0 1.2"/>
+        <geom type="sphere" size="0.009" pos="0.001 0.002 0.025"/></body></body>
+    <body name="b1" pos="-0.03 0 0.01" quat="0.7 0 0 0.7"><joint name="jb1" axis="1 0 0" range="-1 1"/>
+      <geom type="cylinder" size="0.008 0.01" pos="0 0 0.015"/>
+      <body name="b2" pos="0 0 0.03"><joint name="jb2" axis="0 1 0" range="0 1"/>
+        <geom type="sphere" size="0.01" pos="0 0 0.02"/></body></body>
+  </body></worldbody>
+  <equality><joint joint1="jb2" joint2="jb1" polycoef="0.1 0.5 0 0 0"/></equality>
+  <actuator><motor joint="ja1" ctrlrange="-0.4 0.4" gear="2"/><motor joint="ja2" ctrlrange="-0.3 0.3"/>
+    <motor joint="jb1" forcerange="-0.6 0.6" forcelimited="true" ctrlrange="-5 5"/></actuator>
+</mujoco>
+"""
+
+
+@settings(max_examples=15, deadline=None)
+@given(seed=seeds)
+def test_mjcf_kinematics_agree_with_mujoco(tmp_path_factory, seed):
+    import mujoco
+
+    path = tmp_path_factory.getbasetemp() / "offsets.xml"
+    path.write_text(MJCF_WITH_OFFSETS)
+    for source in (path, ALLEGRO_MJCF):
+        hand = load_hand(source)
+        model = mujoco.MjModel.from_xml_path(str(source))
+        data = mujoco.MjData(model)
+        q = random_q(hand, np.random.default_rng(seed))
+        for name, value in zip(hand.joint_names, q, strict=True):
+            data.qpos[model.jnt_qposadr[mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, name)]] = value
+        mujoco.mj_kinematics(model, data)
+        palm = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, "palm")
+        to_palm = data.xmat[palm].reshape(3, 3).T
+        pose = forward(hand, q)
+        spheres = np.flatnonzero(model.geom_type == mujoco.mjtGeom.mjGEOM_SPHERE)
+        ours = pose.collision_spheres()[0][0]
+        for g in spheres:
+            expected = to_palm @ (data.geom_xpos[g] - data.xpos[palm])
+            assert np.min(np.linalg.norm(ours - expected, axis=1)) < 1e-9
+        for name, finger in hand.fingers.items():
+            posed = pose.fingers[name]
+            for k, joint in enumerate(finger.joints):
+                j = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, joint.name)
+                anchor = to_palm @ (data.xanchor[j] - data.xpos[palm])
+                np.testing.assert_allclose(posed.joint_positions[0, k], anchor, atol=1e-9)
+                np.testing.assert_allclose(posed.joint_axes[0, k], to_palm @ data.xaxis[j], atol=1e-9)
+
+
+@pytest.mark.parametrize("source", [BARRETT, ALLEGRO])
+def test_contact_jacobians_of_robot_hands_match_finite_differences(source):
+    hand = load_hand(source)
+    rng = np.random.default_rng(4)
+    q = rng.uniform(hand.lower, hand.upper)
+    pose = forward(hand, q)
+    step = 1e-6
+    for (name, finger), cols in zip(pose.fingers.items(), hand.slices().values(), strict=True):
+        for k, col in enumerate(range(cols.start, cols.stop)):
+            plus, minus = q.copy(), q.copy()
+            plus[col] += step
+            minus[col] -= step
+            numeric = (forward(hand, plus).fingers[name].contact - forward(hand, minus).fingers[name].contact) / (
+                2 * step
+            )
+            np.testing.assert_allclose(finger.jacobian[0, :, k], numeric[0], atol=1e-8)
+
+
+def test_mimic_joints_are_coupled_and_share_their_motor():
+    hand = load_hand(BARRETT)
+    names = hand.joint_names
+    couplings = {names[d]: (names[i], r) for d, i, r, _ in hand.couplings()}
+    assert couplings["j13"] == ("j12", pytest.approx(0.84 / 2.44, rel=1e-5))
+    assert couplings["j21"] == ("j11", 1.0)  # the spread: one motor for fingers 1 and 2
+    capability = hand.capability
+    spread = capability.transmission[:, names.index("j11")].nonzero()[0]
+    assert len(spread) == 1 and capability.transmission[spread[0], names.index("j21")] == 1.0
+    assert capability.transmission.shape == (4, 8)  # four motors for eight joints
+    q = hand.apply_coupling(np.full(hand.n_joints, 0.5))
+    assert q[names.index("j13")] == pytest.approx(0.5 * 0.84 / 2.44, rel=1e-5)
+
+
+def test_effort_limits_reach_the_nlp_and_the_verifier(tmp_path):
+    from grasptask.objects import load_object
+    from grasptask.synthesis.model import build_model
+    from tests.grasp_fixtures import drawing_like_task
+
+    text = BARRETT.read_text()
+    doubled = tmp_path / "strong.urdf"
+    doubled.write_text(text.replace('effort="1.8"', 'effort="3.6"'))
+    hand, strong = load_hand(BARRETT), load_hand(doubled)
+    nlp = build_model(hand, load_object("configs/objects/tool.yaml"), drawing_like_task())
+    coefficients = {
+        round(abs(c), 6)
+        for con in nlp.model.eq10_torque.values()
+        for c in generate_standard_repn(con.body).linear_coefs
+    }
+    assert 1.8 in coefficients and 1.0 in coefficients  # the motors' efforts, as eq. 10's torque map
+    torque = np.zeros(hand.n_joints)
+    torque[hand.joint_names.index("j12")] = 0.9
+    assert activation_for(hand.capability, torque).effort == pytest.approx(0.5)
+    assert activation_for(strong.capability, torque).effort == pytest.approx(0.25)
+
+
+def test_human_hand_grasps_with_four_and_five_fingers():
+    hand = load_hand()
+    for fingers in (("thumb", "index", "middle", "ring"), ("thumb", "index", "middle", "ring", "little")):
+        grasping = hand.with_grasping(fingers).grasping_hand()
+        assert list(grasping.fingers) == list(fingers)
+        assert grasping.capability.transmission.shape[1] == grasping.n_joints
+
+
+BAD_URDFS = {
+    "malformed XML": ("<robot name='x'><link name='a'>", "malformed XML"),
+    "a cycle": (
+        "<robot name='x'><link name='a'/><link name='b'/>"
+        "<joint name='j1' type='fixed'><parent link='a'/><child link='b'/></joint>"
+        "<joint name='j2' type='fixed'><parent link='b'/><child link='a'/></joint></robot>",
+        "cycle",
+    ),
+    "no limits": ("<limit lower='0' upper='1.5' effort='2.0' velocity='1'/>", "has no limits"),
+    "non-positive effort": ("effort='2.0'", "effort must be a positive torque"),
+    "missing mimic": ("<axis xyz='0 1 0'/>", "mimics 'nowhere', which is not a joint"),
+    "one fingertip": ("f2", "at least two fingertips"),
+}
+
+TWO_FINGERS = """<robot name="two">
+  <link name="palm"><collision><geometry><box size="0.08 0.08 0.02"/></geometry></collision></link>
+  <link name="l1"/><link name="f1"><collision><geometry><sphere radius="0.01"/></geometry></collision></link>
+  <link name="l2"/><link name="f2"><collision><geometry><sphere radius="0.01"/></geometry></collision></link>
+  <joint name="j1" type="revolute"><parent link="palm"/><child link="l1"/><origin xyz="0.03 0 0.01"/>
+    <axis xyz="0 1 0"/><limit lower="0" upper="1.5" effort="2.0" velocity="1"/></joint>
+  <joint name="t1" type="fixed"><parent link="l1"/><child link="f1"/><origin xyz="0 0 0.05"/></joint>
+  <joint name="j2" type="revolute"><parent link="palm"/><child link="l2"/><origin xyz="-0.03 0 0.01"/>
+    <axis xyz="0 -1 0"/><limit lower="0" upper="1.5" effort="2.0" velocity="1"/></joint>
+  <joint name="t2" type="fixed"><parent link="l2"/><child link="f2"/><origin xyz="0 0 0.05"/></joint>
+</robot>
+"""
+
+
+def bad_urdf(case: str) -> str:
+    text, _ = BAD_URDFS[case]
+    if case in ("malformed XML", "a cycle"):
+        return text
+    if case == "no limits":
+        return TWO_FINGERS.replace(text.replace("'", '"'), "", 1)
+    if case == "non-positive effort":
+        return TWO_FINGERS.replace('effort="2.0"', 'effort="-1"', 1)
+    if case == "missing mimic":
+        return TWO_FINGERS.replace('<axis xyz="0 -1 0"/>', '<axis xyz="0 -1 0"/><mimic joint="nowhere"/>', 1)
+    return TWO_FINGERS.replace(
+        '<collision><geometry><sphere radius="0.01"/></geometry></collision></link>\n  <link name="l2"/>',
+        '</link>\n  <link name="l2"/>',
+        1,
+    )
+
+
+@pytest.mark.parametrize("case", list(BAD_URDFS))
+def test_bad_hand_files_are_one_line(case, tmp_path, cli, simulated):
+    path = tmp_path / "hand.urdf"
+    path.write_text(bad_urdf(case))
+    tasks = simulated[0] / "tasks" / "task_models.json"
+    result = cli("synthesize", "--tasks", tasks, "--task", "drawing", "--out", tmp_path / "o", "--hand", path)
+    lines = [line for line in result.output.splitlines() if line.strip()]
+    assert result.exit_code == 2 and len(lines) == 1, result.output
+    assert "hand.urdf" in lines[0] and BAD_URDFS[case][1] in lines[0], lines[0]
+    assert not (tmp_path / "o").exists()
+
+
+def test_a_two_finger_urdf_loads_without_any_extra_file(tmp_path):
+    path = tmp_path / "two.urdf"
+    path.write_text(TWO_FINGERS)
+    hand = load_hand(path)
+    assert list(hand.fingers) == ["f1", "f2"] and hand.capability.kind == "motors"
+    yaml = tmp_path / "two.yaml"
+    yaml.write_text("model: two.urdf\nfingertips: [f1, f9]\n")
+    with pytest.raises(BadInputError, match="unknown fingertip 'f9'"):
+        load_hand(yaml)
+    yaml.write_text(
+        "model: two.urdf\nfingertips: [f1, f2]\nfinger_names: [left, right]\ngrasping_fingers: [left, right]\n"
+    )
+    assert list(load_hand(yaml).fingers) == ["left", "right"]
+
+
+def test_a_missing_visual_mesh_does_not_stop_loading(tmp_path):
+    path = tmp_path / "visual.urdf"
+    path.write_text(
+        TWO_FINGERS.replace(
+            '<link name="l1"/>',
+            '<link name="l1"><visual><geometry><mesh filename="package://gone/meshes/l1.stl"/></geometry></visual></link>',
+        )
+    )
+    assert len(load_hand(path).fingers) == 2
