@@ -210,14 +210,16 @@ def _finger_list(ctx, param, value):
     return names
 
 
-def _fingers_option(f):
-    return click.option(
-        "--fingers",
-        default=None,
-        callback=_finger_list,
-        help="Grasping fingers, comma-separated (e.g. thumb,index,middle,ring) [default: the hand file's choice, "
-        "for a URDF or MJCF hand all its fingers].",
-    )(f)
+def _fingers_option(default: str):
+    def decorate(f):
+        return click.option(
+            "--fingers",
+            default=None,
+            callback=_finger_list,
+            help=f"Grasping fingers, comma-separated (e.g. thumb,index,middle,ring) [default: {default}].",
+        )(f)
+
+    return decorate
 
 
 def _model_options(f):
@@ -288,7 +290,7 @@ def _model_options(f):
     is_flag=True,
     help="Keep the starts already in solutions.jsonl and solve only the rest; refused if the folder holds another run.",
 )
-@_fingers_option
+@_fingers_option("the hand file's choice; for a URDF or MJCF hand, all its fingers")
 def synthesize(
     tasks_path,
     task,
@@ -349,10 +351,11 @@ def synthesize(
 @click.option("--task", required=True, help="The task the solutions were made for.")
 @_out_option
 @_model_options
-def verify_command(solutions, tasks_path, task, out, hand, object_path, grasp_config):
+@_fingers_option("those SOLUTIONS holds contacts of")
+def verify_command(solutions, tasks_path, task, out, hand, object_path, grasp_config, fingers):
     """Check every grasp in SOLUTIONS (solutions.parquet) again with the independent verifier; writes
     OUT/verification.parquet with one row per start and its verification figures."""
-    table = stages.run_verify(solutions, tasks_path, task, out, hand, object_path, grasp_config)
+    table = stages.run_verify(solutions, tasks_path, task, out, hand, object_path, grasp_config, fingers)
     click.echo(f"{int(table['verified'].sum())}/{len(table)} grasps verified; wrote {out}/verification.parquet")
 
 

@@ -48,6 +48,12 @@ def grasp_columns(
     return row
 
 
+def fingers_in(columns: list[str], known: list[str]) -> list[str]:
+    """The fingers a solutions table holds contacts of (its ``contact_<finger>_x`` columns), in its order."""
+    found = [c[len("contact_") : -len("_x")] for c in columns if c.startswith("contact_") and c.endswith("_x")]
+    return [f for f in found if f in known]
+
+
 def failed_row(start_id: int, orientation: int, position: str, status: str, seconds: float, message: str) -> dict:
     """The row of a start that produced no solution (an error, a crashed or hung worker)."""
     return {

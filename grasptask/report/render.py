@@ -18,6 +18,8 @@ from grasptask.objects.surface import ImplicitObject, surface_mesh
 from grasptask.report.style import apply_style
 
 FINGER_COLOURS = {"thumb": "#d95f02", "index": "#1b9e77", "middle": "#7570b3", "ring": "#e7298a", "little": "#66a61e"}
+#: for fingers by other names (a robot hand's), in order
+OTHER_COLOURS = ("#d95f02", "#1b9e77", "#7570b3", "#e7298a", "#66a61e", "#e6ab02")
 
 
 def display_mesh(obj: ImplicitObject, faces: int = 5000) -> trimesh.Trimesh:
@@ -54,8 +56,8 @@ def draw_grasp(
         )
     )
     pose = forward(hand, joint_angles, palm_rotation, palm_position)
-    for name, finger in pose.fingers.items():
-        colour = FINGER_COLOURS.get(name, "#444444")
+    for k, (name, finger) in enumerate(pose.fingers.items()):
+        colour = FINGER_COLOURS.get(name, OTHER_COLOURS[k % len(OTHER_COLOURS)])
         chain = finger.joint_positions[0]
         for a, b in zip(chain[:-1], chain[1:], strict=True):
             if np.linalg.norm(b - a) > 1e-9:

@@ -219,7 +219,7 @@ def grasps_section(
 ) -> Section:
     from grasptask.grasp.settings import load_grasp_settings
     from grasptask.hand import load_hand
-    from grasptask.io.solutions import contacts_from_row, grasp_from_row, normals_from_row
+    from grasptask.io.solutions import contacts_from_row, fingers_in, grasp_from_row, normals_from_row
     from grasptask.objects import load_object
     from grasptask.report.render import display_mesh, render_grasp
     from grasptask.task.model import load_task_models
@@ -252,15 +252,16 @@ def grasps_section(
         hand_path = _reference_path(run.get("hand", ""), DEFAULT_HAND)
         object_path = _reference_path(run.get("object", ""), DEFAULT_OBJECT)
         settings = load_grasp_settings(_reference_path(run.get("grasp_config", ""), DEFAULT_GRASP_CONFIG))
-        hand = hands.get(hand_path) or hands.setdefault(hand_path, load_hand(hand_path))
+        whole = hands.get(hand_path) or hands.setdefault(hand_path, load_hand(hand_path))
+        fingers = run.get("fingers") or fingers_in(list(sweep.optima.columns), list(whole.fingers))
+        hand = whole.with_grasping(fingers).grasping_hand()
         if object_path not in objects:
             objects[object_path] = (obj := load_object(object_path)), display_mesh(obj)
         obj, mesh = objects[object_path]
-        fingers = list(hand.grasping)
         task_axis = task_models[task].axes[0] if task in task_models else None
         rows = list(sweep.optima.iterrows())
         for _, optimum in progress(rows, desc=f"report: {task} grasps", unit="grasp"):
-            grasp = grasp_from_row(optimum, hand.grasping_hand().joint_names)
+            grasp = grasp_from_row(optimum, hand.joint_names)
             number = int(optimum["optimum_id"])
             path = writer.figure(f"grasp_{file_stem(task)}_{number:02d}")
             contacts = contacts_from_row(optimum, fingers)
@@ -269,7 +270,7 @@ def grasps_section(
             render_grasp(
                 path,
                 title,
-                hand=hand.grasping_hand(),
+                hand=hand,
                 obj=obj,
                 palm_rotation=grasp.palm_rotation,
                 palm_position=grasp.palm_position,

@@ -11,7 +11,7 @@ from grasptask.grasp.settings import load_grasp_settings
 from grasptask.grasp.verify import verify
 from grasptask.hand import load_hand
 from grasptask.io.artifacts import Provenance, StagedOutput
-from grasptask.io.solutions import grasp_from_row, implausible_column, joint_columns
+from grasptask.io.solutions import fingers_in, grasp_from_row, implausible_column, joint_columns
 from grasptask.io.tables import read_table
 from grasptask.objects import load_object
 from grasptask.paths import DEFAULT_GRASP_CONFIG, DEFAULT_HAND, DEFAULT_OBJECT
@@ -26,15 +26,24 @@ def run_verify(
     hand_path: str | Path = DEFAULT_HAND,
     object_path: str | Path = DEFAULT_OBJECT,
     grasp_config: str | Path = DEFAULT_GRASP_CONFIG,
+    fingers: tuple[str, ...] | None = None,
 ) -> pd.DataFrame:
     """Verify every row of ``solutions_path`` for ``task``; writes ``out/verification.parquet`` (one row per
-    start: ``verified``, ``verify_failures`` and the verifier's figures) and returns it."""
+    start: ``verified``, ``verify_failures`` and the verifier's figures) and returns it. ``fingers`` defaults to
+    those the table holds contacts of."""
     solutions_path = Path(solutions_path)
     solutions = read_table(solutions_path, ("start_id", "palm_x", "palm_r00"))
     models = load_task_models(tasks_path)
     if task not in models:
         raise BadInputError(tasks_path, f"no task '{task}'")
-    hand = load_hand(hand_path).grasping_hand()
+    whole = load_hand(hand_path)
+    chosen = list(fingers) if fingers else fingers_in(list(solutions.columns), list(whole.fingers))
+    if len(chosen) < 2:
+        raise BadInputError(solutions_path, f"holds contacts of fewer than two of hand '{whole.name}''s fingers")
+    try:
+        hand = whole.with_grasping(chosen).grasping_hand()
+    except KeyError as exc:
+        raise BadInputError("--fingers", f"hand '{whole.name}' has no finger {exc}") from None
     obj = load_object(object_path)
     settings = load_grasp_settings(grasp_config)
     for column in joint_columns(hand.joint_names):
