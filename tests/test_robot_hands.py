@@ -41,8 +41,11 @@ def test_urdf_kinematics_agree_with_yourdfpy(seed):
             expected = urdf.get_transform(children[joint.name], "palm")
             np.testing.assert_allclose(posed.joint_positions[0, k], expected[:3, 3], atol=1e-9)
             np.testing.assert_allclose(posed.link_rotations[0, k], expected[:3, :3], atol=1e-9)
-        tip_centre = posed.contact[0] - finger.spheres[-1].radius * posed.pad_normal[0]
+        # the tip's sphere holds the pad: the contact surface, not one of the collision spheres
+        radius = urdf.link_map[name].collisions[0].geometry.sphere.radius
+        tip_centre = posed.contact[0] - radius * posed.pad_normal[0]
         np.testing.assert_allclose(tip_centre, urdf.get_transform(name, "palm")[:3, 3], atol=1e-9)
+        assert np.linalg.norm(pose.collision_spheres()[0][0] - tip_centre, axis=1).min() > 1e-3
 
 
 MJCF_WITH_OFFSETS = """<mujoco model="offsets">
@@ -85,9 +88,10 @@ def test_mjcf_kinematics_agree_with_mujoco(tmp_path_factory, seed):
         pose = forward(hand, q)
         spheres = np.flatnonzero(model.geom_type == mujoco.mjtGeom.mjGEOM_SPHERE)
         ours = pose.collision_spheres()[0][0]
-        for g in spheres:
+        for g in spheres:  # each sphere is a collision sphere, or holds a pad (the tip's contact surface)
             expected = to_palm @ (data.geom_xpos[g] - data.xpos[palm])
-            assert np.min(np.linalg.norm(ours - expected, axis=1)) < 1e-9
+            pads = [f.contact[0] - model.geom_size[g][0] * f.pad_normal[0] for f in pose.fingers.values()]
+            assert np.min(np.linalg.norm(np.vstack([ours, pads]) - expected, axis=1)) < 1e-9
         for name, finger in hand.fingers.items():
             posed = pose.fingers[name]
             for k, joint in enumerate(finger.joints):
@@ -240,3 +244,32 @@ def test_a_missing_visual_mesh_does_not_stop_loading(tmp_path):
         )
     )
     assert len(load_hand(path).fingers) == 2
+
+
+def test_a_sweep_runs_end_to_end_on_a_urdf_hand(cli, simulated, tmp_path):
+    """Starts, placement, the NLP, the verifier and the tables for a robot hand: rows named by its own joints
+    and fingers, every status one of the sweep's, and the run recording the hand's fingers."""
+    import json
+
+    import pandas as pd
+
+    from grasptask.io.solutions import STATUSES
+
+    tasks = simulated[0] / "tasks" / "task_models.json"
+    result = cli(
+        "synthesize", "--tasks", tasks, "--task", "drawing", "--out", tmp_path, "--hand", BARRETT,
+        "--solver-config", "tests/data/solver_fast.yaml", "--starts", "2", "--executor", "serial",
+    )  # fmt: skip
+    assert result.exit_code == 0, result.output
+    solutions = pd.read_parquet(tmp_path / "drawing" / "solutions.parquet")
+    assert set(solutions["status"]) <= set(STATUSES) and len(solutions) == 2
+    hand = load_hand(BARRETT)
+    solved = solutions[solutions["palm_x"].notna()]
+    assert not solved.empty
+    for name in hand.joint_names:
+        assert f"q_{name}" in solutions.columns
+    for finger in hand.fingers:
+        assert f"contact_{finger}_x" in solutions.columns and f"verify_pad_angle_deg_{finger}" in solutions.columns
+    for _, row in solved.iterrows():  # the NLP honoured the mimic couplings
+        assert abs(row["q_j13"] - 0.344262 * row["q_j12"]) < 1e-5 and abs(row["q_j21"] - row["q_j11"]) < 1e-5
+    assert json.loads((tmp_path / "drawing" / "run.json").read_text())["fingers"] == list(hand.fingers)

@@ -7,8 +7,9 @@ project's :class:`~grasptask.hand.model.Hand` from it, the same way for both for
 - the palm is the root link (or ``palm_link``); links fixed to it are the palm's collision geometry;
 - fingertips are the leaf links that carry a sphere or capsule (or the named ``fingertips``); each finger is
   the chain of revolute joints from the palm to its tip, fixed joints folded into the next joint's origin;
-- the pad is on the tip's sphere, facing the centroid of the fingertips at mid-range joints, and the first
-  friction-cone edge follows the distal link, from its joint to the tip;
+- the pad is on the tip's sphere, facing the way the tip moves as the last joint closes the finger, and the
+  first friction-cone edge follows the distal link, from its joint to the tip; the sphere that holds the pad
+  is the contact surface, not a collision sphere;
 - the approach direction for the starts runs from the palm's origin to the pads' centroid at mid-range;
 - each motor limits ``|tau| <= effort``; a joint that mimics another shares its motor and its limit.
 
@@ -277,8 +278,19 @@ def _pads(
             normal = normal / np.linalg.norm(normal)
             tangent = along - (along @ normal) * normal
             pad = Pad(centre + radius * normal, normal, tangent / max(np.linalg.norm(tangent), 1e-12))
-        out[name] = Finger(name, finger.joints, finger.spheres, pad, finger.tip, finger.radius)
+        out[name] = Finger(name, finger.joints, _off_the_pad(finger, pad), pad, finger.tip, finger.radius)
     return out
+
+
+def _off_the_pad(finger: Finger, pad: Pad) -> tuple[Sphere, ...]:
+    """The finger's collision spheres without those of the last link that hold the pad point (on or inside
+    them): the pad's own sphere is the contact surface. Kept, eq. 14 would let it touch the object only where
+    the pad does, with its normal exactly the surface's, and the contact and clearance constraints become
+    parallel there (IPOPT then ended locally infeasible or at the time limit on most starts, README)."""
+    last = finger.n_joints - 1
+    return tuple(
+        s for s in finger.spheres if not (s.link == last and np.linalg.norm(pad.point - s.center) <= s.radius + 1e-9)
+    )
 
 
 def _approach(fingers: dict[str, Finger], options: HandOptions) -> np.ndarray:

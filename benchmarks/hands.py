@@ -1,0 +1,128 @@
+"""Grasp synthesis for every shipped hand (issue 16): the human hand with 3, 4 and 5 fingers, the BarrettHand
+BH8-282 (URDF) and the Allegro Hand (MJCF), each on the tool cylinder for drawing, cutting and screw driving,
+126 starts on 2 workers. Per hand and task: median and p90 seconds per start, the verified fraction, distinct
+optima, model size, and, where starts fail the verifier's torque check, the torque effort its LP needs (above 1:
+the hand's tendons or motors cannot hold the task at that grasp). Ratios: each hand's median over the human
+3-finger hand's, in the same run.
+
+    python benchmarks/hands.py [--starts N] [--hands human3,barrett,...] [--name NAME]
+
+Targets: each robot hand verifies >= 80% of its starts, its median within 2x of the human 3-finger hand's.
+Results are saved after every sweep (benchmarks/results/NAME.json), so an interrupted run keeps what it did.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path[:0] = [str(ROOT / "benchmarks"), str(ROOT)]
+from common import save  # noqa: E402
+
+TASKS = ("drawing", "cutting", "screwdriving")
+HANDS = {
+    "human3": (ROOT / "configs/hands/human.yaml", None),
+    "human4": (ROOT / "configs/hands/human.yaml", ("thumb", "index", "middle", "ring")),
+    "human5": (ROOT / "configs/hands/human.yaml", ("thumb", "index", "middle", "ring", "little")),
+    "barrett": (ROOT / "configs/hands/barrett_bh8_282.urdf", None),
+    "allegro": (ROOT / "configs/hands/allegro.yaml", None),
+}
+
+
+def check_prerequisites(hands: list[str]) -> None:
+    import mujoco  # noqa: F401
+    import yourdfpy  # noqa: F401
+
+    for name in hands:
+        if name not in HANDS:
+            raise SystemExit(f"unknown hand '{name}' (known: {', '.join(HANDS)})")
+        if not HANDS[name][0].is_file():
+            raise SystemExit(f"{HANDS[name][0]}: not found")
+
+
+def sweep_figures(run: dict, solutions: pd.DataFrame) -> dict:
+    failing = solutions[~solutions["verified"] & solutions["verify_failures"].fillna("").str.contains("torque")]
+    return {
+        "starts": run["starts"],
+        "median_s_per_start": run["seconds_per_start"]["median"],
+        "p90_s_per_start": run["seconds_per_start"]["p90"],
+        "verified_fraction": run["verified_fraction"],
+        "distinct_optima": run["distinct_optima"],
+        "best_Q": run["best_Q"],
+        "model_size": run["model_size"],
+        "status_counts": run["status_counts"],
+        "torque_infeasible_starts": int(len(failing)),
+        "median_torque_effort_of_those": float(failing["verify_torque_effort"].median()) if len(failing) else None,
+        "sweep_wall_s": run["sweep_wall_seconds_this_run"],
+    }
+
+
+def main(n_starts: int | None, hands: list[str], name: str) -> dict:
+    from grasptask.stages import SynthesisOptions, run_fit_task, run_simulate, run_synthesize
+
+    results: dict = {"starts_per_task": n_starts or 126, "hands": {}}
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        run_simulate(ROOT / "configs/simulate.yaml", tmp / "rec", seed=0, fmt="parquet")
+        run_fit_task([tmp / "rec" / "manifest.csv"], tmp / "tasks")
+        for hand in hands:
+            path, fingers = HANDS[hand]
+            results["hands"][hand] = {"file": str(path.relative_to(ROOT)), "fingers": fingers, "tasks": {}}
+            for task in TASKS:
+                began = time.perf_counter()
+                options = SynthesisOptions(
+                    tasks=tmp / "tasks" / "task_models.json",
+                    task=task,
+                    out=tmp / hand,
+                    hand=path,
+                    fingers=fingers,
+                    starts=n_starts,
+                    workers=2,
+                )
+                run = run_synthesize(options, echo=print)
+                solutions = pd.read_parquet(tmp / hand / task / "solutions.parquet")
+                figures = sweep_figures(run, solutions)
+                results["hands"][hand]["tasks"][task] = figures
+                print(
+                    f"{hand} {task}: median {figures['median_s_per_start']:.2f} s, "
+                    f"{figures['verified_fraction']:.0%} verified, {figures['distinct_optima']} optima "
+                    f"({time.perf_counter() - began:.0f} s)",
+                    flush=True,
+                )
+                save(name, results)  # partial results survive an interruption
+    reference = results["hands"].get("human3", {}).get("tasks", {})
+    for entry in results["hands"].values():
+        for task, figures in entry["tasks"].items():
+            base = reference.get(task, {}).get("median_s_per_start")
+            figures["median_over_human3"] = figures["median_s_per_start"] / base if base else None
+    results["targets"] = {
+        hand: {
+            "verified_at_least_80pct": all(t["verified_fraction"] >= 0.8 for t in entry["tasks"].values()),
+            "median_within_2x_human3": all(
+                t["median_over_human3"] is not None and t["median_over_human3"] <= 2 for t in entry["tasks"].values()
+            ),
+        }
+        for hand, entry in results["hands"].items()
+        if hand in ("barrett", "allegro")
+    }
+    print(f"saved {save(name, results)}")
+    return results
+
+
+if __name__ == "__main__":
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--starts", type=int, default=None, help="starts per task (default: all 126)")
+    parser.add_argument("--hands", default=",".join(HANDS), help="comma-separated, of: " + ", ".join(HANDS))
+    parser.add_argument("--name", default="hands")
+    args = parser.parse_args()
+    chosen = [h.strip() for h in args.hands.split(",") if h.strip()]
+    check_prerequisites(chosen)
+    np.seterr(all="ignore")
+    main(args.starts, chosen, args.name)
