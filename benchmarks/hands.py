@@ -1,11 +1,13 @@
 """Grasp synthesis for every shipped hand (issue 16): the human hand with 3, 4 and 5 fingers, the BarrettHand
 BH8-282 (URDF) and the Allegro Hand (MJCF), each on the tool cylinder for drawing, cutting and screw driving,
 126 starts on 2 workers. Per hand and task: median and p90 seconds per start, the verified fraction, distinct
-optima, model size, and, where starts fail the verifier's torque check, the torque effort its LP needs (above 1:
-the hand's tendons or motors cannot hold the task at that grasp). Ratios: each hand's median over the human
-3-finger hand's, in the same run.
+optima, model size, and, where grasps pass every check of the verifier but its torque check, the torque effort
+its LP needs there (above 1: the hand's tendons or motors cannot hold the task at that grasp). Ratios: each
+hand's median over the human 3-finger hand's, in the same run.
 
     python benchmarks/hands.py [--starts N] [--hands human3,barrett,...] [--name NAME]
+    python benchmarks/hands.py --name NAME --table     # the saved results as the README's table
+    python benchmarks/hands.py --keep DIR ...; python benchmarks/hands.py --summarise DIR --name NAME
 
 Targets: each robot hand verifies >= 80% of its starts, its median within 2x of the human 3-finger hand's.
 Results are saved after every sweep (benchmarks/results/NAME.json), so an interrupted run keeps what it did.
@@ -48,7 +50,9 @@ def check_prerequisites(hands: list[str]) -> None:
 
 
 def sweep_figures(run: dict, solutions: pd.DataFrame) -> dict:
-    failing = solutions[~solutions["verified"] & solutions["verify_failures"].fillna("").str.contains("torque")]
+    # grasps the verifier accepts in every respect but the torque check: where the hand's tendons or motors
+    # fall short of the task (starts that failed other checks too say nothing about the hand's strength)
+    failing = solutions[~solutions["verified"] & (solutions["verify_failures"].fillna("") == "torque_feasibility")]
     return {
         "starts": run["starts"],
         "median_s_per_start": run["seconds_per_start"]["median"],
@@ -64,12 +68,39 @@ def sweep_figures(run: dict, solutions: pd.DataFrame) -> dict:
     }
 
 
-def main(n_starts: int | None, hands: list[str], name: str) -> dict:
+def figures_of(folder: Path) -> dict:
+    """A finished sweep's figures, from its run.json and solutions.parquet."""
+    import json
+
+    return sweep_figures(json.loads((folder / "run.json").read_text()), pd.read_parquet(folder / "solutions.parquet"))
+
+
+def compare(results: dict) -> dict:
+    """Each sweep's median over the human 3-finger hand's for the same task, and the targets."""
+    reference = results["hands"].get("human3", {}).get("tasks", {})
+    for entry in results["hands"].values():
+        for task, figures in entry["tasks"].items():
+            base = reference.get(task, {}).get("median_s_per_start")
+            figures["median_over_human3"] = figures["median_s_per_start"] / base if base else None
+    results["targets"] = {
+        hand: {
+            "verified_at_least_80pct": all(t["verified_fraction"] >= 0.8 for t in entry["tasks"].values()),
+            "median_within_2x_human3": all(
+                t["median_over_human3"] is not None and t["median_over_human3"] <= 2 for t in entry["tasks"].values()
+            ),
+        }
+        for hand, entry in results["hands"].items()
+        if hand in ("barrett", "allegro")
+    }
+    return results
+
+
+def main(n_starts: int | None, hands: list[str], name: str, keep: Path | None = None) -> dict:
     from grasptask.stages import SynthesisOptions, run_fit_task, run_simulate, run_synthesize
 
     results: dict = {"starts_per_task": n_starts or 126, "hands": {}}
-    with tempfile.TemporaryDirectory() as tmp:
-        tmp = Path(tmp)
+    with tempfile.TemporaryDirectory() as scratch:
+        tmp = Path(keep or scratch)
         run_simulate(ROOT / "configs/simulate.yaml", tmp / "rec", seed=0, fmt="parquet")
         run_fit_task([tmp / "rec" / "manifest.csv"], tmp / "tasks")
         for hand in hands:
@@ -86,10 +117,8 @@ def main(n_starts: int | None, hands: list[str], name: str) -> dict:
                     starts=n_starts,
                     workers=2,
                 )
-                run = run_synthesize(options, echo=print)
-                solutions = pd.read_parquet(tmp / hand / task / "solutions.parquet")
-                figures = sweep_figures(run, solutions)
-                results["hands"][hand]["tasks"][task] = figures
+                run_synthesize(options, echo=print)
+                figures = results["hands"][hand]["tasks"][task] = figures_of(tmp / hand / task)
                 print(
                     f"{hand} {task}: median {figures['median_s_per_start']:.2f} s, "
                     f"{figures['verified_fraction']:.0%} verified, {figures['distinct_optima']} optima "
@@ -97,23 +126,46 @@ def main(n_starts: int | None, hands: list[str], name: str) -> dict:
                     flush=True,
                 )
                 save(name, results)  # partial results survive an interruption
-    reference = results["hands"].get("human3", {}).get("tasks", {})
-    for entry in results["hands"].values():
-        for task, figures in entry["tasks"].items():
-            base = reference.get(task, {}).get("median_s_per_start")
-            figures["median_over_human3"] = figures["median_s_per_start"] / base if base else None
-    results["targets"] = {
-        hand: {
-            "verified_at_least_80pct": all(t["verified_fraction"] >= 0.8 for t in entry["tasks"].values()),
-            "median_within_2x_human3": all(
-                t["median_over_human3"] is not None and t["median_over_human3"] <= 2 for t in entry["tasks"].values()
-            ),
-        }
-        for hand, entry in results["hands"].items()
-        if hand in ("barrett", "allegro")
-    }
-    print(f"saved {save(name, results)}")
+    print(f"saved {save(name, compare(results))}")
+    print(markdown_table(results))
     return results
+
+
+def summarise(folder: Path, name: str) -> dict:
+    """The figures of sweeps kept with --keep, saved as NAME.json, without solving anything."""
+    results: dict = {"hands": {}}
+    for hand, (path, fingers) in HANDS.items():
+        tasks = {
+            task: figures_of(folder / hand / task) for task in TASKS if (folder / hand / task / "run.json").exists()
+        }
+        if tasks:
+            results["hands"][hand] = {"file": str(path.relative_to(ROOT)), "fingers": fingers, "tasks": tasks}
+            results["starts_per_task"] = next(iter(tasks.values()))["starts"]
+    print(f"saved {save(name, compare(results))}")
+    print(markdown_table(results))
+    return results
+
+
+def markdown_table(results: dict) -> str:
+    """The README's table: one row per hand and task."""
+    lines = [
+        "| hand | task | model | median s (x human 3) | p90 s | verified | optima | grasps failing only the torque "
+        "check (median LP effort) |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for hand, entry in results["hands"].items():
+        for task, f in entry["tasks"].items():
+            size = f"{f['model_size']['variables']} x {f['model_size']['constraints']}"
+            ratio = f" ({f['median_over_human3']:.1f}x)" if f.get("median_over_human3") else ""
+            effort = f["median_torque_effort_of_those"]
+            failing = "-" if not f["torque_infeasible_starts"] else f"{f['torque_infeasible_starts']} "
+            if f["torque_infeasible_starts"]:
+                failing += "(no force)" if effort is None or not np.isfinite(effort) else f"({effort:.2f})"
+            lines.append(
+                f"| {hand} | {task} | {size} | {f['median_s_per_start']:.2f}{ratio} | {f['p90_s_per_start']:.1f} | "
+                f"{f['verified_fraction']:.0%} | {f['distinct_optima']} | {failing} |"
+            )
+    return "\n".join(lines)
 
 
 if __name__ == "__main__":
@@ -121,8 +173,21 @@ if __name__ == "__main__":
     parser.add_argument("--starts", type=int, default=None, help="starts per task (default: all 126)")
     parser.add_argument("--hands", default=",".join(HANDS), help="comma-separated, of: " + ", ".join(HANDS))
     parser.add_argument("--name", default="hands")
+    parser.add_argument(
+        "--keep", type=Path, help="run the sweeps in this folder and keep them (default: a temporary one)"
+    )
+    parser.add_argument("--summarise", type=Path, help="save and print the figures of sweeps kept in this folder")
+    parser.add_argument("--table", action="store_true", help="print the saved results NAME.json as a table, and stop")
     args = parser.parse_args()
+    if args.summarise:
+        summarise(args.summarise, args.name)
+        raise SystemExit(0)
+    if args.table:
+        import json
+
+        print(markdown_table(json.loads((ROOT / "benchmarks/results" / f"{args.name}.json").read_text())))
+        raise SystemExit(0)
     chosen = [h.strip() for h in args.hands.split(",") if h.strip()]
     check_prerequisites(chosen)
     np.seterr(all="ignore")
-    main(args.starts, chosen, args.name)
+    main(args.starts, chosen, args.name, args.keep)

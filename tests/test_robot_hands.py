@@ -273,3 +273,36 @@ def test_a_sweep_runs_end_to_end_on_a_urdf_hand(cli, simulated, tmp_path):
     for _, row in solved.iterrows():  # the NLP honoured the mimic couplings
         assert abs(row["q_j13"] - 0.344262 * row["q_j12"]) < 1e-5 and abs(row["q_j21"] - row["q_j11"]) < 1e-5
     assert json.loads((tmp_path / "drawing" / "run.json").read_text())["fingers"] == list(hand.fingers)
+
+
+HOLDING_HANDS = {
+    "barrett": (BARRETT, None),
+    "allegro": (ALLEGRO, None),
+    "human4": (Path("configs/hands/human.yaml"), ("thumb", "index", "middle", "ring")),
+    "human5": (Path("configs/hands/human.yaml"), ("thumb", "index", "middle", "ring", "little")),
+}
+
+
+@pytest.mark.parametrize("task", ["drawing", "cutting", "screwdriving"])
+@pytest.mark.parametrize("hand_name", list(HOLDING_HANDS))
+def test_each_hand_holds_each_task_within_a_few_starts(simulated, hand_name, task):
+    """Every shipped robot hand, and the human hand with four and five fingers, reaches a grasp the independent
+    verifier accepts for every task on the tool cylinder, within the first few of the spread-out starts."""
+    from grasptask.synthesis.config import load_solver_config
+    from grasptask.synthesis.context import Job, SolverContext
+    from grasptask.synthesis.starts import make_starts, subset
+
+    path, fingers = HOLDING_HANDS[hand_name]
+    tasks = simulated[0] / "tasks" / "task_models.json"
+    solver = load_solver_config("configs/solver.yaml")
+    context = SolverContext(
+        Job(str(path), "configs/objects/tool.yaml", str(tasks), task, solver=solver, fingers=fingers)
+    )
+    tried = []
+    for start in subset(make_starts(context.bounds), 12)[:5]:
+        row = context.solve(start)
+        tried.append((start.start_id, row["status"], row.get("verify_failures")))
+        if row["verified"]:
+            assert np.isfinite(row["Q"])
+            return
+    pytest.fail(f"{hand_name} found no verified {task} grasp in {len(tried)} starts: {tried}")

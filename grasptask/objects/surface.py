@@ -57,6 +57,10 @@ class ImplicitObject:
     def surface(self) -> SurfaceIndex:
         return SurfaceIndex.build(self)
 
+    def picture(self, faces: int = 5000) -> trimesh.Trimesh:
+        """A mesh of about ``faces`` triangles for drawing: the zero set of ``g`` by marching cubes."""
+        return surface_mesh(self, float(np.sqrt(2 * self.surface.mesh.area / faces)))
+
     def signed_distance(self, p: np.ndarray) -> np.ndarray:
         """Euclidean signed distance (m) from ``(N, 3)`` points to the surface, negative inside."""
         return self.surface.signed_distance(np.atleast_2d(p), self)

@@ -1,5 +1,6 @@
-"""3D renderings of a grasp: hand links as capsules, fingertip pads, the object's surface, contact points,
-friction cones and the task's main wrench axis (for the report, and for looking at a grasp in a notebook)."""
+"""3D renderings of a grasp: the hand's links and its own collision spheres, fingertip pads, the object's
+surface, contact points, friction cones and the task's main wrench axis (for the report, and for looking at a
+grasp in a notebook)."""
 
 from __future__ import annotations
 
@@ -14,7 +15,7 @@ from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 from grasptask.grasp.mechanics import friction_cone_edges
 from grasptask.hand.kinematics import forward
 from grasptask.hand.model import Hand
-from grasptask.objects.surface import ImplicitObject, surface_mesh
+from grasptask.objects.surface import ImplicitObject
 from grasptask.report.style import apply_style
 
 FINGER_COLOURS = {"thumb": "#d95f02", "index": "#1b9e77", "middle": "#7570b3", "ring": "#e7298a", "little": "#66a61e"}
@@ -24,14 +25,19 @@ OTHER_COLOURS = ("#d95f02", "#1b9e77", "#7570b3", "#e7298a", "#66a61e", "#e6ab02
 
 def display_mesh(obj: ImplicitObject, faces: int = 5000) -> trimesh.Trimesh:
     """A mesh of about ``faces`` triangles for pictures: a full surface is cheap to draw and has no holes."""
-    spacing = float(np.sqrt(2 * obj.surface.mesh.area / faces))
-    return surface_mesh(obj, spacing)
+    return obj.picture(faces)
 
 
-def _capsule_line(ax, a, b, radius, colour):
-    # a thick line with round caps reads as a capsule at report sizes
-    width = max(2.0, radius * 900)
-    ax.plot(*np.column_stack([a, b]), color=colour, lw=width, solid_capstyle="round", alpha=0.85)
+_U, _V = np.meshgrid(np.linspace(0, 2 * np.pi, 9), np.linspace(0, np.pi, 6))
+#: a coarse unit sphere, (3, 6, 9), for drawing collision spheres
+UNIT_SPHERE = np.stack([np.cos(_U) * np.sin(_V), np.sin(_U) * np.sin(_V), np.cos(_V)])
+
+
+def _collision_spheres(ax, centres: np.ndarray, radii: np.ndarray, colour: str) -> None:
+    """The hand's own collision geometry, the spheres eq. 14 and the verifier keep outside the object."""
+    for centre, radius in zip(centres, radii, strict=True):
+        x, y, z = centre[:, None, None] + radius * UNIT_SPHERE
+        ax.plot_surface(x, y, z, color=colour, alpha=0.35, linewidth=0, shade=True, zorder=3)
 
 
 def draw_grasp(
@@ -58,13 +64,10 @@ def draw_grasp(
     pose = forward(hand, joint_angles, palm_rotation, palm_position)
     for k, (name, finger) in enumerate(pose.fingers.items()):
         colour = FINGER_COLOURS.get(name, OTHER_COLOURS[k % len(OTHER_COLOURS)])
-        chain = finger.joint_positions[0]
-        for a, b in zip(chain[:-1], chain[1:], strict=True):
-            if np.linalg.norm(b - a) > 1e-9:
-                _capsule_line(ax, a, b, finger.radius, colour)
+        ax.plot(*finger.joint_positions[0].T, color=colour, lw=1.5, marker="o", ms=2)
+        _collision_spheres(ax, finger.samples[0], finger.radii, colour)
         ax.scatter(*finger.contact[0], color=colour, s=25, edgecolors="black", zorder=5)
-    palm = pose.palm_samples[0]
-    ax.scatter(*palm.T, color="#8c6d31", s=12, alpha=0.6)
+    _collision_spheres(ax, pose.palm_samples[0], pose.palm_radii, "#8c6d31")
     if contacts is not None and normals is not None:
         edges = friction_cone_edges(-np.asarray(normals), mu, 12)
         scale = 0.02
