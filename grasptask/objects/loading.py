@@ -14,6 +14,18 @@
     tolerance_m: 0.0005
     seed: 0
 
+    type: mesh
+    name: knife
+    mesh: ../../data/objects/knife.stl  # or points: a point cloud with normals (CSV x,y,z,nx,ny,nz, or PLY)
+    unit: mm                          # the file's length unit: m (default), cm or mm
+    task_frame: {origin_m: [0, 0, 0.05], rotation_rpy_deg: [0, 0, 0]}  # where the task's wrenches act,
+                                      # in the file's frame (metres); by default the file's own origin and axes
+    pose: {position_m: [0, 0, 0], rotation_rpy_deg: [0, 0, 0]}  # the file's frame in the world (kept)
+    mass_kg: 0.08
+
+A mesh or point-cloud file can also be given directly (``--object thing.obj``): metres, its own frame as the
+task frame. A mesh or cloud object lives in its task frame, so grasps are reported in it.
+
 Paths are relative to the config file. An optional ``symmetry`` entry, ``{rotation_axis: z, flip_axis: z}``
 (or ``rotation_axis: any`` for a sphere), describes the object's symmetry for clustering grasps; the loaded
 object carries it.
@@ -21,29 +33,34 @@ object carries it.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
+from typing import Any
 
 import numpy as np
-import pandas as pd
 import trimesh
 from scipy.spatial.transform import Rotation
 
-from grasptask.errors import BadInputError
+from grasptask.errors import BadInputError, existing_file
 from grasptask.io.config import load_yaml, number, numbers, reject_unknown, require, whole
 from grasptask.objects.gp import GPImplicitSurface
+from grasptask.objects.mesh_file import CLOUD_SUFFIXES, MESH_SUFFIXES, read_cloud, read_mesh, unit_scale
+from grasptask.objects.mesh_object import MeshObject, PointCloudObject
 from grasptask.objects.superquadric import Superquadric
 from grasptask.objects.surface import ImplicitObject, Symmetry
 from grasptask.paths import DEFAULT_OBJECT
 
 #: the largest half-size of an object, in metres: a hand grasps nothing bigger
 MAX_SIZE_M = 2.0
-POINT_COLUMNS = ["x", "y", "z", "nx", "ny", "nz"]
 
 
-def load_object(path: str | Path = DEFAULT_OBJECT) -> ImplicitObject:
-    """An object from its YAML config, every field checked: a one-line error names the field at fault."""
+def load_object(path: str | Path = DEFAULT_OBJECT, say: Callable[[str], Any] = print) -> ImplicitObject:
+    """An object from its YAML config, or a mesh or point-cloud file itself, every field checked: a one-line
+    error names the file and the field at fault. ``say`` reports a repaired mesh."""
     path = Path(path)
+    if path.suffix.lower() in MESH_SUFFIXES + CLOUD_SUFFIXES:
+        return mesh_object(existing_file(path, "object file"), {}, path, say)
     data = load_yaml(path)
     kind = require(data, "type", path, str)
     common = {"type", "name", "description", "symmetry"}
@@ -55,16 +72,8 @@ def load_object(path: str | Path = DEFAULT_OBJECT) -> ImplicitObject:
         e1, e2 = numbers(data.get("exponents"), path, "exponents", 2)
         if np.any(size < 1e-3) or np.any(size > MAX_SIZE_M) or not (0.05 <= e1 <= 2 and 0.05 <= e2 <= 2):
             raise BadInputError(path, f"need 3 half-sizes in [0.001, {MAX_SIZE_M:g}] m and exponents in [0.05, 2]")
-        pose = data.get("pose") or {}
-        if not isinstance(pose, dict):
-            raise BadInputError(path, f"field 'pose' must be a mapping, got {pose!r}")
-        reject_unknown(pose, {"position_m", "rotation_rpy_deg"}, path, "pose.")
-        rpy = numbers(pose.get("rotation_rpy_deg", [0, 0, 0]), path, "pose.rotation_rpy_deg", 3)
-        position = numbers(pose.get("position_m", [0, 0, 0]), path, "pose.position_m", 3)
-        if np.abs(position).max() > MAX_SIZE_M:
-            raise BadInputError(path, f"field 'pose.position_m' must lie within {MAX_SIZE_M:g} m of the origin")
-        rotation = Rotation.from_euler("xyz", rpy, degrees=True).as_matrix()
-        return Superquadric(size, float(e1), float(e2), rotation, position, name, symmetry)
+        pose = _frame(data.get("pose"), path, "pose", "position_m")
+        return Superquadric(size, float(e1), float(e2), pose[:3, :3], pose[:3, 3], name, symmetry)
     if kind == "gp":
         allowed = {"mesh", "points_csv", "n_support", "max_support", "tolerance_m", "seed", "n_samples"}
         reject_unknown(data, common | allowed, path)
@@ -77,7 +86,65 @@ def load_object(path: str | Path = DEFAULT_OBJECT) -> ImplicitObject:
             points, normals, n_support=n_support, max_support=max_support, tolerance=tolerance, seed=seed, name=name
         )
         return replace(gp, symmetry=symmetry)
-    raise BadInputError(path, f"unknown object type '{kind}' (known: superquadric, gp)")
+    if kind == "mesh":
+        reject_unknown(data, common | {"mesh", "points", "unit", "pose", "task_frame", "mass_kg"}, path)
+        keys = [k for k in ("mesh", "points") if k in data]
+        if len(keys) != 1:
+            raise BadInputError(path, "a mesh object needs one of 'mesh' (a triangle mesh) or 'points' (a point cloud)")
+        source = path.parent / str(require(data, keys[0], path, str))
+        if not source.is_file():
+            raise BadInputError(path, f"field '{keys[0]}': file not found: {source}")
+        return mesh_object(source, data, path, say, cloud=keys[0] == "points")
+    raise BadInputError(path, f"unknown object type '{kind}' (known: superquadric, gp, mesh)")
+
+
+def _frame(value: object, path: Path, name: str, position_key: str) -> np.ndarray:
+    """A 4 x 4 transform from ``{position_key: [x, y, z], rotation_rpy_deg: [r, p, y]}``."""
+    value = value or {}
+    if not isinstance(value, dict):
+        raise BadInputError(path, f"field '{name}' must be a mapping, got {value!r}")
+    reject_unknown(value, {position_key, "rotation_rpy_deg"}, path, f"{name}.")
+    frame = np.eye(4)
+    rpy = numbers(value.get("rotation_rpy_deg", [0, 0, 0]), path, f"{name}.rotation_rpy_deg", 3)
+    frame[:3, :3] = Rotation.from_euler("xyz", rpy, degrees=True).as_matrix()
+    frame[:3, 3] = numbers(value.get(position_key, [0, 0, 0]), path, f"{name}.{position_key}", 3)
+    if np.abs(frame[:3, 3]).max() > MAX_SIZE_M:
+        raise BadInputError(path, f"field '{name}.{position_key}' must lie within {MAX_SIZE_M:g} m of the origin")
+    return frame
+
+
+def mesh_object(
+    source: Path, data: dict, path: Path, say: Callable[[str], Any] = print, cloud: bool | None = None
+) -> ImplicitObject:
+    """A mesh or point cloud in its task frame (``task_frame`` in the file's own frame, after ``unit``; by
+    default the file's own origin and axes)."""
+    unit = str(data.get("unit", "m"))
+    unit_scale(unit, path)
+    task_frame = _frame(data.get("task_frame"), path, "task_frame", "origin_m")
+    pose = _frame(data.get("pose"), path, "pose", "position_m")
+    mass = number(data["mass_kg"], path, "mass_kg", positive=True) if "mass_kg" in data else None
+    name = str(data.get("name", source.stem))
+    symmetry = _symmetry(data.get("symmetry"), path)
+    if cloud is None:  # a file given directly: a CSV is a cloud, a PLY is a cloud when it has no faces
+        cloud = source.suffix.lower() == ".csv" or (source.suffix.lower() == ".ply" and not _has_faces(source))
+    into_task = np.linalg.inv(task_frame)
+    if cloud:
+        points = read_cloud(source, unit)
+        rotation = into_task[:3, :3]
+        return PointCloudObject(
+            points.points @ rotation.T + into_task[:3, 3], points.normals @ rotation.T, name, symmetry, mass,
+            pose @ task_frame,
+        )  # fmt: skip
+    mesh = read_mesh(source, unit, say)
+    mesh.apply_transform(into_task)
+    return MeshObject(mesh, name, symmetry, mass, pose @ task_frame)
+
+
+def _has_faces(source: Path) -> bool:
+    try:
+        return len(getattr(trimesh.load(source), "faces", ())) > 0
+    except Exception:  # noqa: BLE001 - read_mesh or read_cloud says what is wrong with it
+        return False
 
 
 def object_files(path: str | Path) -> list[Path]:
@@ -108,35 +175,12 @@ def _surface_samples(path: Path, data: dict) -> tuple[np.ndarray, np.ndarray]:
         mesh_path = path.parent / str(data["mesh"])
         if not mesh_path.is_file():
             raise BadInputError(path, f"mesh file not found: {mesh_path}")
-        try:
-            mesh: trimesh.Trimesh = trimesh.load(mesh_path, force="mesh")  # type: ignore[assignment]
-        except Exception as exc:  # noqa: BLE001 - trimesh's loaders raise many kinds for a broken file
-            raise BadInputError(mesh_path, f"not a mesh that trimesh can read ({type(exc).__name__})") from exc
-        if not isinstance(mesh, trimesh.Trimesh) or len(mesh.faces) == 0:
-            raise BadInputError(mesh_path, "holds no triangles")
-        if not mesh.is_watertight:
-            raise BadInputError(mesh_path, "mesh is not closed (watertight), so inside and outside are undefined")
         count = whole(data.get("n_samples", 6000), path, "n_samples", minimum=100)
-        points, faces = trimesh.sample.sample_surface_even(mesh, count, seed=0)
-        return np.asarray(points), np.asarray(mesh.face_normals[faces])
+        return MeshObject(read_mesh(mesh_path)).surface_samples(count)
     if "points_csv" in data:
         csv = path.parent / str(data["points_csv"])
         if not csv.is_file():
             raise BadInputError(path, f"point file not found: {csv}")
-        try:
-            frame = pd.read_csv(csv)
-        except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:
-            raise BadInputError(csv, f"not a readable CSV ({type(exc).__name__})") from exc
-        for column in POINT_COLUMNS:
-            if column not in frame.columns:
-                raise BadInputError(csv, "missing column", column=column)
-        for column in POINT_COLUMNS:
-            values = pd.to_numeric(frame[column], errors="coerce").to_numpy(dtype=float)
-            if not np.isfinite(values).all():
-                row = int(np.argwhere(~np.isfinite(values))[0, 0]) + 1
-                raise BadInputError(csv, "not a finite number", row=row, column=column)
-        values = frame[POINT_COLUMNS].to_numpy(dtype=float)
-        if len(values) < 10:
-            raise BadInputError(csv, f"only {len(values)} points; a surface needs at least 10")
-        return values[:, :3], values[:, 3:]
+        cloud = read_cloud(csv)
+        return cloud.points, cloud.normals
     raise BadInputError(path, "a gp object needs 'mesh' or 'points_csv'")

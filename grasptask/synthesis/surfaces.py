@@ -13,6 +13,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from grasptask.objects.gp import GPImplicitSurface
+from grasptask.objects.mesh_object import MeshObject, PointCloudObject
 from grasptask.objects.superquadric import Superquadric
 from grasptask.objects.surface import ImplicitObject
 from grasptask.synthesis.algebra import XYZ, power
@@ -98,9 +99,12 @@ class GPSurface:
 
 
 def surface_for(obj: ImplicitObject) -> NLPSurface:
-    """The NLP's surface for a loaded object."""
+    """The NLP's surface for a loaded object. A mesh or point cloud is constrained through a GP fitted to
+    samples of its surface, a surrogate: the verifier judges the grasp against the mesh or points."""
     if isinstance(obj, Superquadric):
         return SuperquadricSurface(obj)
     if isinstance(obj, GPImplicitSurface):
         return GPSurface(obj)
+    if isinstance(obj, MeshObject | PointCloudObject):
+        return GPSurface(GPImplicitSurface.fit(*obj.surface_samples(), name=obj.name))
     raise TypeError(f"no NLP surface for {type(obj).__name__}")

@@ -1,0 +1,139 @@
+"""Objects given as a closed triangle mesh or a point cloud with normals, in their task frame, judged against
+the mesh or the points themselves.
+
+The verifier's distances, closest points and normals here are trimesh's exact ones on the triangles (normals
+interpolated from the vertex normals, so that they turn smoothly across a finely tessellated curve). The NLP
+never sees this class's numbers: synthesis constrains a surrogate of the surface built from the mesh.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+import trimesh
+from scipy.spatial import cKDTree
+
+from grasptask.objects.surface import ImplicitObject, SurfaceIndex, Symmetry, surface_mesh
+
+
+@dataclass(eq=False)
+class MeshObject(ImplicitObject):
+    mesh: trimesh.Trimesh  # closed, outward faces, metres, in the task frame
+    name: str = "mesh"
+    symmetry: Symmetry | None = None
+    mass_kg: float | None = None
+    #: the task frame's pose in the world, for placing the object (not used by synthesis, which works in it)
+    world_pose: np.ndarray | None = None
+
+    def bounds(self) -> np.ndarray:
+        return np.array(self.mesh.bounds, dtype=float)
+
+    def signed_distance(self, p: np.ndarray) -> np.ndarray:
+        """Euclidean signed distance to the triangles (m), negative inside."""
+        return -trimesh.proximity.signed_distance(self.mesh, np.atleast_2d(p))
+
+    def closest_point(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The closest point on the triangles, and the outward normal there."""
+        closest, _, triangle = self.mesh.nearest.on_surface(np.atleast_2d(p))
+        corners = self.mesh.triangles[triangle]
+        weights = trimesh.triangles.points_to_barycentric(corners, closest)
+        normal = np.einsum("nk,nki->ni", weights, self.mesh.vertex_normals[self.mesh.faces[triangle]])
+        return closest, normal / np.linalg.norm(normal, axis=1, keepdims=True)
+
+    def g(self, p: np.ndarray) -> np.ndarray:
+        return self.signed_distance(p)
+
+    def gradient(self, p: np.ndarray) -> np.ndarray:
+        """The gradient of the signed distance: the outward normal at the closest point."""
+        return self.closest_point(p)[1]
+
+    @property
+    def characteristic_length(self) -> float:
+        return float(np.linalg.norm(self.mesh.vertices - self.centre, axis=1).max())
+
+    @cached_property
+    def surface(self) -> SurfaceIndex:
+        """Samples of the triangles themselves (no marching cubes: the mesh is the surface)."""
+        spacing = 7e-4
+        count = int(min(200_000, max(2000, self.mesh.area / spacing**2)))
+        points, faces = trimesh.sample.sample_surface(self.mesh, count, seed=0)
+        points = np.asarray(points)
+        normals = np.asarray(self.mesh.face_normals[faces])
+        return SurfaceIndex(points, normals, self.mesh, float(np.sqrt(self.mesh.area / count)), cKDTree(points))
+
+    def picture(self, faces: int = 5000) -> trimesh.Trimesh:
+        return self.mesh
+
+    def surface_samples(self, count: int = 6000) -> tuple[np.ndarray, np.ndarray]:
+        """Points spread evenly over the triangles, with their faces' outward normals."""
+        points, faces = trimesh.sample.sample_surface_even(self.mesh, count, seed=0)
+        return np.asarray(points), np.asarray(self.mesh.face_normals[faces])
+
+
+@dataclass(eq=False)
+class PointCloudObject(ImplicitObject):
+    """An object given as surface points with outward normals, in its task frame. Distances are to the tangent
+    plane of the nearest point near the surface (to the point itself farther out), so they are as accurate as
+    the cloud is dense: about the square of the spacing over the curvature radius."""
+
+    points: np.ndarray  # (n, 3) metres
+    normals: np.ndarray  # (n, 3) outward unit normals
+    name: str = "points"
+    symmetry: Symmetry | None = None
+    mass_kg: float | None = None
+    world_pose: np.ndarray | None = None
+
+    @cached_property
+    def tree(self) -> cKDTree:
+        return cKDTree(self.points)
+
+    @cached_property
+    def spacing(self) -> float:
+        return float(np.median(self.tree.query(self.points, k=2)[0][:, 1]))
+
+    def bounds(self) -> np.ndarray:
+        return np.stack([self.points.min(axis=0), self.points.max(axis=0)])
+
+    def _nearest(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        p = np.atleast_2d(p)
+        distance, index = self.tree.query(p)
+        offset = p - self.points[index]
+        along = (offset * self.normals[index]).sum(axis=1)
+        near = distance < 3 * self.spacing
+        signed = np.where(near, along, np.sign(along) * distance)
+        return signed, index, along
+
+    def signed_distance(self, p: np.ndarray) -> np.ndarray:
+        return self._nearest(p)[0]
+
+    def closest_point(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        signed, index, along = self._nearest(p)
+        normals = self.normals[index]
+        return np.atleast_2d(p) - along[:, None] * normals, normals
+
+    def g(self, p: np.ndarray) -> np.ndarray:
+        return self.signed_distance(p)
+
+    def gradient(self, p: np.ndarray) -> np.ndarray:
+        return self.normals[self._nearest(p)[1]]
+
+    @property
+    def characteristic_length(self) -> float:
+        return float(np.linalg.norm(self.points - self.centre, axis=1).max())
+
+    @cached_property
+    def surface(self) -> SurfaceIndex:
+        return SurfaceIndex(self.points, self.normals, self.picture(), self.spacing, self.tree)
+
+    def surface_samples(self, count: int = 6000) -> tuple[np.ndarray, np.ndarray]:
+        """At most ``count`` of the points, spread evenly, with their normals."""
+        if len(self.points) <= count:
+            return self.points, self.normals
+        keep = np.random.default_rng(0).choice(len(self.points), count, replace=False)
+        return self.points[keep], self.normals[keep]
+
+    def picture(self, faces: int = 5000) -> trimesh.Trimesh:
+        """A closed surface for drawing: marching cubes of the cloud's signed distance."""
+        return surface_mesh(self, max(2 * self.spacing, float(np.ptp(self.points, axis=0).max()) / 60))

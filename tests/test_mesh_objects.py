@@ -1,0 +1,147 @@
+"""Objects from triangle meshes and point clouds: units, the task frame, distances judged against the mesh itself,
+and each bad input as one line with exit code 2."""
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+import trimesh
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from scipy.spatial.transform import Rotation
+
+from grasptask.errors import BadInputError
+from grasptask.objects import load_object
+from grasptask.objects.mesh_object import MeshObject, PointCloudObject
+from tests.test_bad_input import assert_rejected
+
+
+def handle(scale: float = 1.0) -> trimesh.Trimesh:
+    """A handle-sized capsule, 12 cm long and 2.4 cm across, in metres times ``scale``."""
+    mesh = trimesh.creation.capsule(height=0.096, radius=0.012, count=[24, 24])
+    mesh.apply_scale(scale)
+    return mesh
+
+
+def test_a_mesh_file_loads_directly_and_is_judged_against_its_triangles(tmp_path):
+    handle().export(tmp_path / "handle.stl")
+    obj = load_object(tmp_path / "handle.stl")
+    assert isinstance(obj, MeshObject) and obj.name == "handle"
+    rng = np.random.default_rng(0)
+    points, faces = trimesh.sample.sample_surface(obj.mesh, 200, seed=1)
+    offsets = rng.uniform(-0.005, 0.01, len(points))
+    probes = points + offsets[:, None] * obj.mesh.face_normals[faces]
+    # the capsule's own signed distance: from its spine, minus the radius
+    spine = np.clip(probes[:, 2], -0.048, 0.048)
+    truth = np.linalg.norm(probes - np.column_stack([0 * spine, 0 * spine, spine]), axis=1) - 0.012
+    assert np.abs(obj.signed_distance(probes) - truth).max() < 2e-4  # the tessellation's own error
+    closest, normals = obj.closest_point(probes)
+    np.testing.assert_allclose(np.linalg.norm(normals, axis=1), 1.0, atol=1e-9)
+    assert np.abs(obj.signed_distance(closest)).max() < 1e-6
+
+
+@pytest.mark.parametrize("unit, scale", [("mm", 1000.0), ("cm", 100.0), ("m", 1.0)])
+def test_units_are_honoured(tmp_path, unit, scale):
+    handle(scale).export(tmp_path / "h.obj")
+    (tmp_path / "h.yaml").write_text(f"type: mesh\nmesh: h.obj\nunit: {unit}\n")
+    obj = load_object(tmp_path / "h.yaml")
+    np.testing.assert_allclose(obj.bounds(), handle().bounds, atol=1e-9)
+
+
+@settings(max_examples=10, deadline=None)
+@given(st.integers(0, 2**32 - 1))
+def test_the_task_frame_is_honoured(tmp_path_factory, seed):
+    """A mesh moved and turned, with its task frame moved and turned with it, is the same object in its task
+    frame: grasps, which live in the task frame, follow the mesh."""
+    folder = tmp_path_factory.mktemp("frame")
+    rng = np.random.default_rng(seed)
+    rpy, origin = rng.uniform(-180, 180, 3), rng.uniform(-0.1, 0.1, 3)
+    moved = handle()
+    transform = np.eye(4)
+    transform[:3, :3], transform[:3, 3] = Rotation.from_euler("xyz", rpy, degrees=True).as_matrix(), origin
+    moved.apply_transform(transform)
+    moved.export(folder / "moved.stl")
+    (folder / "moved.yaml").write_text(
+        f"type: mesh\nmesh: moved.stl\ntask_frame: {{origin_m: {origin.tolist()}, rotation_rpy_deg: {rpy.tolist()}}}\n"
+    )
+    obj = load_object(folder / "moved.yaml")
+    probes = np.random.default_rng(1).uniform(-0.03, 0.03, (50, 3)) * [1, 1, 2.5]
+    reference = MeshObject(handle())
+    np.testing.assert_allclose(obj.signed_distance(probes), reference.signed_distance(probes), atol=1e-6)
+
+
+def cloud_frame(with_normals: bool = True) -> pd.DataFrame:
+    mesh = handle()
+    points, faces = trimesh.sample.sample_surface_even(mesh, 3000, seed=0)
+    table = pd.DataFrame(points, columns=["x", "y", "z"])
+    if with_normals:
+        table[["nx", "ny", "nz"]] = mesh.face_normals[faces]
+    return table
+
+
+def test_a_point_cloud_with_normals_is_an_object(tmp_path):
+    cloud_frame().to_csv(tmp_path / "cloud.csv", index=False)
+    obj = load_object(tmp_path / "cloud.csv")
+    assert isinstance(obj, PointCloudObject)
+    reference = MeshObject(handle())
+    probes = reference.surface.points[::50] + 0.004 * reference.surface.normals[::50]
+    assert np.abs(obj.signed_distance(probes) - 0.004).max() < 1e-3  # a dense cloud: well within a millimetre
+    assert obj.signed_distance(np.zeros((1, 3)))[0] < 0
+
+
+def test_a_repairable_hole_is_filled_and_said(tmp_path):
+    mesh = handle()
+    mesh.update_faces(np.arange(len(mesh.faces)) != 7)  # one triangle missing: a hole trimesh can fill
+    mesh.export(tmp_path / "holed.stl")
+    said = []
+    obj = load_object(tmp_path / "holed.stl", say=said.append)
+    assert obj.mesh.is_watertight and len(said) == 1 and "filled" in said[0] and "holed.stl" in said[0]
+
+
+def bad_object(tmp_path: Path, case: str) -> Path:
+    path = tmp_path / f"{case}.stl"
+    if case == "unreadable":
+        path = tmp_path / "truncated.off"
+        path.write_text("OFF\n3 1 0\n0 0 0\n1 0\n")
+    elif case == "empty":
+        path.write_text("solid empty\nendsolid empty\n")
+    elif case == "degenerate":
+        trimesh.Trimesh(np.array([[0, 0, 0], [0.01, 0, 0], [0.02, 0, 0.0]]), [[0, 1, 2]], process=False).export(path)
+    elif case == "open":
+        mesh = handle()
+        mesh.update_faces(mesh.triangles_center[:, 2] < 0.03)  # the top cap and more cut away
+        mesh.export(path)
+    elif case == "millimetres":
+        handle(1000.0).export(path)
+    elif case == "no normals":
+        path = tmp_path / "cloud.csv"
+        cloud_frame(with_normals=False).to_csv(path, index=False)
+    return path
+
+
+BAD = {
+    "unreadable": "trimesh can read",
+    "empty": "no triangles",
+    "degenerate": "degenerate",
+    "open": "open edges",
+    "millimetres": "unit: mm",
+    "no normals": "normals",
+}
+
+
+@pytest.mark.parametrize("case", list(BAD))
+def test_bad_objects_are_one_line(tmp_path, case):
+    path = bad_object(tmp_path, case)
+    with pytest.raises(BadInputError, match=BAD[case]) as caught:
+        load_object(path)
+    assert str(caught.value).startswith(str(path)) and "\n" not in str(caught.value)
+
+
+@pytest.mark.parametrize("case", ["open", "millimetres", "no normals"])
+def test_synthesize_refuses_a_bad_object_with_exit_code_2_and_writes_nothing(cli, simulated, tmp_path, case):
+    path = bad_object(tmp_path, case)
+    tasks = simulated[0] / "tasks" / "task_models.json"
+    out = tmp_path / "out"
+    result = cli("synthesize", "--tasks", tasks, "--task", "drawing", "--out", out, "--object", path, "--starts", "1")
+    assert_rejected(result, out, path.name, BAD[case])
