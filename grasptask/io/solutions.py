@@ -4,7 +4,8 @@ a solutions table and the row of a start that produced no solution.
 A solutions row holds ``start_id``, ``orientation``, ``position``, ``status``, ``iterations``, ``seconds``,
 ``message``, ``Q`` and ``verified``; for a start with a solution also the palm pose ``palm_x/y/z`` and
 ``palm_r<i><j>``, joint angles ``q_<joint>``, ``contact_<finger>_<axis>`` and ``normal_<finger>_<axis>``
-(outward), and the verifier's ``verify_*`` figures.
+(outward), and the verifier's ``verify_*`` figures. On a mesh or point cloud, ``surrogate_error_m_<finger>`` is
+the synthesis surrogate's signed distance at each contact minus the mesh's own.
 """
 
 from __future__ import annotations

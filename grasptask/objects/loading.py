@@ -22,6 +22,7 @@
                                       # in the file's frame (metres); by default the file's own origin and axes
     pose: {position_m: [0, 0, 0], rotation_rpy_deg: [0, 0, 0]}  # the file's frame in the world (kept)
     mass_kg: 0.08
+    grid_spacing_m: 0.0025            # the synthesis surrogate's grid; finer for blades and thin shafts
 
 A mesh or point-cloud file can also be given directly (``--object thing.obj``): metres, its own frame as the
 task frame. A mesh or cloud object lives in its task frame, so grasps are reported in it.
@@ -46,7 +47,7 @@ from grasptask.errors import BadInputError, existing_file
 from grasptask.io.config import load_yaml, number, numbers, reject_unknown, require, whole
 from grasptask.objects.gp import GPImplicitSurface
 from grasptask.objects.mesh_file import CLOUD_SUFFIXES, MESH_SUFFIXES, read_cloud, read_mesh, unit_scale
-from grasptask.objects.mesh_object import MeshObject, PointCloudObject
+from grasptask.objects.mesh_object import GRID_SPACING_M, MeshObject, PointCloudObject
 from grasptask.objects.superquadric import Superquadric
 from grasptask.objects.surface import ImplicitObject, Symmetry
 from grasptask.paths import DEFAULT_OBJECT
@@ -87,7 +88,8 @@ def load_object(path: str | Path = DEFAULT_OBJECT, say: Callable[[str], Any] = p
         )
         return replace(gp, symmetry=symmetry)
     if kind == "mesh":
-        reject_unknown(data, common | {"mesh", "points", "unit", "pose", "task_frame", "mass_kg"}, path)
+        fields = {"mesh", "points", "unit", "pose", "task_frame", "mass_kg", "grid_spacing_m"}
+        reject_unknown(data, common | fields, path)
         keys = [k for k in ("mesh", "points") if k in data]
         if len(keys) != 1:
             raise BadInputError(path, "a mesh object needs one of 'mesh' (a triangle mesh) or 'points' (a point cloud)")
@@ -123,6 +125,9 @@ def mesh_object(
     task_frame = _frame(data.get("task_frame"), path, "task_frame", "origin_m")
     pose = _frame(data.get("pose"), path, "pose", "position_m")
     mass = number(data["mass_kg"], path, "mass_kg", positive=True) if "mass_kg" in data else None
+    spacing = number(data.get("grid_spacing_m", GRID_SPACING_M), path, "grid_spacing_m", positive=True)
+    if not 5e-4 <= spacing <= 0.01:
+        raise BadInputError(path, f"field 'grid_spacing_m' must lie in [0.0005, 0.01] m, got {spacing}")
     name = str(data.get("name", source.stem))
     symmetry = _symmetry(data.get("symmetry"), path)
     if cloud is None:  # a file given directly: a CSV is a cloud, a PLY is a cloud when it has no faces
@@ -133,11 +138,11 @@ def mesh_object(
         rotation = into_task[:3, :3]
         return PointCloudObject(
             points.points @ rotation.T + into_task[:3, 3], points.normals @ rotation.T, name, symmetry, mass,
-            pose @ task_frame,
+            pose @ task_frame, spacing,
         )  # fmt: skip
     mesh = read_mesh(source, unit, say)
     mesh.apply_transform(into_task)
-    return MeshObject(mesh, name, symmetry, mass, pose @ task_frame)
+    return MeshObject(mesh, name, symmetry, mass, pose @ task_frame, spacing)
 
 
 def _has_faces(source: Path) -> bool:

@@ -15,7 +15,11 @@ import numpy as np
 import trimesh
 from scipy.spatial import cKDTree
 
+from grasptask.objects.distance_grid import DistanceGrid, distance_grid
 from grasptask.objects.surface import ImplicitObject, SurfaceIndex, Symmetry, surface_mesh
+
+#: the default spacing of the synthesis surrogate's grid (m): its zero set within 0.7 mm of the mug's triangles
+GRID_SPACING_M = 0.0025
 
 
 @dataclass(eq=False)
@@ -26,6 +30,7 @@ class MeshObject(ImplicitObject):
     mass_kg: float | None = None
     #: the task frame's pose in the world, for placing the object (not used by synthesis, which works in it)
     world_pose: np.ndarray | None = None
+    grid_spacing: float = GRID_SPACING_M  # of the synthesis surrogate's distance grid (m)
 
     def bounds(self) -> np.ndarray:
         return np.array(self.mesh.bounds, dtype=float)
@@ -71,6 +76,15 @@ class MeshObject(ImplicitObject):
         points, faces = trimesh.sample.sample_surface_even(self.mesh, count, seed=0)
         return np.asarray(points), np.asarray(self.mesh.face_normals[faces])
 
+    def distance_grid(self, spacing: float | None = None) -> DistanceGrid:
+        """The synthesis surrogate's data: samples every 0.5 mm, signs from the mesh's inside test."""
+        spacing = spacing or self.grid_spacing
+        count = int(min(400_000, max(20_000, self.mesh.area / 5e-4**2)))
+        points, faces = trimesh.sample.sample_surface(self.mesh, count, seed=0)
+        return distance_grid(
+            np.asarray(points), self.mesh.face_normals[faces], self.bounds(), spacing, inside=self.mesh.contains
+        )
+
 
 @dataclass(eq=False)
 class PointCloudObject(ImplicitObject):
@@ -84,6 +98,7 @@ class PointCloudObject(ImplicitObject):
     symmetry: Symmetry | None = None
     mass_kg: float | None = None
     world_pose: np.ndarray | None = None
+    grid_spacing: float = GRID_SPACING_M
 
     @cached_property
     def tree(self) -> cKDTree:
@@ -126,6 +141,10 @@ class PointCloudObject(ImplicitObject):
     @cached_property
     def surface(self) -> SurfaceIndex:
         return SurfaceIndex(self.points, self.normals, self.picture(), self.spacing, self.tree)
+
+    def distance_grid(self, spacing: float | None = None) -> DistanceGrid:
+        """The synthesis surrogate's data, signs from the nearest point's normal."""
+        return distance_grid(self.points, self.normals, self.bounds(), spacing or self.grid_spacing)
 
     def surface_samples(self, count: int = 6000) -> tuple[np.ndarray, np.ndarray]:
         """At most ``count`` of the points, spread evenly, with their normals."""

@@ -24,6 +24,7 @@ import numpy as np
 from pyomo.repn.plugins.nl_writer import NLWriter
 
 from grasptask.errors import BadInputError
+from grasptask.synthesis.spline import SurrogateSpec, substituted
 
 _IPOPT_STATUS = {
     "Solve_Succeeded": "optimal",
@@ -101,16 +102,24 @@ def check_ipopt_options(options: dict[str, Any], source: str | Path) -> None:
 
 def write_nl(model: Any) -> tuple[str, list]:
     """The model as NL text (numeric labels only: symbolic ones break CasADi's import) and its variable order."""
+    text, variables, _ = write_nl_rows(model)
+    return text, variables
+
+
+def write_nl_rows(model: Any) -> tuple[str, list, list]:
+    """:func:`write_nl`, and the constraints in the order of the NL rows."""
     nl, row, col = io.StringIO(), io.StringIO(), io.StringIO()
     # no linear presolve: it would eliminate variables (e.g. the coupled DIP angles) from the column list
     info = NLWriter().write(model, nl, row, col, symbolic_solver_labels=False, linear_presolve=False)
-    return nl.getvalue(), list(info.variables)
+    return nl.getvalue(), list(info.variables), list(info.constraints)
 
 
 class CasadiNLP:
-    """The NL model imported into CasADi once: its functions, bounds and variable order."""
+    """The NL model imported into CasADi once: its functions, bounds and variable order. With a ``surrogate``,
+    its placeholder rows become the B-spline surface (:func:`grasptask.synthesis.spline.substituted`): the rest
+    is expanded to one SX function, the spline stays an MX call, since it cannot be expanded."""
 
-    def __init__(self, nl_text: str):
+    def __init__(self, nl_text: str, surrogate: SurrogateSpec | None = None):
         with tempfile.TemporaryDirectory() as tmp:
             path = os.path.join(tmp, "model.nl")
             with open(path, "w") as handle:
@@ -120,6 +129,12 @@ class CasadiNLP:
         self.x: Any = casadi.vertcat(*builder.x)
         self.f: Any = builder.f
         self.g: Any = casadi.vertcat(*builder.g)
+        self.expandable = surrogate is None
+        if surrogate is not None:
+            whole = casadi.Function("placeholders", [self.x], [self.f, self.g]).expand()
+            self.x = casadi.MX.sym("x", self.x.shape[0])
+            self.f, g = whole(self.x)
+            self.g = substituted(self.x, g, surrogate)
         self.lbx, self.ubx = np.array(builder.x_lb, float), np.array(builder.x_ub, float)
         self.lbg, self.ubg = np.array(builder.g_lb, float), np.array(builder.g_ub, float)
 
@@ -127,10 +142,10 @@ class CasadiNLP:
 class CasadiBackend:
     name = "casadi"
 
-    def __init__(self, nl_text: str, ipopt_options: dict):
-        self.nlp = CasadiNLP(nl_text)
+    def __init__(self, nl_text: str, ipopt_options: dict, surrogate: SurrogateSpec | None = None):
+        self.nlp = CasadiNLP(nl_text, surrogate)
         options = {f"ipopt.{k}": v for k, v in ipopt_options.items()}
-        options.update({"expand": True, "print_time": False, "error_on_fail": False})
+        options.update({"expand": self.nlp.expandable, "print_time": False, "error_on_fail": False})
         self.solver = casadi.nlpsol("grasp", "ipopt", {"x": self.nlp.x, "f": self.nlp.f, "g": self.nlp.g}, options)
 
     def solve(self, x0: np.ndarray) -> SolveResult:
@@ -160,14 +175,15 @@ class CyipoptBackend:
 
     name = "cyipopt"
 
-    def __init__(self, nl_text: str, ipopt_options: dict):
+    def __init__(self, nl_text: str, ipopt_options: dict, surrogate: SurrogateSpec | None = None):
         import cyipopt  # installed by `make setup-cyipopt`
 
         self.cyipopt = cyipopt
-        nlp = self.nlp = CasadiNLP(nl_text)
+        nlp = self.nlp = CasadiNLP(nl_text, surrogate)
         x, f, g = nlp.x, nlp.f, nlp.g  # MX from CasADi's import (untyped here: it becomes SX below)
-        sigma, lam = casadi.SX.sym("sigma"), casadi.SX.sym("lambda", g.shape[0])
-        if isinstance(x, casadi.MX):  # CasADi's import gives MX; expand to SX like nlpsol(expand=True)
+        symbol: Any = casadi.SX if nlp.expandable else casadi.MX
+        sigma, lam = symbol.sym("sigma"), symbol.sym("lambda", g.shape[0])
+        if nlp.expandable and isinstance(x, casadi.MX):  # CasADi's import gives MX; expand to SX like nlpsol
             fg = casadi.Function("fg", [x], [f, g]).expand()
             x = casadi.SX.sym("x", x.shape[0])
             f, g = fg(x)
@@ -238,4 +254,4 @@ class Backend(Protocol):
     def solve(self, x0: np.ndarray) -> SolveResult: ...
 
 
-BACKENDS: dict[str, Callable[[str, dict], Backend]] = {"casadi": CasadiBackend, "cyipopt": CyipoptBackend}
+BACKENDS: dict[str, Callable[..., Backend]] = {"casadi": CasadiBackend, "cyipopt": CyipoptBackend}

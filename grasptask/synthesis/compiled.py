@@ -17,6 +17,10 @@ from pyomo.core.expr.numeric_expr import SumExpression, UnaryFunctionExpression
 from pyomo.core.expr.numvalue import native_numeric_types
 from pyomo.core.expr.visitor import StreamBasedExpressionVisitor
 
+from grasptask.objects.distance_grid import DistanceGrid
+from grasptask.synthesis.spline import distance_function, gradient_function
+from grasptask.synthesis.surfaces import SurrogateLink
+
 _UNARY = {
     "cos": casadi.cos,
     "sin": casadi.sin,
@@ -74,20 +78,44 @@ class _ToCasadi(StreamBasedExpressionVisitor):
         return result
 
 
+class _Surrogate:
+    """The B-spline distance and its gradient at a surrogate link's point, each point evaluated once."""
+
+    def __init__(self, grid: DistanceGrid):
+        self.distance = distance_function(grid)
+        self.gradient = gradient_function(self.distance)
+        self.memo: dict[tuple[int, ...], Any] = {}
+
+    def __call__(self, link: SurrogateLink, symbols: dict) -> Any:
+        key = (link.component is None, *(id(v) for v in link.point))
+        if key not in self.memo:
+            point = casadi.vertcat(*[symbols[id(v)] for v in link.point])
+            self.memo[key] = self.distance(point) if link.component is None else self.gradient(point)
+        out = self.memo[key]
+        return out if link.component is None else out[link.component]
+
+
 class CompiledExpressions:
     """``inputs`` (Pyomo variables) -> the values of ``definitions`` (``(variable, expression)`` pairs in
     dependency order, each expression in terms of the inputs and earlier defined variables) and of ``extra``
     expressions (in terms of either), all in one call."""
 
-    def __init__(self, inputs: Sequence, definitions: Sequence, extra: Sequence = ()):
+    def __init__(self, inputs: Sequence, definitions: Sequence, extra: Sequence = (), grid: DistanceGrid | None = None):
         self.inputs = list(inputs)
         self.defined = [var for var, _ in definitions]
-        x = casadi.SX.sym("x", len(self.inputs))
+        # a surrogate surface is a B-spline, which only MX can call
+        x: Any = (casadi.MX if grid is not None else casadi.SX).sym("x", len(self.inputs))
         symbols = {id(var): x[k] for k, var in enumerate(self.inputs)}
         to_casadi = _ToCasadi(symbols)
+        surrogate = _Surrogate(grid) if grid is not None else None
         values = []
         for var, expression in definitions:
-            symbols[id(var)] = value = to_casadi.walk_expression(expression)
+            if isinstance(expression, SurrogateLink):
+                assert surrogate is not None, "a surrogate link without its grid"
+                value = surrogate(expression, symbols)
+            else:
+                value = to_casadi.walk_expression(expression)
+            symbols[id(var)] = value
             values.append(value)
         extra_values = [to_casadi.walk_expression(e) for e in extra]
         self._defined = casadi.Function("defined", [x], [casadi.vertcat(*values)])

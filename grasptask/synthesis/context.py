@@ -41,8 +41,9 @@ class SolverContext:
         from grasptask.grasp.settings import GraspSettings, load_grasp_settings
         from grasptask.hand import load_hand
         from grasptask.objects import load_object
-        from grasptask.synthesis.backends import BACKENDS, write_nl
+        from grasptask.synthesis.backends import BACKENDS, write_nl_rows
         from grasptask.synthesis.model import build_model
+        from grasptask.synthesis.spline import distance_function
         from grasptask.task.model import load_task_models
 
         self.job = job
@@ -56,9 +57,11 @@ class SolverContext:
             self.hand, self.obj, self.task, self.settings, job.solver.bounds, job.solver.regularisation
         )
         self.size = self.nlp.size()
-        text, self.order = write_nl(self.nlp.model)
+        text, self.order, rows = write_nl_rows(self.nlp.model)
         self.nlp.compile()  # now, so that its one-off cost is not counted in the first start's seconds
-        self.backend = BACKENDS[job.backend](text, job.solver.ipopt)
+        self.backend = BACKENDS[job.backend](text, job.solver.ipopt, self.nlp.surrogate_spec(self.order, rows))
+        # what the NLP saw of a mesh's or point cloud's surface, to record its error at each contact
+        self.surrogate = distance_function(self.nlp.surrogate.grid) if self.nlp.surrogate is not None else None
         self.bounds = self.obj.bounds()
         self.approach = self.hand.approach
         self.fingers = list(self.nlp.hand.fingers)
@@ -68,6 +71,7 @@ class SolverContext:
         from grasptask.grasp.verify import Grasp, verify
         from grasptask.io.solutions import grasp_columns
         from grasptask.synthesis.placement import place
+        from grasptask.synthesis.spline import evaluate
 
         if str(start.start_id) in os.environ.get(CRASH_ENV, "").split(","):
             os._exit(13)
@@ -99,6 +103,10 @@ class SolverContext:
         row.update(grasp_columns(grasp, self.joint_names, self.fingers, solution["contacts"], solution["normals"]))
         check = verify(grasp, self.hand, self.obj, self.task, self.settings)
         row.update(check.record(self.fingers))
+        if self.surrogate is not None:  # the surrogate's distance at each contact minus the mesh's own
+            seen = evaluate(self.surrogate, solution["contacts"])
+            for name, value, truth in zip(self.fingers, seen, check.contact_distance_m, strict=True):
+                row[f"surrogate_error_m_{name}"] = float(value - truth)
         return row
 
 

@@ -37,7 +37,8 @@ from grasptask.objects.surface import ImplicitObject
 from grasptask.synthesis.algebra import XYZ, axis_rotation, cross, dot
 from grasptask.synthesis.compiled import CompiledExpressions
 from grasptask.synthesis.config import Regularisation, SearchBounds
-from grasptask.synthesis.surfaces import NLPSurface, surface_for
+from grasptask.synthesis.spline import SurrogateSpec
+from grasptask.synthesis.surfaces import GridSurface, NLPSurface, surface_for
 from grasptask.task.model import TaskModel
 
 Vector = list[Any]
@@ -378,6 +379,8 @@ class GraspNLP:
     model: pyo.ConcreteModel
     hand: Hand
     definitions: list[tuple[Any, Any]] = field(default_factory=list)  # (variable, expression), dependency order
+    #: a mesh's or point cloud's surface, whose placeholder rows the backend fills (None: all Pyomo)
+    surrogate: GridSurface | None = None
 
     def size(self) -> dict[str, int]:
         n_vars = sum(1 for v in self.model.component_data_objects(pyo.Var, active=True) if not v.fixed)
@@ -394,7 +397,23 @@ class GraspNLP:
         m = self.model
         inputs = [m.R_h[i, j] for i in XYZ for j in XYZ] + [m.d_h[i] for i in XYZ] + list(m.theta.values())
         margins = [c.body - c.lower for c in m.eq14_collision.values()]
-        return CompiledExpressions(inputs, self.definitions, margins)
+        grid = self.surrogate.grid if self.surrogate is not None else None
+        return CompiledExpressions(inputs, self.definitions, margins, grid)
+
+    def surrogate_spec(self, variables: list, constraints: list) -> SurrogateSpec | None:
+        """Where the backend puts the surrogate surface, by the NL file's column and row order."""
+        if self.surrogate is None:
+            return None
+        column = {id(v): k for k, v in enumerate(variables)}
+        row = {id(c): k for k, c in enumerate(constraints)}
+        links = self.surrogate.links
+        return SurrogateSpec(
+            self.surrogate.grid,
+            tuple(row[id(link.constraint)] for link in links),
+            tuple(column[id(link.value)] for link in links),
+            tuple(tuple(column[id(v)] for v in link.point) for link in links),  # type: ignore[misc]
+            tuple(link.component for link in links),
+        )
 
     def initialise(self, palm_rotation: np.ndarray, palm_position: np.ndarray, joint_angles: np.ndarray) -> None:
         """Set the palm pose and joints, then every defined variable from its defining expression."""
@@ -458,6 +477,8 @@ def build_model(
         bounds,
         regularisation,
     )
+    builder.surface.attach(builder.model, builder.definitions)
     for equation in EQUATIONS:
         equation(builder)
-    return GraspNLP(builder.model, grasping, builder.definitions)
+    surrogate = builder.surface if isinstance(builder.surface, GridSurface) else None
+    return GraspNLP(builder.model, grasping, builder.definitions, surrogate)

@@ -2,16 +2,20 @@
 code the verifier uses), so that the NLP and its judge share no code.
 
 Each surface gives the contact residual of eq. 3 (zero on the surface), eq. 14's clearance of a ball (``>= 0``
-when it stays out) and the gradient whose normalisation is the contact normal.
+when it stays out) and the gradient whose normalisation is the contact normal. A mesh's or point cloud's
+surface is a B-spline of a signed-distance grid, which Pyomo cannot write: it is evaluated by the backend.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import dataclass
 from typing import Any, Protocol
 
 import numpy as np
+import pyomo.environ as pyo
 
+from grasptask.objects.distance_grid import DistanceGrid
 from grasptask.objects.gp import GPImplicitSurface
 from grasptask.objects.mesh_object import MeshObject, PointCloudObject
 from grasptask.objects.superquadric import Superquadric
@@ -22,6 +26,8 @@ Point = Sequence[Any]
 
 
 class NLPSurface(Protocol):
+    def attach(self, model: Any, definitions: list[tuple[Any, Any]]) -> None: ...
+
     def contact(self, p: Point) -> Any: ...
 
     def clearance(self, p: Point, radius: float) -> Any: ...
@@ -37,6 +43,9 @@ class SuperquadricSurface:
     def __init__(self, sq: Superquadric):
         self.a, self.e1, self.e2 = sq.a, sq.e1, sq.e2
         self.rotation, self.position = sq.rotation, sq.position
+
+    def attach(self, model: Any, definitions: list[tuple[Any, Any]]) -> None:
+        """Nothing to add: the surface is an expression."""
 
     def _local(self, p: Point) -> list[Any]:
         d = [p[i] - self.position[i] for i in XYZ]
@@ -81,6 +90,9 @@ class GPSurface:
     def __init__(self, gp: GPImplicitSurface):
         self.support, self.alpha, self.coef = gp.support, gp.alpha, gp.mean_coefficients
 
+    def attach(self, model: Any, definitions: list[tuple[Any, Any]]) -> None:
+        """Nothing to add: the surface is an expression."""
+
     def _squared(self, p: Point, x: np.ndarray) -> Any:
         return sum((p[i] - x[i]) ** 2 for i in XYZ)
 
@@ -98,6 +110,68 @@ class GPSurface:
         ]
 
 
+@dataclass
+class SurrogateLink:
+    """One ``value == S(point)`` equality that Pyomo cannot write: in the model it is the placeholder
+    ``value == 0``, and the backend puts the B-spline in its place (:mod:`grasptask.synthesis.backends`)."""
+
+    constraint: Any  # the placeholder's constraint data
+    value: Any  # the variable that takes S(point), or one component of its gradient
+    point: list[Any]  # three variables
+    component: int | None  # None: the distance itself; 0-2: that component of its gradient
+
+
+class GridSurface:
+    """A mesh's or point cloud's signed-distance grid (:class:`DistanceGrid`), through a cubic B-spline that
+    the backend evaluates. Each point where the NLP needs the surface gets variables for its coordinates (unless
+    they are variables already), for the distance and, at contacts, for its gradient; eq. 3 is then
+    ``distance == 0``, eq. 14 ``distance - radius >= 0``."""
+
+    def __init__(self, grid: DistanceGrid):
+        self.grid = grid
+        self.links: list[SurrogateLink] = []
+        self.model: Any = None
+        self.definitions: list[tuple[Any, Any]] = []
+        self._points: dict[tuple[int, ...], list[Any]] = {}
+
+    def attach(self, model: Any, definitions: list[tuple[Any, Any]]) -> None:
+        model.surrogate_point = pyo.VarList(doc="points where the surrogate surface is evaluated")
+        model.surrogate_point_definition = pyo.ConstraintList()
+        model.surrogate_value = pyo.VarList(doc="the surrogate's signed distance (m) and gradient at those points")
+        model.surrogate_link = pyo.ConstraintList(doc="value == S(point), put in place by the backend")
+        self.model, self.definitions = model, definitions
+
+    def _point(self, p: Point) -> list[Any]:
+        key = tuple(id(c) for c in p)
+        if key not in self._points:
+            if all(getattr(c, "is_variable_type", lambda: False)() for c in p):
+                self._points[key] = list(p)
+            else:
+                point = [self.model.surrogate_point.add() for _ in XYZ]
+                for var, expr in zip(point, p, strict=True):
+                    self.model.surrogate_point_definition.add(var == expr)
+                    self.definitions.append((var, expr))
+                self._points[key] = point
+        return self._points[key]
+
+    def _value(self, p: Point, component: int | None) -> Any:
+        point = self._point(p)
+        value = self.model.surrogate_value.add()
+        link = SurrogateLink(self.model.surrogate_link.add(value == 0), value, point, component)
+        self.links.append(link)
+        self.definitions.append((value, link))
+        return value
+
+    def contact(self, p: Point) -> Any:
+        return self._value(p, None)
+
+    def clearance(self, p: Point, radius: float) -> Any:
+        return self._value(p, None) - radius
+
+    def gradient(self, p: Point) -> list[Any]:
+        return [self._value(p, i) for i in XYZ]
+
+
 def surface_for(obj: ImplicitObject) -> NLPSurface:
     """The NLP's surface for a loaded object. A mesh or point cloud is constrained through a GP fitted to
     samples of its surface, a surrogate: the verifier judges the grasp against the mesh or points."""
@@ -106,5 +180,5 @@ def surface_for(obj: ImplicitObject) -> NLPSurface:
     if isinstance(obj, GPImplicitSurface):
         return GPSurface(obj)
     if isinstance(obj, MeshObject | PointCloudObject):
-        return GPSurface(GPImplicitSurface.fit(*obj.surface_samples(), name=obj.name))
+        return GridSurface(obj.distance_grid())
     raise TypeError(f"no NLP surface for {type(obj).__name__}")
