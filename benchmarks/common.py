@@ -9,6 +9,7 @@ import statistics
 import time
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 RESULTS = Path(__file__).resolve().parent / "results"
 
@@ -37,3 +38,40 @@ def save(name: str, payload: dict) -> Path:
     path = RESULTS / f"{name}.json"
     path.write_text(json.dumps({**payload, "machine": machine()}, indent=2) + "\n")
     return path
+
+
+def demonstration_tasks(folder: Path) -> Path:
+    """The bundled simulator's 105 recordings (seed 0) fitted into task models: their task_models.json."""
+    from grasptask.stages import run_fit_task, run_simulate
+
+    root = Path(__file__).resolve().parents[1]
+    run_simulate(root / "configs/simulate.yaml", folder / "rec", seed=0, fmt="parquet")
+    run_fit_task([folder / "rec" / "manifest.csv"], folder / "tasks")
+    return folder / "tasks" / "task_models.json"
+
+
+def finished_sweep(folder: Path) -> tuple[dict, Any]:
+    """A finished sweep's run.json and solutions table."""
+    import pandas as pd
+
+    return json.loads((folder / "run.json").read_text()), pd.read_parquet(folder / "solutions.parquet")
+
+
+def save_and_print(name: str, results: dict, table: Callable[[dict], str]) -> None:
+    print(f"saved {save(name, results)}")
+    print(table(results))
+
+
+def sweep_parser(description: str, name: str) -> Any:
+    """The options every sweep benchmark takes: --starts, --name and --table."""
+    import argparse
+
+    parser = argparse.ArgumentParser(description=description)
+    parser.add_argument("--starts", type=int, default=None, help="starts per task (default: all 126)")
+    parser.add_argument("--name", default=name, help="results file benchmarks/results/NAME.json")
+    parser.add_argument("--table", action="store_true", help="print the saved results NAME.json as a table, and stop")
+    return parser
+
+
+def print_saved(name: str, table: Callable[[dict], str]) -> None:
+    print(table(json.loads((RESULTS / f"{name}.json").read_text())))

@@ -15,7 +15,6 @@ Results are saved after every sweep (benchmarks/results/NAME.json), so an interr
 
 from __future__ import annotations
 
-import argparse
 import sys
 import tempfile
 import time
@@ -26,7 +25,7 @@ import pandas as pd
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT / "benchmarks"), str(ROOT)]
-from common import save  # noqa: E402
+from common import demonstration_tasks, finished_sweep, print_saved, save, save_and_print, sweep_parser  # noqa: E402
 
 TASKS = ("drawing", "cutting", "screwdriving")
 HANDS = {
@@ -70,9 +69,7 @@ def sweep_figures(run: dict, solutions: pd.DataFrame) -> dict:
 
 def figures_of(folder: Path) -> dict:
     """A finished sweep's figures, from its run.json and solutions.parquet."""
-    import json
-
-    return sweep_figures(json.loads((folder / "run.json").read_text()), pd.read_parquet(folder / "solutions.parquet"))
+    return sweep_figures(*finished_sweep(folder))
 
 
 def compare(results: dict) -> dict:
@@ -96,20 +93,19 @@ def compare(results: dict) -> dict:
 
 
 def main(n_starts: int | None, hands: list[str], name: str, keep: Path | None = None) -> dict:
-    from grasptask.stages import SynthesisOptions, run_fit_task, run_simulate, run_synthesize
+    from grasptask.stages import SynthesisOptions, run_synthesize
 
     results: dict = {"starts_per_task": n_starts or 126, "hands": {}}
     with tempfile.TemporaryDirectory() as scratch:
         tmp = Path(keep or scratch)
-        run_simulate(ROOT / "configs/simulate.yaml", tmp / "rec", seed=0, fmt="parquet")
-        run_fit_task([tmp / "rec" / "manifest.csv"], tmp / "tasks")
+        tasks = demonstration_tasks(tmp)
         for hand in hands:
             path, fingers = HANDS[hand]
             results["hands"][hand] = {"file": str(path.relative_to(ROOT)), "fingers": fingers, "tasks": {}}
             for task in TASKS:
                 began = time.perf_counter()
                 options = SynthesisOptions(
-                    tasks=tmp / "tasks" / "task_models.json",
+                    tasks=tasks,
                     task=task,
                     out=tmp / hand,
                     hand=path,
@@ -126,8 +122,7 @@ def main(n_starts: int | None, hands: list[str], name: str, keep: Path | None = 
                     flush=True,
                 )
                 save(name, results)  # partial results survive an interruption
-    print(f"saved {save(name, compare(results))}")
-    print(markdown_table(results))
+    save_and_print(name, compare(results), markdown_table)
     return results
 
 
@@ -141,8 +136,7 @@ def summarise(folder: Path, name: str) -> dict:
         if tasks:
             results["hands"][hand] = {"file": str(path.relative_to(ROOT)), "fingers": fingers, "tasks": tasks}
             results["starts_per_task"] = next(iter(tasks.values()))["starts"]
-    print(f"saved {save(name, compare(results))}")
-    print(markdown_table(results))
+    save_and_print(name, compare(results), markdown_table)
     return results
 
 
@@ -169,23 +163,18 @@ def markdown_table(results: dict) -> str:
 
 
 if __name__ == "__main__":
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--starts", type=int, default=None, help="starts per task (default: all 126)")
+    parser = sweep_parser(__doc__.splitlines()[0], "hands")
     parser.add_argument("--hands", default=",".join(HANDS), help="comma-separated, of: " + ", ".join(HANDS))
-    parser.add_argument("--name", default="hands")
     parser.add_argument(
         "--keep", type=Path, help="run the sweeps in this folder and keep them (default: a temporary one)"
     )
     parser.add_argument("--summarise", type=Path, help="save and print the figures of sweeps kept in this folder")
-    parser.add_argument("--table", action="store_true", help="print the saved results NAME.json as a table, and stop")
     args = parser.parse_args()
     if args.summarise:
         summarise(args.summarise, args.name)
         raise SystemExit(0)
     if args.table:
-        import json
-
-        print(markdown_table(json.loads((ROOT / "benchmarks/results" / f"{args.name}.json").read_text())))
+        print_saved(args.name, markdown_table)
         raise SystemExit(0)
     chosen = [h.strip() for h in args.hands.split(",") if h.strip()]
     check_prerequisites(chosen)

@@ -1,0 +1,148 @@
+"""Grasp synthesis on mesh objects (issue 17) beside the tool cylinder: the human hand, drawing, cutting and screw
+driving, on 2 workers. Per object and task: a worker's build seconds, ms per IPOPT iteration, median and p90
+seconds per start, the verified fraction and distinct optima; ratios of each median over the cylinder's for the
+same task, in the same run. ``mug_gp`` is today's route for a mesh (a GP implicit surface), for comparison.
+
+    python benchmarks/objects.py [--starts N] [--objects tool,mug,...] [--name NAME]
+    python benchmarks/objects.py --name NAME --table     # the saved results as the README's table
+
+Targets: a worker's model ready in <= 15 s, the median within 2x the cylinder's, >= 80% of starts verified.
+Results are saved after every sweep (benchmarks/results/NAME.json), so an interrupted run keeps what it did.
+"""
+
+from __future__ import annotations
+
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path[:0] = [str(ROOT / "benchmarks"), str(ROOT)]
+from common import demonstration_tasks, finished_sweep, print_saved, save, save_and_print, sweep_parser  # noqa: E402
+
+TASKS = ("drawing", "cutting", "screwdriving")
+OBJECTS = {
+    name: ROOT / "configs" / "objects" / f"{name}.yaml"
+    for name in ("tool", "mug", "spray_bottle", "kitchen_knife", "screwdriver", "mug_gp")
+}
+
+
+def check_prerequisites(objects: list[str]) -> None:
+    from grasptask.objects import load_object
+
+    for name in objects:
+        if name not in OBJECTS:
+            raise SystemExit(f"unknown object '{name}' (known: {', '.join(OBJECTS)})")
+        load_object(OBJECTS[name])  # a missing or broken mesh fails here, before any sweep
+
+
+def build_seconds(path: Path, tasks: Path, task: str) -> float:
+    """One worker's model, built in this process, as a pool worker builds it."""
+    from grasptask.synthesis.context import Job, SolverContext
+
+    began = time.perf_counter()
+    SolverContext(Job(str(ROOT / "configs/hands/human.yaml"), str(path), str(tasks), task))
+    return time.perf_counter() - began
+
+
+def sweep_figures(run: dict, solutions: pd.DataFrame) -> dict:
+    solved = solutions[solutions["iterations"] > 0]
+    solving = solved["seconds"] - solved.get("placement_seconds", 0.0)
+    per_iteration = (solving / solved["iterations"]).median() * 1000 if len(solved) else None
+    errors = solutions.filter(like="surrogate_error_m_").abs().max(axis=1)
+    return {
+        "starts": run["starts"],
+        "median_s_per_start": run["seconds_per_start"]["median"],
+        "p90_s_per_start": run["seconds_per_start"]["p90"],
+        "ms_per_iteration": None if per_iteration is None else float(per_iteration),
+        "verified_fraction": run["verified_fraction"],
+        "distinct_optima": run["distinct_optima"],
+        "model_size": run["model_size"],
+        "status_counts": run["status_counts"],
+        "max_surrogate_error_mm_verified": (
+            float(errors[solutions["verified"]].max() * 1000) if errors.notna().any() and solutions["verified"].any()
+            else None
+        ),
+        "sweep_wall_s": run["sweep_wall_seconds_this_run"],
+    }  # fmt: skip
+
+
+def compare(results: dict) -> dict:
+    reference = results["objects"].get("tool", {}).get("tasks", {})
+    for entry in results["objects"].values():
+        for task, figures in entry["tasks"].items():
+            base = reference.get(task, {}).get("median_s_per_start")
+            figures["median_over_tool"] = figures["median_s_per_start"] / base if base else None
+    results["targets"] = {
+        name: {
+            "build_within_15_s": entry["build_s"] <= 15,
+            "median_within_2x_tool": all((t["median_over_tool"] or np.inf) <= 2 for t in entry["tasks"].values()),
+            "verified_at_least_80pct": all(t["verified_fraction"] >= 0.8 for t in entry["tasks"].values()),
+        }
+        for name, entry in results["objects"].items()
+        if name != "tool"
+    }
+    return results
+
+
+def main(n_starts: int | None, objects: list[str], name: str) -> dict:
+    from grasptask.stages import SynthesisOptions, run_synthesize
+
+    results: dict = {"starts_per_task": n_starts or 126, "hand": "configs/hands/human.yaml", "objects": {}}
+    with tempfile.TemporaryDirectory() as scratch:
+        tmp = Path(scratch)
+        tasks = demonstration_tasks(tmp)
+        for obj in objects:
+            path = OBJECTS[obj]
+            build = build_seconds(path, tasks, "drawing")
+            print(f"{obj}: a worker's model in {build:.1f} s", flush=True)
+            entry = results["objects"][obj] = {"file": str(path.relative_to(ROOT)), "build_s": build, "tasks": {}}
+            for task in TASKS:
+                began = time.perf_counter()
+                options = SynthesisOptions(
+                    tasks=tasks, task=task, out=tmp / obj, object=path, starts=n_starts, workers=2
+                )
+                run_synthesize(options, echo=print)
+                figures = entry["tasks"][task] = sweep_figures(*finished_sweep(tmp / obj / task))
+                print(
+                    f"{obj} {task}: median {figures['median_s_per_start']:.2f} s, "
+                    f"{figures['ms_per_iteration'] or float('nan'):.1f} ms/iteration, "
+                    f"{figures['verified_fraction']:.0%} verified ({time.perf_counter() - began:.0f} s)",
+                    flush=True,
+                )
+                save(name, results)  # partial results survive an interruption
+    save_and_print(name, compare(results), markdown_table)
+    return results
+
+
+def markdown_table(results: dict) -> str:
+    lines = [
+        "| object | build s | task | median s (x cylinder) | p90 s | ms/iteration | verified | optima |",
+        "|---|---|---|---|---|---|---|---|",
+    ]
+    for obj, entry in results["objects"].items():
+        for task, f in entry["tasks"].items():
+            ratio = f" ({f['median_over_tool']:.1f}x)" if f.get("median_over_tool") else ""
+            per = f"{f['ms_per_iteration']:.1f}" if f["ms_per_iteration"] is not None else "-"
+            lines.append(
+                f"| {obj} | {entry['build_s']:.1f} | {task} | {f['median_s_per_start']:.2f}{ratio} | "
+                f"{f['p90_s_per_start']:.1f} | {per} | {f['verified_fraction']:.0%} | {f['distinct_optima']} |"
+            )
+    return "\n".join(lines)
+
+
+if __name__ == "__main__":
+    parser = sweep_parser(__doc__.splitlines()[0], "objects")
+    parser.add_argument("--objects", default="tool,mug,spray_bottle,kitchen_knife,screwdriver")
+    args = parser.parse_args()
+    if args.table:
+        print_saved(args.name, markdown_table)
+        raise SystemExit(0)
+    chosen = [o.strip() for o in args.objects.split(",") if o.strip()]
+    check_prerequisites(chosen)
+    np.seterr(all="ignore")
+    main(args.starts, chosen, args.name)
