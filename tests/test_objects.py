@@ -86,19 +86,19 @@ def test_superquadric_presets_load_and_contain_their_centre(name):
 
 @pytest.fixture(scope="module", params=["mug", "spray_bottle"])
 def gp_object(request):
-    return request.param, load_object(f"configs/objects/{request.param}.yaml")
+    return request.param, load_object(f"configs/objects/{request.param}_gp.yaml")
 
 
 def test_gp_surface_is_within_a_millimetre_on_held_out_points(gp_object):
     name, obj = gp_object
-    mesh = trimesh.load(f"data/objects/{name}.stl")
+    mesh = trimesh.load(f"data/objects/{name}_coarse.stl")
     held_out, _ = trimesh.sample.sample_surface(mesh, 2000, seed=12345)
     assert np.abs(obj.margin(held_out)).max() <= 1e-3
 
 
 def test_gp_is_negative_inside_and_positive_outside(gp_object):
     name, obj = gp_object
-    mesh = trimesh.load(f"data/objects/{name}.stl")
+    mesh = trimesh.load(f"data/objects/{name}_coarse.stl")
     rng = np.random.default_rng(7)
     points = rng.uniform(mesh.bounds[0] - 0.03, mesh.bounds[1] + 0.03, (5000, 3))
     depth = trimesh.proximity.signed_distance(mesh, points)  # trimesh: positive inside
@@ -112,7 +112,7 @@ def test_gp_is_negative_inside_and_positive_outside(gp_object):
 
 def test_gp_gradient_matches_finite_differences(gp_object):
     name, obj = gp_object
-    points = trimesh.sample.sample_surface(trimesh.load(f"data/objects/{name}.stl"), 20, seed=3)[0] + 0.003
+    points = trimesh.sample.sample_surface(trimesh.load(f"data/objects/{name}_coarse.stl"), 20, seed=3)[0] + 0.003
     step = 1e-6
     numeric = np.stack([(obj.g(points + step * e) - obj.g(points - step * e)) / (2 * step) for e in np.eye(3)], axis=1)
     np.testing.assert_allclose(obj.gradient(points), numeric, atol=2e-6)

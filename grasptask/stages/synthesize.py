@@ -246,7 +246,8 @@ def run_synthesize(options: SynthesisOptions, echo: Callable[[str], Any] = print
                 if done.repairs or not options.resume:
                     rewrite_log(log, rows)
                 write_json_atomic(folder / DEFINITION_FILE, {"definition": prepared.definition})
-                _solve(executor, todo, rows, log, options.task, len(prepared.starts))
+                if todo:  # a resumed sweep may have nothing left to solve
+                    _solve(executor, todo, rows, log, options.task, len(prepared.starts))
             finally:
                 executor.close()
         return summarise(
