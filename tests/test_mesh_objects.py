@@ -202,3 +202,20 @@ def test_the_report_renders_a_mesh_object(tmp_path):
     render_grasp(path, "screwdriver", hand=hand, obj=obj, palm_rotation=rotation, palm_position=np.array([-0.06, 0, 0]),
                  joint_angles=hand.mid_range())  # fmt: skip
     assert path.stat().st_size > 10_000
+
+
+def test_synthesize_takes_a_mesh_file_directly(cli, simulated, tmp_path):
+    """``--object handle.stl`` with no YAML: a sweep runs, its run definition hashes the mesh file, and every
+    row has a sweep status."""
+    from grasptask.io.solutions import STATUSES
+
+    handle().export(tmp_path / "handle.stl")
+    tasks = simulated[0] / "tasks" / "task_models.json"
+    out = tmp_path / "out"
+    result = cli(
+        "synthesize", "--tasks", tasks, "--task", "drawing", "--out", out, "--object", tmp_path / "handle.stl",
+        "--solver-config", "tests/data/solver_fast.yaml", "--starts", "1", "--executor", "serial",
+    )  # fmt: skip
+    assert result.exit_code == 0, result.output
+    solutions = pd.read_parquet(out / "drawing" / "solutions.parquet")
+    assert len(solutions) == 1 and set(solutions["status"]) <= set(STATUSES)

@@ -155,8 +155,10 @@ def _has_faces(source: Path) -> bool:
 def object_files(path: str | Path) -> list[Path]:
     """The object config and the mesh or point file it names: what a sweep on it depends on."""
     path = Path(path)
+    if path.suffix.lower() in MESH_SUFFIXES + CLOUD_SUFFIXES:
+        return [path]
     data = load_yaml(path)
-    named = [path.parent / str(data[key]) for key in ("mesh", "points_csv") if key in data]
+    named = [path.parent / str(data[key]) for key in ("mesh", "points", "points_csv") if key in data]
     return [path, *(p for p in named if p.is_file())]
 
 

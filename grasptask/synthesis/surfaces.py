@@ -173,8 +173,8 @@ class GridSurface:
 
 
 def surface_for(obj: ImplicitObject) -> NLPSurface:
-    """The NLP's surface for a loaded object. A mesh or point cloud is constrained through a GP fitted to
-    samples of its surface, a surrogate: the verifier judges the grasp against the mesh or points."""
+    """The NLP's surface for a loaded object. A mesh or point cloud is constrained through a surrogate, the
+    B-spline of its signed-distance grid; the verifier judges the grasp against the mesh or points."""
     if isinstance(obj, Superquadric):
         return SuperquadricSurface(obj)
     if isinstance(obj, GPImplicitSurface):
