@@ -180,13 +180,10 @@ class CyipoptBackend:
 
         self.cyipopt = cyipopt
         nlp = self.nlp = CasadiNLP(nl_text, surrogate)
-        self.options = ipopt_options
-        if not nlp.expandable:
-            self._from_nlpsol(nlp)
-            return
         x, f, g = nlp.x, nlp.f, nlp.g  # MX from CasADi's import (untyped here: it becomes SX below)
-        sigma, lam = casadi.SX.sym("sigma"), casadi.SX.sym("lambda", g.shape[0])
-        if isinstance(x, casadi.MX):  # CasADi's import gives MX; expand to SX like nlpsol(expand=True)
+        symbol: Any = casadi.SX if nlp.expandable else casadi.MX
+        sigma, lam = symbol.sym("sigma"), symbol.sym("lambda", g.shape[0])
+        if nlp.expandable and isinstance(x, casadi.MX):  # CasADi's import gives MX; expand to SX like nlpsol
             fg = casadi.Function("fg", [x], [f, g]).expand()
             x = casadi.SX.sym("x", x.shape[0])
             f, g = fg(x)
@@ -200,24 +197,7 @@ class CyipoptBackend:
         self._jac_rc = jac.sparsity().get_triplet()
         self._hess = casadi.Function("lagrangian_hessian", [x, sigma, lam], [hess.nz[:]])
         self._hess_rc = hess.sparsity().get_triplet()
-
-    def _from_nlpsol(self, nlp: CasadiNLP) -> None:
-        """The derivative functions CasADi's own IPOPT interface would use, for a model that cannot be expanded
-        to SX (a surrogate surface): symbolic MX Hessians of it were ten times slower to evaluate."""
-        shell = casadi.nlpsol("shell", "ipopt", {"x": nlp.x, "f": nlp.f, "g": nlp.g}, {"expand": False})
-        x = casadi.MX.sym("x", nlp.x.shape[0])
-        sigma, lam = casadi.MX.sym("sigma"), casadi.MX.sym("lambda", nlp.g.shape[0])
-        f, grad = shell.get_function("nlp_grad_f")(x, [])
-        _, jac = shell.get_function("nlp_jac_g")(x, [])
-        upper = shell.get_function("nlp_hess_l")(x, [], sigma, lam)  # the upper triangle; IPOPT takes the lower
-        self._f = casadi.Function("objective", [x], [f])
-        self._grad = casadi.Function("objective_gradient", [x], [grad])
-        self._g = casadi.Function("constraints", [x], [shell.get_function("nlp_g")(x, [])])
-        self._jac = casadi.Function("constraint_jacobian", [x], [jac.nz[:]])
-        self._jac_rc = jac.sparsity().get_triplet()
-        self._hess = casadi.Function("lagrangian_hessian", [x, sigma, lam], [upper.nz[:]])
-        rows, columns = upper.sparsity().get_triplet()
-        self._hess_rc = (columns, rows)
+        self.options = ipopt_options
 
     def solve(self, x0: np.ndarray) -> SolveResult:
         backend = self
