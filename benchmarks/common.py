@@ -75,3 +75,13 @@ def sweep_parser(description: str, name: str) -> Any:
 
 def print_saved(name: str, table: Callable[[dict], str]) -> None:
     print(table(json.loads((RESULTS / f"{name}.json").read_text())))
+
+
+def ratios_to(entries: dict, reference: str, key: str) -> None:
+    """Each sweep's median over the ``reference`` entry's median for the same task, stored as ``key`` (None
+    when the reference lacks that task)."""
+    base = entries.get(reference, {}).get("tasks", {})
+    for entry in entries.values():
+        for task, figures in entry["tasks"].items():
+            median = base.get(task, {}).get("median_s_per_start")
+            figures[key] = figures["median_s_per_start"] / median if median else None

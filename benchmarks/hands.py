@@ -25,7 +25,15 @@ import pandas as pd
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT / "benchmarks"), str(ROOT)]
-from common import demonstration_tasks, finished_sweep, print_saved, save, save_and_print, sweep_parser  # noqa: E402
+from common import (  # noqa: E402
+    demonstration_tasks,
+    finished_sweep,
+    print_saved,
+    ratios_to,
+    save,
+    save_and_print,
+    sweep_parser,
+)
 
 TASKS = ("drawing", "cutting", "screwdriving")
 HANDS = {
@@ -74,11 +82,7 @@ def figures_of(folder: Path) -> dict:
 
 def compare(results: dict) -> dict:
     """Each sweep's median over the human 3-finger hand's for the same task, and the targets."""
-    reference = results["hands"].get("human3", {}).get("tasks", {})
-    for entry in results["hands"].values():
-        for task, figures in entry["tasks"].items():
-            base = reference.get(task, {}).get("median_s_per_start")
-            figures["median_over_human3"] = figures["median_s_per_start"] / base if base else None
+    ratios_to(results["hands"], "human3", "median_over_human3")
     results["targets"] = {
         hand: {
             "verified_at_least_80pct": all(t["verified_fraction"] >= 0.8 for t in entry["tasks"].values()),

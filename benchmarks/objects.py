@@ -22,7 +22,15 @@ import pandas as pd
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT / "benchmarks"), str(ROOT)]
-from common import demonstration_tasks, finished_sweep, print_saved, save, save_and_print, sweep_parser  # noqa: E402
+from common import (  # noqa: E402
+    demonstration_tasks,
+    finished_sweep,
+    print_saved,
+    ratios_to,
+    save,
+    save_and_print,
+    sweep_parser,
+)
 
 TASKS = ("drawing", "cutting", "screwdriving")
 OBJECTS = {
@@ -72,11 +80,7 @@ def sweep_figures(run: dict, solutions: pd.DataFrame) -> dict:
 
 
 def compare(results: dict) -> dict:
-    reference = results["objects"].get("tool", {}).get("tasks", {})
-    for entry in results["objects"].values():
-        for task, figures in entry["tasks"].items():
-            base = reference.get(task, {}).get("median_s_per_start")
-            figures["median_over_tool"] = figures["median_s_per_start"] / base if base else None
+    ratios_to(results["objects"], "tool", "median_over_tool")
     results["targets"] = {
         name: {
             "build_within_15_s": entry["build_s"] <= 15,

@@ -54,16 +54,20 @@ def test_contact_jacobians_match_finite_differences(seed):
     q = rng.uniform(HAND.lower, HAND.upper)  # every joint free: J^j has one column per joint
     rotation = Rotation.random(random_state=seed).as_matrix()
     position = rng.normal(size=3) * 0.1
-    pose = forward(HAND, q, rotation, position)
-    step = 1e-6
-    for (name, finger), cols in zip(pose.fingers.items(), HAND.slices().values(), strict=True):
+    assert_contact_jacobians_match_finite_differences(HAND, q, rotation, position)
+
+
+def assert_contact_jacobians_match_finite_differences(hand, q, rotation=None, position=None, step=1e-6):
+    """Every finger's contact Jacobian column against central differences of its contact point."""
+    pose = forward(hand, q, rotation, position)
+    for (name, finger), cols in zip(pose.fingers.items(), hand.slices().values(), strict=True):
         for k, col in enumerate(range(cols.start, cols.stop)):
             plus, minus = q.copy(), q.copy()
             plus[col] += step
             minus[col] -= step
             numeric = (
-                forward(HAND, plus, rotation, position).fingers[name].contact
-                - forward(HAND, minus, rotation, position).fingers[name].contact
+                forward(hand, plus, rotation, position).fingers[name].contact
+                - forward(hand, minus, rotation, position).fingers[name].contact
             ) / (2 * step)
             np.testing.assert_allclose(finger.jacobian[0, :, k], numeric[0], atol=1e-8)
 

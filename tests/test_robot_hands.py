@@ -12,6 +12,7 @@ from pyomo.repn import generate_standard_repn
 from grasptask.errors import BadInputError
 from grasptask.hand import forward, load_hand
 from grasptask.hand.tendons import activation_for
+from tests.test_hand import assert_contact_jacobians_match_finite_differences
 
 BARRETT = Path("configs/hands/barrett_bh8_282.urdf")
 ALLEGRO = Path("configs/hands/allegro.yaml")
@@ -105,18 +106,7 @@ def test_mjcf_kinematics_agree_with_mujoco(tmp_path_factory, seed):
 def test_contact_jacobians_of_robot_hands_match_finite_differences(source):
     hand = load_hand(source)
     rng = np.random.default_rng(4)
-    q = rng.uniform(hand.lower, hand.upper)
-    pose = forward(hand, q)
-    step = 1e-6
-    for (name, finger), cols in zip(pose.fingers.items(), hand.slices().values(), strict=True):
-        for k, col in enumerate(range(cols.start, cols.stop)):
-            plus, minus = q.copy(), q.copy()
-            plus[col] += step
-            minus[col] -= step
-            numeric = (forward(hand, plus).fingers[name].contact - forward(hand, minus).fingers[name].contact) / (
-                2 * step
-            )
-            np.testing.assert_allclose(finger.jacobian[0, :, k], numeric[0], atol=1e-8)
+    assert_contact_jacobians_match_finite_differences(hand, rng.uniform(hand.lower, hand.upper))
 
 
 def test_mimic_joints_are_coupled_and_share_their_motor():

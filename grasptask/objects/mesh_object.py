@@ -146,13 +146,6 @@ class PointCloudObject(ImplicitObject):
         """The synthesis surrogate's data, signs from the nearest point's normal."""
         return distance_grid(self.points, self.normals, self.bounds(), spacing or self.grid_spacing)
 
-    def surface_samples(self, count: int = 6000) -> tuple[np.ndarray, np.ndarray]:
-        """At most ``count`` of the points, spread evenly, with their normals."""
-        if len(self.points) <= count:
-            return self.points, self.normals
-        keep = np.random.default_rng(0).choice(len(self.points), count, replace=False)
-        return self.points[keep], self.normals[keep]
-
     def picture(self, faces: int = 5000) -> trimesh.Trimesh:
         """A closed surface for drawing: marching cubes of the cloud's signed distance."""
         return surface_mesh(self, max(2 * self.spacing, float(np.ptp(self.points, axis=0).max()) / 60))
