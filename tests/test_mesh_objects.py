@@ -90,6 +90,33 @@ def test_a_point_cloud_with_normals_is_an_object(tmp_path):
     assert obj.signed_distance(np.zeros((1, 3)))[0] < 0
 
 
+def test_a_cloud_with_columns_and_properties_it_does_not_use_loads_the_same(tmp_path):
+    """Extra CSV columns (colour, intensity) and extra PLY vertex properties are ignored; a PLY in millimetres
+    with ``unit: mm`` is the same object as the CSV in metres."""
+    table = cloud_frame()
+    plain = load_object(_written(tmp_path / "plain.csv", table))
+    extra = table.assign(intensity=1.0, red=200, green=10, blue=10)[
+        ["red", "x", "y", "intensity", "z", "nx", "ny", "nz"]
+    ]
+    assert np.array_equal(load_object(_written(tmp_path / "extra.csv", extra)).points, plain.points)
+    names = ["x", "y", "z", "nx", "ny", "nz", "red", "green", "blue"]
+    rows = np.column_stack([table[["x", "y", "z"]] * 1000, table[["nx", "ny", "nz"]], np.full((len(table), 3), 7)])
+    header = ["ply", "format ascii 1.0", f"element vertex {len(rows)}"]
+    header += [f"property float {n}" for n in names[:6]] + [f"property uchar {n}" for n in names[6:]]
+    body = "\n".join(" ".join(f"{v:.9g}" for v in row[:6]) + " 7 7 7" for row in rows)
+    (tmp_path / "scan.ply").write_text("\n".join(header + ["end_header", body]) + "\n")
+    (tmp_path / "scan.yaml").write_text("type: mesh\npoints: scan.ply\nunit: mm\n")
+    scan = load_object(tmp_path / "scan.yaml")
+    assert isinstance(scan, PointCloudObject)
+    np.testing.assert_allclose(scan.points, plain.points, atol=1e-9)
+    np.testing.assert_allclose(scan.normals, plain.normals, atol=1e-6)
+
+
+def _written(path: Path, table: pd.DataFrame) -> Path:
+    table.to_csv(path, index=False)
+    return path
+
+
 def test_a_repairable_hole_is_filled_and_said(tmp_path):
     mesh = handle()
     mesh.update_faces(np.arange(len(mesh.faces)) != 7)  # one triangle missing: a hole trimesh can fill

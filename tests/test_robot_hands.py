@@ -236,6 +236,31 @@ def test_a_missing_visual_mesh_does_not_stop_loading(tmp_path):
     assert len(load_hand(path).fingers) == 2
 
 
+def test_elements_the_hand_does_not_use_are_ignored(tmp_path):
+    """A URDF as ROS tools write it, with materials, a transmission, Gazebo tags and an inertial block, gives the
+    same hand as the bare file."""
+    extras = (
+        '<material name="grey"><color rgba="0.5 0.5 0.5 1"/></material>'
+        '<transmission name="t_j1"><type>transmission_interface/SimpleTransmission</type>'
+        '<joint name="j1"><hardwareInterface>EffortJointInterface</hardwareInterface></joint>'
+        '<actuator name="m1"><mechanicalReduction>1</mechanicalReduction></actuator></transmission>'
+        '<gazebo reference="f1"><mu1>0.9</mu1></gazebo>'
+    )
+    inertial = (
+        '<inertial><mass value="0.1"/><inertia ixx="1e-5" ixy="0" ixz="0" iyy="1e-5" iyz="0" izz="1e-5"/></inertial>'
+    )
+    rich = TWO_FINGERS.replace('<link name="l1"/>', f'<link name="l1">{inertial}</link>').replace(
+        "</robot>", extras + "</robot>"
+    )
+    (tmp_path / "bare.urdf").write_text(TWO_FINGERS)
+    (tmp_path / "rich.urdf").write_text(rich)
+    bare, loaded = load_hand(tmp_path / "bare.urdf"), load_hand(tmp_path / "rich.urdf")
+    q = np.array([0.4, 0.9])
+    assert loaded.joint_names == bare.joint_names
+    np.testing.assert_allclose(forward(loaded, q).contacts(), forward(bare, q).contacts(), atol=1e-12)
+    np.testing.assert_allclose(loaded.capability.torque_map, bare.capability.torque_map)
+
+
 def test_a_sweep_runs_end_to_end_on_a_urdf_hand(cli, simulated, tmp_path):
     """Starts, placement, the NLP, the verifier and the tables for a robot hand: rows named by its own joints
     and fingers, every status one of the sweep's, and the run recording the hand's fingers."""
