@@ -246,3 +246,54 @@ def test_synthesize_takes_a_mesh_file_directly(cli, simulated, tmp_path):
     assert result.exit_code == 0, result.output
     solutions = pd.read_parquet(out / "drawing" / "solutions.parquet")
     assert len(solutions) == 1 and set(solutions["status"]) <= set(STATUSES)
+
+
+def _small_surrogate_problem():
+    """A signed-distance grid of a 1 cm ball and a random spec: three distance rows and a normal (three gradient
+    rows) at points that are columns of ``x``; two rows share a point, as a contact's distance and normal do."""
+    from grasptask.objects.distance_grid import DistanceGrid
+    from grasptask.synthesis.spline import SurrogateSpec
+
+    h = 0.004
+    axes = [np.arange(-0.03, 0.03 + h / 2, h)] * 3
+    grid = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1)
+    values = np.linalg.norm(grid * [1.0, 1.2, 0.8], axis=-1) - 0.01  # not a sphere: the derivatives differ by axis
+    points = ((0, 1, 2), (3, 4, 5), (0, 1, 2), (0, 1, 2), (0, 1, 2), (6, 7, 8))
+    spec = SurrogateSpec(DistanceGrid(np.full(3, -0.03), h, values), (2, 0, 5, 3, 1, 4), (9,) * 6, points,
+                         (None, None, 0, 1, 2, None))  # fmt: skip
+    return spec
+
+
+def test_the_surrogates_written_out_derivatives_are_casadis_own():
+    """The Jacobian and the Lagrangian's Hessian that the backend hands IPOPT for a surrogate's rows, written out
+    from the spline's derivatives at each distinct point, equal CasADi's automatic derivatives of those rows."""
+    import casadi
+
+    from grasptask.synthesis.spline import surrogate_terms
+
+    spec = _small_surrogate_problem()
+    x, lam = casadi.MX.sym("x", 10), casadi.MX.sym("lam", 6)
+    terms = surrogate_terms(x, lam, spec, 6)
+    g = terms.correction
+    rng = np.random.default_rng(0)
+    x0 = np.concatenate([rng.uniform(-0.015, 0.015, 9), [0.0]])
+    lam0 = rng.normal(size=6)
+    automatic = casadi.Function("auto", [x, lam], [casadi.jacobian(g, x), casadi.hessian(casadi.dot(lam, g), x)[0]])
+    written = casadi.Function("written", [x, lam], [terms.jacobian, terms.hessian])
+    jac, hess = (np.array(m) for m in automatic(x0, lam0))
+    jac_w, hess_w = (np.array(m) for m in written(x0, lam0))
+    np.testing.assert_allclose(jac_w, jac, atol=1e-12)
+    np.testing.assert_allclose(hess_w, np.triu(hess), atol=1e-9 * np.abs(hess).max())
+    assert np.abs(hess).max() > 10  # the curvature of the field is there to be compared
+
+
+def test_the_surrogate_interpolates_its_grid():
+    """The spline passes through the grid values (its coefficients are prefiltered), so the zero set is not pulled
+    inside a curved surface by the spline's smoothing."""
+    from grasptask.synthesis.spline import distance_function, evaluate
+
+    grid = _small_surrogate_problem().grid
+    axes = grid.axes
+    inner = np.stack(np.meshgrid(*[a[3:-3] for a in axes], indexing="ij"), axis=-1).reshape(-1, 3)
+    expected = grid.values[3:-3, 3:-3, 3:-3].ravel()
+    np.testing.assert_allclose(evaluate(distance_function(grid), inner), expected, atol=1e-9)

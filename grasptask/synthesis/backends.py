@@ -24,7 +24,7 @@ import numpy as np
 from pyomo.repn.plugins.nl_writer import NLWriter
 
 from grasptask.errors import BadInputError
-from grasptask.synthesis.spline import SurrogateSpec, substituted
+from grasptask.synthesis.spline import SurrogateSpec, surrogate_terms
 
 _IPOPT_STATUS = {
     "Solve_Succeeded": "optimal",
@@ -115,9 +115,11 @@ def write_nl_rows(model: Any) -> tuple[str, list, list]:
 
 
 class CasadiNLP:
-    """The NL model imported into CasADi once: its functions, bounds and variable order. With a ``surrogate``,
-    its placeholder rows become the B-spline surface (:func:`grasptask.synthesis.spline.substituted`): the rest
-    is expanded to one SX function, the spline stays an MX call, since it cannot be expanded."""
+    """The NL model imported into CasADi once: its functions, bounds and variable order, and the derivatives
+    IPOPT asks for (``x``, ``sigma`` and ``lam`` symbols; the objective's gradient, the constraints' Jacobian and
+    the upper triangle of the Lagrangian's Hessian). Without a surrogate all of it is one expanded SX graph.
+    With one, its placeholder rows become the B-spline surface: the rest keeps SX derivatives, called from MX,
+    and the spline's derivatives are added as :func:`grasptask.synthesis.spline.surrogate_terms` writes them."""
 
     def __init__(self, nl_text: str, surrogate: SurrogateSpec | None = None):
         with tempfile.TemporaryDirectory() as tmp:
@@ -126,17 +128,46 @@ class CasadiNLP:
                 handle.write(nl_text)
             builder = casadi.NlpBuilder()
             builder.import_nl(path, {"verbose": False})
-        self.x: Any = casadi.vertcat(*builder.x)
-        self.f: Any = builder.f
-        self.g: Any = casadi.vertcat(*builder.g)
-        self.expandable = surrogate is None
-        if surrogate is not None:
-            whole = casadi.Function("placeholders", [self.x], [self.f, self.g]).expand()
-            self.x = casadi.MX.sym("x", self.x.shape[0])
-            self.f, g = whole(self.x)
-            self.g = substituted(self.x, g, surrogate)
         self.lbx, self.ubx = np.array(builder.x_lb, float), np.array(builder.x_ub, float)
         self.lbg, self.ubg = np.array(builder.g_lb, float), np.array(builder.g_ub, float)
+        self.expandable = surrogate is None
+        whole = casadi.Function("nlp", [casadi.vertcat(*builder.x)], [builder.f, casadi.vertcat(*builder.g)])
+        whole = whole.expand()  # CasADi's import gives MX
+        n_x, n_g = len(self.lbx), len(self.lbg)
+        self.x, self.sigma, self.lam = casadi.SX.sym("x", n_x), casadi.SX.sym("sigma"), casadi.SX.sym("lambda", n_g)
+        self.f, self.g = whole(self.x)
+        self._derivatives: tuple | None = None
+        if surrogate is None:
+            return  # its derivatives are made when asked for: CasADi's nlpsol makes its own
+        x, sigma, lam = self.x, self.sigma, self.lam
+        grad, jac, hess = self.derivatives()
+        self.x, self.sigma, self.lam = casadi.MX.sym("x", n_x), casadi.MX.sym("sigma"), casadi.MX.sym("lambda", n_g)
+        terms = surrogate_terms(self.x, self.lam, surrogate, n_g)
+        self.f, g = whole(self.x)
+        self.g = g + terms.correction
+        self._derivatives = (
+            casadi.Function("gradient", [x], [grad])(self.x),
+            casadi.Function("jacobian", [x], [jac])(self.x) + terms.jacobian,
+            casadi.Function("hessian", [x, sigma, lam], [hess])(self.x, self.sigma, self.lam) + terms.hessian,
+        )
+
+    def derivatives(self) -> tuple[Any, Any, Any]:
+        """The objective's gradient, the constraints' Jacobian, the upper triangle of the Lagrangian's Hessian."""
+        if self._derivatives is None:
+            x, f, g = self.x, self.f, self.g
+            hess = casadi.triu(casadi.hessian(self.sigma * f + casadi.dot(self.lam, g), x)[0])
+            self._derivatives = (casadi.gradient(f, x), casadi.jacobian(g, x), hess)
+        return self._derivatives
+
+    def derivative_functions(self) -> dict[str, casadi.Function]:
+        """``grad_f``, ``jac_g`` and ``hess_lag`` in the form CasADi's IPOPT interface takes them."""
+        p = (casadi.SX if self.expandable else casadi.MX).sym("p", 0, 1)
+        grad, jac, hess = self.derivatives()
+        return {
+            "grad_f": casadi.Function("grad_f", [self.x, p], [self.f, grad]),
+            "jac_g": casadi.Function("jac_g", [self.x, p], [self.g, jac]),
+            "hess_lag": casadi.Function("hess_lag", [self.x, p, self.sigma, self.lam], [hess]),
+        }
 
 
 class CasadiBackend:
@@ -144,8 +175,10 @@ class CasadiBackend:
 
     def __init__(self, nl_text: str, ipopt_options: dict, surrogate: SurrogateSpec | None = None):
         self.nlp = CasadiNLP(nl_text, surrogate)
-        options = {f"ipopt.{k}": v for k, v in ipopt_options.items()}
+        options: dict[str, Any] = {f"ipopt.{k}": v for k, v in ipopt_options.items()}
         options.update({"expand": self.nlp.expandable, "print_time": False, "error_on_fail": False})
+        if not self.nlp.expandable:  # CasADi would differentiate the MX graph itself, several times slower
+            options.update(self.nlp.derivative_functions())
         self.solver = casadi.nlpsol("grasp", "ipopt", {"x": self.nlp.x, "f": self.nlp.f, "g": self.nlp.g}, options)
 
     def solve(self, x0: np.ndarray) -> SolveResult:
@@ -180,22 +213,16 @@ class CyipoptBackend:
 
         self.cyipopt = cyipopt
         nlp = self.nlp = CasadiNLP(nl_text, surrogate)
-        x, f, g = nlp.x, nlp.f, nlp.g  # MX from CasADi's import (untyped here: it becomes SX below)
-        symbol: Any = casadi.SX if nlp.expandable else casadi.MX
-        sigma, lam = symbol.sym("sigma"), symbol.sym("lambda", g.shape[0])
-        if nlp.expandable and isinstance(x, casadi.MX):  # CasADi's import gives MX; expand to SX like nlpsol
-            fg = casadi.Function("fg", [x], [f, g]).expand()
-            x = casadi.SX.sym("x", x.shape[0])
-            f, g = fg(x)
-        jac = casadi.jacobian(g, x)
-        hess: Any = casadi.tril(casadi.hessian(sigma * f + casadi.dot(lam, g), x)[0])
-        self._f = casadi.Function("objective", [x], [f])
-        self._grad = casadi.Function("objective_gradient", [x], [casadi.gradient(f, x)])
-        self._g = casadi.Function("constraints", [x], [g])
+        x = nlp.x
+        grad, jac, upper = nlp.derivatives()
+        hess = upper.T  # cyipopt takes the lower triangle
+        self._f = casadi.Function("objective", [x], [nlp.f])
+        self._grad = casadi.Function("objective_gradient", [x], [grad])
+        self._g = casadi.Function("constraints", [x], [nlp.g])
         # an NLP without constraints has an empty Jacobian, which cyipopt then never asks for
         self._jac = casadi.Function("constraint_jacobian", [x], [jac.nz[:] if jac.nnz() else casadi.DM(0, 1)])
         self._jac_rc = jac.sparsity().get_triplet()
-        self._hess = casadi.Function("lagrangian_hessian", [x, sigma, lam], [hess.nz[:]])
+        self._hess = casadi.Function("lagrangian_hessian", [x, nlp.sigma, nlp.lam], [hess.nz[:]])
         self._hess_rc = hess.sparsity().get_triplet()
         self.options = ipopt_options
 

@@ -14,10 +14,14 @@ from typing import Any
 
 import casadi
 import numpy as np
+from scipy import ndimage
 
 from grasptask.objects.distance_grid import DistanceGrid
 
 SMOOTHING_M = 1e-4
+#: the spline's degree in each axis: quintic, so that the third derivatives in the normals' Hessian are
+#: continuous (a cubic's jump at every knot); see docs/synthesis-notes.md
+DEGREE = 5
 
 
 @dataclass(frozen=True)
@@ -34,15 +38,24 @@ class SurrogateSpec:
 
 def distance_function(grid: DistanceGrid) -> casadi.Function:
     """``S(q)``: the signed distance (m) at a point ``q`` (3 x 1), as an MX function."""
-    h, counts = grid.spacing, np.array(grid.shape)
-    knots = [(grid.origin[i] + h * (np.arange(counts[i] + 4) - 2)).tolist() for i in range(3)]
-    spline = casadi.Function.bspline("grid", knots, grid.values.ravel(order="F").tolist(), [3, 3, 3], 1, {})
+    h, counts, d = grid.spacing, np.array(grid.shape), DEGREE
+    # each basis function is centred on its grid point
+    knots = [(grid.origin[i] + h * (np.arange(counts[i] + d + 1) - (d + 1) / 2)).tolist() for i in range(3)]
+    coefficients = interpolating_coefficients(grid.values)
+    spline = casadi.Function.bspline("grid", knots, coefficients.ravel(order="F").tolist(), [d, d, d], 1, {})
     q = casadi.MX.sym("q", 3)
-    # the spline is a partition of unity between the second and the last-but-one grid points
-    low, high = grid.origin + h, grid.upper - h
+    # the spline is a partition of unity where every basis function of the grid is present
+    low, high = grid.origin + h * (d - 1) / 2, grid.upper - h * (d - 1) / 2
     inside = casadi.fmin(casadi.fmax(q, low), high)
     beyond = casadi.sqrt(casadi.sumsqr(q - inside) + SMOOTHING_M**2) - SMOOTHING_M
     return casadi.Function("surrogate_distance", [q], [spline(inside) + beyond])
+
+
+def interpolating_coefficients(values: np.ndarray) -> np.ndarray:
+    """The B-spline coefficients whose spline passes through the grid values (scipy's prefilter). With the
+    values themselves as coefficients, the spline smooths: its zero set then lies ``h^2 / 6`` times the
+    surface's mean curvature inside it, 0.1 mm on a 1 cm radius at 2.5 mm spacing."""
+    return ndimage.spline_filter(values, order=DEGREE, mode="mirror")
 
 
 def gradient_function(distance: casadi.Function) -> casadi.Function:
@@ -58,18 +71,80 @@ def evaluate(function: casadi.Function, points: np.ndarray) -> np.ndarray:
     return out.ravel() if out.shape[0] == 1 else out.T
 
 
-def substituted(x: Any, g: Any, spec: SurrogateSpec) -> Any:
-    """``g`` with each placeholder row ``value`` (its body) made ``value - S(point)``, or ``value - dS/dq_i``."""
-    distance = distance_function(spec.grid)
-    gradient = gradient_function(distance)
-    correction = casadi.MX.zeros(g.shape[0], 1)
-    for kind, function in ((None, distance), ("gradient", gradient)):
-        picks = [k for k, c in enumerate(spec.components) if (c is None) == (kind is None)]
-        if not picks:
-            continue
-        points = casadi.horzcat(*[casadi.vertcat(*[x[c] for c in spec.points[k]]) for k in picks])
-        out = function.map(len(picks))(points)
-        for n, k in enumerate(picks):
-            component = spec.components[k]
-            correction[spec.rows[k]] = -(out[0, n] if component is None else out[component, n])
-    return g + correction
+@dataclass(frozen=True)
+class SurrogateTerms:
+    """The spline's part of the NLP, as MX: ``correction`` makes each placeholder row ``value - S(point)``
+    (or ``value - dS/dq_i``), ``jacobian`` is its derivative and ``hessian`` the upper triangle of
+    ``sum_r lam_r d2(row_r)/dx2``. Written out from the spline's derivatives at each distinct point, so that
+    the rest of the NLP keeps its expanded SX derivatives: CasADi's own MX derivatives of the whole model
+    took several times the tool cylinder's evaluation time per iteration."""
+
+    correction: Any
+    jacobian: Any
+    hessian: Any
+
+
+def surrogate_terms(x: Any, lam: Any, spec: SurrogateSpec, n_rows: int) -> SurrogateTerms:
+    """:class:`SurrogateTerms` for the NLP's variables ``x`` and constraint multipliers ``lam`` (MX)."""
+    points = list(dict.fromkeys(spec.points))  # distinct points, in order of first use
+    which = [points.index(p) for p in spec.points]
+    normals = sorted({which[k] for k, c in enumerate(spec.components) if c is not None})
+    where = casadi.horzcat(*[casadi.vertcat(*[x[c] for c in p]) for p in points])
+    q = casadi.MX.sym("q", 3)
+    # order k: the 3^k derivatives d^k S / dq_i1 .. dq_ik, the entry of (i1, .., ik) at sum_m i_m 3^(m-1)
+    orders = [distance_function(spec.grid)(q)]
+    for _ in range(3):
+        orders.append(casadi.vec(casadi.jacobian(orders[-1], q)))
+    blocks: dict[int, tuple[list[int], Any]] = {}
+
+    def block(k: int) -> tuple[list[int], Any]:
+        """Order ``k`` at every point that needs it (the third only at the normals' points), evaluated once."""
+        if k not in blocks:
+            at = normals if k == 3 else list(range(len(points)))
+            function = casadi.Function(f"surrogate_order_{k}", [q], [orders[k]])
+            blocks[k] = (at, casadi.vec(function.map(len(at))(where[:, at])))
+        return blocks[k]
+
+    def picked(entries: list[tuple[int, int, int]]) -> Any:
+        """The ``(order, point, index)`` entries as one MX vector, from only the orders they need."""
+        offset, parts, size = {}, [], 0
+        for k in sorted({k for k, _, _ in entries}):
+            at, values = block(k)
+            offset[k], size = (size, at), size + values.shape[0]
+            parts.append(values)
+        stacked = casadi.vertcat(*parts)
+        return stacked[[offset[k][0] + 3**k * offset[k][1].index(j) + i for k, j, i in entries]]
+
+    values, jac, hess = [], [], []  # (row, entry); (row, column, entry); (row, column, multiplier row, entry)
+    for k, component in enumerate(spec.components):
+        j, columns, row = which[k], spec.points[k], spec.rows[k]
+        c = 0 if component is None else 1  # a distance row is S, a normal's row its derivative dS/dq_component
+        first = 0 if component is None else component
+        values.append((row, (c, j, first)))
+        for a in range(3):
+            jac.append((row, columns[a], (c + 1, j, first + 3**c * a)))
+            for b in range(3):
+                if columns[a] <= columns[b]:  # the upper triangle
+                    hess.append((columns[a], columns[b], row, (c + 2, j, first + 3**c * (a + 3 * b))))
+    n_x = x.shape[0]
+    values.sort()
+    correction = casadi.MX(
+        casadi.Sparsity.triplet(n_rows, 1, [r for r, _ in values], [0] * len(values)), -picked([e for _, e in values])
+    )
+    jac.sort(key=lambda t: (t[1], t[0]))  # column-major, as CasADi stores nonzeros
+    jacobian = casadi.MX(
+        casadi.Sparsity.triplet(n_rows, n_x, [r for r, _, _ in jac], [c for _, c, _ in jac]),
+        -picked([e for *_, e in jac]),
+    )
+    # several rows share a point (a contact's distance and its normal): their entries are summed into one
+    keys = sorted({(c, r) for r, c, _, _ in hess})
+    slot = {key: i for i, key in enumerate(keys)}
+    assembly = casadi.DM(
+        casadi.Sparsity.triplet(len(keys), len(hess), [slot[c, r] for r, c, _, _ in hess], list(range(len(hess)))), 1.0
+    )
+    contributions = -lam[[m for _, _, m, _ in hess]] * picked([e for *_, e in hess])
+    hessian = casadi.MX(
+        casadi.Sparsity.triplet(n_x, n_x, [r for _, r in keys], [c for c, _ in keys]),
+        casadi.mtimes(assembly, contributions),
+    )
+    return SurrogateTerms(correction, jacobian, hessian)
