@@ -134,7 +134,10 @@ class CasadiNLP:
         whole = casadi.Function("nlp", [casadi.vertcat(*builder.x)], [builder.f, casadi.vertcat(*builder.g)])
         whole = whole.expand()  # CasADi's import gives MX
         n_x, n_g = len(self.lbx), len(self.lbg)
-        self.x, self.sigma, self.lam = casadi.SX.sym("x", n_x), casadi.SX.sym("sigma"), casadi.SX.sym("lambda", n_g)
+        # SX symbols, or MX ones with a surrogate (untyped here: CasADi's stubs keep the two apart)
+        self.x: Any = casadi.SX.sym("x", n_x)
+        self.sigma: Any = casadi.SX.sym("sigma")
+        self.lam: Any = casadi.SX.sym("lambda", n_g)
         self.f, self.g = whole(self.x)
         self._derivatives: tuple | None = None
         if surrogate is None:
@@ -161,7 +164,7 @@ class CasadiNLP:
 
     def derivative_functions(self) -> dict[str, casadi.Function]:
         """``grad_f``, ``jac_g`` and ``hess_lag`` in the form CasADi's IPOPT interface takes them."""
-        p = (casadi.SX if self.expandable else casadi.MX).sym("p", 0, 1)
+        p: Any = (casadi.SX if self.expandable else casadi.MX).sym("p", 0, 1)
         grad, jac, hess = self.derivatives()
         return {
             "grad_f": casadi.Function("grad_f", [self.x, p], [self.f, grad]),
