@@ -276,7 +276,8 @@ def test_the_surrogates_written_out_derivatives_are_casadis_own():
     terms = surrogate_terms(x, lam, spec, 6)
     g = terms.correction
     rng = np.random.default_rng(0)
-    x0 = np.concatenate([rng.uniform(-0.015, 0.015, 9), [0.0]])
+    # the last point lies beyond the grid, where the spline is clamped and the distance beyond it added
+    x0 = np.concatenate([rng.uniform(-0.015, 0.015, 6), [0.05, -0.01, 0.035], [0.0]])
     lam0 = rng.normal(size=6)
     automatic = casadi.Function("auto", [x, lam], [casadi.jacobian(g, x), casadi.hessian(casadi.dot(lam, g), x)[0]])
     written = casadi.Function("written", [x, lam], [terms.jacobian, terms.hessian])
@@ -284,16 +285,18 @@ def test_the_surrogates_written_out_derivatives_are_casadis_own():
     jac_w, hess_w = (np.array(m) for m in written(x0, lam0))
     np.testing.assert_allclose(jac_w, jac, atol=1e-12)
     np.testing.assert_allclose(hess_w, np.triu(hess), atol=1e-9 * np.abs(hess).max())
+    assert np.abs(hess[6:9, 6:9]).max() > 0  # the point beyond the grid has its curvature too
     assert np.abs(hess).max() > 10  # the curvature of the field is there to be compared
 
 
-def test_the_surrogate_interpolates_its_grid():
-    """The spline passes through the grid values (its coefficients are prefiltered), so the zero set is not pulled
-    inside a curved surface by the spline's smoothing."""
-    from grasptask.synthesis.spline import distance_function, evaluate
+def test_the_surrogate_interpolates_its_smoothed_grid():
+    """The spline passes through the grid values after their light smoothing (its coefficients are
+    prefiltered), so the zero set is not pulled inside a curved surface by the spline's own smoothing."""
+    from scipy import ndimage
+
+    from grasptask.synthesis.spline import SMOOTHING_CELLS, distance_function, evaluate
 
     grid = _small_surrogate_problem().grid
-    axes = grid.axes
-    inner = np.stack(np.meshgrid(*[a[3:-3] for a in axes], indexing="ij"), axis=-1).reshape(-1, 3)
-    expected = grid.values[3:-3, 3:-3, 3:-3].ravel()
-    np.testing.assert_allclose(evaluate(distance_function(grid), inner), expected, atol=1e-9)
+    inner = np.stack(np.meshgrid(*[a[3:-3] for a in grid.axes], indexing="ij"), axis=-1).reshape(-1, 3)
+    smoothed = ndimage.gaussian_filter(grid.values, SMOOTHING_CELLS, mode="nearest")
+    np.testing.assert_allclose(evaluate(distance_function(grid), inner), smoothed[3:-3, 3:-3, 3:-3].ravel(), atol=1e-9)

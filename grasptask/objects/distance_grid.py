@@ -1,9 +1,8 @@
 """A signed-distance grid around an object, the data of the NLP's surrogate for a mesh or point cloud.
 
-The NLP evaluates the grid through a cubic B-spline whose coefficients are the grid values (CasADi's
-``Function.bspline``, with exact derivatives of every order). A distance field is nearly linear away from the
-surface's curvature, and a cubic B-spline with its coefficients at the grid points reproduces linear functions
-exactly, so the zero set stays within a fraction of a millimetre of the surface at a few millimetres' spacing.
+The NLP evaluates the grid through a B-spline that interpolates it (:mod:`grasptask.synthesis.spline`). A
+distance field is nearly linear away from the surface's curvature, so the zero set stays within a fraction of a
+millimetre of the surface at a few millimetres' spacing.
 
 Distances come from dense samples of the surface: the distance to the nearest sample's tangent plane near the
 surface, to the sample itself farther out. The sign comes from the mesh's own inside test (ray casting), or for
