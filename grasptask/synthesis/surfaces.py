@@ -122,7 +122,7 @@ class SurrogateLink:
 
 
 class GridSurface:
-    """A mesh's or point cloud's signed-distance grid (:class:`DistanceGrid`), through a cubic B-spline that
+    """A mesh's or point cloud's signed-distance grid (:class:`DistanceGrid`), through a quintic B-spline that
     the backend evaluates. Each point where the NLP needs the surface gets variables for its coordinates (unless
     they are variables already), for the distance and, at contacts, for its gradient; eq. 3 is then
     ``distance == 0``, eq. 14 ``distance - radius >= 0``."""
