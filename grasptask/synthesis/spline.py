@@ -61,6 +61,8 @@ class _Spline:
         knots = [grid.origin[i] + h * (np.arange(counts[i] + d + 1) - (d + 1) / 2) for i in range(3)]
         low, high = grid.origin + h * (d - 1) / 2, grid.upper - h * (d - 1) / 2
         spline = cls(knots, interpolating_coefficients(grid.values), low, high)
+        if len(_SPLINES) >= _KEPT:  # a worker has one grid; a notebook or a test process may make many
+            del _SPLINES[next(iter(_SPLINES))]
         _SPLINES[id(grid)] = (grid, spline)
         return spline
 
@@ -77,6 +79,7 @@ class _Spline:
 
 
 _SPLINES: dict[int, tuple[DistanceGrid, _Spline]] = {}
+_KEPT = 4
 
 
 def _clamped(spline: _Spline, q: Any) -> tuple[Any, Any]:
@@ -97,8 +100,8 @@ def derivative_function(grid: DistanceGrid, order: int) -> casadi.Function:
     """The ``3^order`` derivatives of ``S`` at ``q``, the entry of ``(i1, .., ik)`` at ``sum_m i_m 3^(m-1)``.
 
     Each distinct partial is its own B-spline (:meth:`_Spline.partial`). CasADi's own derivatives of the
-    spline are exact too, but they build every higher order from the one below, 39 coefficient arrays the
-    size of the grid, which took 9 s of the knife's build."""
+    spline are exact too, but they build every order from the one below, 39 coefficient arrays the size of the
+    grid instead of 16."""
     spline = _Spline.of(grid)
     q = casadi.MX.sym("q", 3)
     inside, beyond = _clamped(spline, q)
@@ -148,8 +151,8 @@ class SurrogateTerms:
     """The spline's part of the NLP, as MX: ``correction`` makes each placeholder row ``value - S(point)``
     (or ``value - dS/dq_i``), ``jacobian`` is its derivative and ``hessian`` the upper triangle of
     ``sum_r lam_r d2(row_r)/dx2``. Written out from the spline's derivatives at each distinct point, so that
-    the rest of the NLP keeps its expanded SX derivatives: CasADi's own MX derivatives of the whole model
-    took several times the tool cylinder's evaluation time per iteration."""
+    the rest of the NLP keeps its expanded SX derivatives, which CasADi's MX derivatives of the whole model
+    would lose (docs/synthesis-notes.md)."""
 
     correction: Any
     jacobian: Any
