@@ -100,8 +100,8 @@ def derivative_function(grid: DistanceGrid, order: int) -> casadi.Function:
     """The ``3^order`` derivatives of ``S`` at ``q``, the entry of ``(i1, .., ik)`` at ``sum_m i_m 3^(m-1)``.
 
     Each distinct partial is its own B-spline (:meth:`_Spline.partial`). CasADi's own derivatives of the
-    spline are exact too, but they build every order from the one below, 39 coefficient arrays the size of the
-    grid instead of 16."""
+    spline are exact too, but they keep every permutation of each order: 39 coefficient arrays the size of the
+    grid for orders 1-3, where 19 are distinct."""
     spline = _Spline.of(grid)
     q = casadi.MX.sym("q", 3)
     inside, beyond = _clamped(spline, q)
