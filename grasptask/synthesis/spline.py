@@ -10,7 +10,7 @@ continuous. Only far-away hand spheres go there, and their clearance is never in
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import casadi
@@ -49,6 +49,8 @@ class _Spline:
     coefficients: np.ndarray
     low: np.ndarray
     high: np.ndarray
+    #: each partial's B-spline, made once: its coefficients are as large as the grid
+    _partials: dict[tuple[int, int, int], casadi.Function] = field(default_factory=dict, compare=False, repr=False)
 
     @classmethod
     def of(cls, grid: DistanceGrid) -> _Spline:
@@ -69,13 +71,17 @@ class _Spline:
     def partial(self, orders: tuple[int, int, int]) -> casadi.Function:
         """The spline of ``d^|orders| / dq^orders``: on uniform knots, differenced coefficients over the spacing,
         one degree lower and one knot shorter at each end per derivative along an axis."""
+        if orders in self._partials:
+            return self._partials[orders]
         coefficients, knots = self.coefficients, []
         for axis, k in enumerate(orders):
             h = float(self.knots[axis][1] - self.knots[axis][0])
             coefficients = np.diff(coefficients, n=k, axis=axis) / h**k
             knots.append(self.knots[axis][k : len(self.knots[axis]) - k].tolist())
         degrees = [DEGREE - k for k in orders]
-        return casadi.Function.bspline("grid", knots, coefficients.ravel(order="F").tolist(), degrees, 1, {})
+        spline = casadi.Function.bspline("grid", knots, coefficients.ravel(order="F").tolist(), degrees, 1, {})
+        self._partials[orders] = spline
+        return spline
 
 
 _SPLINES: dict[int, tuple[DistanceGrid, _Spline]] = {}
@@ -167,10 +173,10 @@ def surrogate_terms(x: Any, lam: Any, spec: SurrogateSpec, n_rows: int) -> Surro
     where = casadi.horzcat(*[casadi.vertcat(*[x[c] for c in p]) for p in points])
     q = casadi.MX.sym("q", 3)
     # order k: the 3^k derivatives d^k S / dq_i1 .. dq_ik, the entry of (i1, .., ik) at sum_m i_m 3^(m-1)
-    value = distance_function(spec.grid)(q)
+    distance = distance_function(spec.grid)
     orders = [
-        value,
-        casadi.jacobian(value, q).T,
+        distance(q),
+        gradient_function(distance)(q),
         derivative_function(spec.grid, 2)(q),
         derivative_function(spec.grid, 3)(q),
     ]
