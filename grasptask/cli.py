@@ -291,6 +291,19 @@ def _model_options(f):
     help="Keep the starts already in solutions.jsonl and solve only the rest; refused if the folder holds another run.",
 )
 @_fingers_option("the hand file's choice; for a URDF or MJCF hand, all its fingers")
+@click.option(
+    "--physics",
+    "physics_flag",
+    is_flag=True,
+    help="Also hold each verified grasp in MuJoCo against the task's wrenches (see `grasptask physics`).",
+)
+@click.option(
+    "--physics-config",
+    type=click.Path(path_type=Path),
+    default=stages.DEFAULT_PHYSICS_CONFIG,
+    show_default=True,
+    help="With --physics: scene, controller, protocol and thresholds (YAML).",
+)
 def synthesize(
     tasks_path,
     task,
@@ -307,6 +320,8 @@ def synthesize(
     backend,
     resume,
     fingers,
+    physics_flag,
+    physics_config,
 ):
     """Synthesize task-oriented grasps: the NLP of the paper's Sections 5-6 solved from many starts, every
     solution checked by the independent verifier. Writes OUT/TASK/solutions.parquet (one row per start),
@@ -328,6 +343,7 @@ def synthesize(
         backend=backend,
         resume=resume,
         fingers=fingers,
+        physics=physics_config if physics_flag else None,
     )
     try:
         run = stages.run_synthesize(options, echo=click.echo)
@@ -357,6 +373,44 @@ def verify_command(solutions, tasks_path, task, out, hand, object_path, grasp_co
     OUT/verification.parquet with one row per start and its verification figures."""
     table = stages.run_verify(solutions, tasks_path, task, out, hand, object_path, grasp_config, fingers)
     click.echo(f"{int(table['verified'].sum())}/{len(table)} grasps verified; wrote {out}/verification.parquet")
+
+
+@main.command()
+@click.argument("solutions", type=click.Path(path_type=Path))
+@click.option("--tasks", "tasks_path", required=True, type=click.Path(path_type=Path), help="task_models.json.")
+@click.option("--task", required=True, help="The task the solutions were made for.")
+@_out_option
+@click.option(
+    "--hand", type=click.Path(path_type=Path), default=None, help="Hand file [default: the sweep's, from run.json]."
+)
+@click.option(
+    "--object",
+    "object_path",
+    type=click.Path(path_type=Path),
+    default=None,
+    help="Object config or mesh [default: the sweep's].",
+)
+@click.option(
+    "--grasp-config", type=click.Path(path_type=Path), default=None, help="Friction settings [default: the sweep's]."
+)
+@click.option(
+    "--physics-config",
+    type=click.Path(path_type=Path),
+    default=stages.DEFAULT_PHYSICS_CONFIG,
+    show_default=True,
+    help="Scene, controller, protocol and pass thresholds (YAML).",
+)
+@click.option("--workers", type=click.IntRange(min=1), default=1, show_default=True, help="Simulation processes.")
+@_fingers_option("the sweep's")
+def physics(solutions, tasks_path, task, out, hand, object_path, grasp_config, physics_config, workers, fingers):
+    """Hold every solved grasp of SOLUTIONS (solutions.parquet) in MuJoCo against its task's own wrenches, and
+    against DexGraspBench's six forces; writes OUT/physics.parquet (one row per start: pass flags, the
+    object's worst translation and rotation, the wrench that failed) and OUT/physics_summary.json (pass rates
+    and the 2x2 agreement with the analytic verifier)."""
+    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+    inputs = stages.PhysicsInputs(solutions, tasks_path, task, hand, object_path, grasp_config, physics_config, fingers)
+    stages.run_physics(inputs, out, workers, echo=click.echo)
+    click.echo(f"wrote {out}/physics.parquet, physics_summary.json")
 
 
 @main.command()

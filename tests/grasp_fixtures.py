@@ -60,3 +60,58 @@ def ball_grasp() -> tuple[Grasp, Superquadric]:
     # express everything in the ball's frame: the object sits at the origin, the palm is moved instead
     grasp = Grasp(np.eye(3), -centre, q)
     return grasp, Superquadric(np.full(3, BALL_RADIUS), 1.0, 1.0, name="ball")
+
+
+GRIPPER_BALL_RADIUS = 0.02
+
+
+def _turn_z(angle: float) -> np.ndarray:
+    c, s = np.cos(angle), np.sin(angle)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
+def _facing(direction: np.ndarray) -> np.ndarray:
+    """A rotation whose x axis points along ``-direction`` (towards the ball's centre)."""
+    x = -direction / np.linalg.norm(direction)
+    helper = np.array([0.0, 0.0, 1.0]) if abs(x[2]) < 0.9 else np.array([1.0, 0.0, 0.0])
+    z = np.cross(x, helper)
+    z /= np.linalg.norm(z)
+    return np.column_stack([x, np.cross(z, x), z])
+
+
+def gripper_grasp(directions: np.ndarray, effort_nm: float, bend_deg: float = 30.0):
+    """A test hand of two-joint fingers whose pads touch a ball of radius 2 cm at ``radius * directions``
+    (each finger's base 8 cm out along its direction, its two links bent by ``bend_deg`` so that the pad
+    can press along the ball's normal), motors of ``effort_nm`` on every joint; the ball at the origin, the
+    palm frame there too. Returns ``(hand, grasp, ball)``."""
+    from grasptask.hand.model import Capability, Finger, Hand, Joint, Pad, Palm, Sphere
+
+    theta = np.radians(bend_deg)
+    base = 0.08
+    link = (base - GRIPPER_BALL_RADIUS) / (2 * np.cos(theta))
+    fingers = {}
+    for k, direction in enumerate(np.asarray(directions, dtype=float)):
+        direction = direction / np.linalg.norm(direction)
+        first = Joint(
+            f"f{k}_base", np.array([0.0, 0.0, 1.0]), -1.0, 1.0, base * direction, _facing(direction) @ _turn_z(theta)
+        )
+        second = Joint(
+            f"f{k}_bend", np.array([0.0, 0.0, 1.0]), -1.0, 1.0, np.array([link, 0.0, 0.0]), _turn_z(-2 * theta)
+        )
+        normal = np.array([np.cos(theta), np.sin(theta), 0.0])
+        pad = Pad(np.array([link, 0.0, 0.0]), normal, np.array([0.0, 0.0, 1.0]))
+        spheres = (
+            Sphere(0, np.array([0.5 * link, 0.0, 0.0]), 0.005),
+            Sphere(1, np.array([0.5 * link, 0.0, 0.0]), 0.005),
+        )
+        fingers[f"f{k}"] = Finger(f"f{k}", (first, second), spheres, pad, np.array([link, 0.0, 0.0]), 0.008)
+    names = tuple(j.name for f in fingers.values() for j in f.joints)
+    capability = Capability.motors(names, np.full(len(names), effort_nm), np.eye(len(names)))
+    hand = Hand("gripper", fingers, Palm(np.zeros((0, 3)), np.zeros(0)), tuple(fingers), capability)
+    grasp = Grasp(np.eye(3), np.zeros(3), np.zeros(len(names)))
+    return hand, grasp, Superquadric(np.full(3, GRIPPER_BALL_RADIUS), 1.0, 1.0, name="ball")
+
+
+#: pads all round the ball, and all on one side of it
+TETRAHEDRON = np.array([[1.0, 1.0, 1.0], [1.0, -1.0, -1.0], [-1.0, 1.0, -1.0], [-1.0, -1.0, 1.0]])
+ONE_SIDE = np.array([[1.0, 0.3, 0.3], [1.0, -0.3, 0.3], [1.0, 0.3, -0.3], [1.0, -0.3, -0.3]])

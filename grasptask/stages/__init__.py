@@ -17,6 +17,7 @@ from grasptask.paths import (
     DEFAULT_GRASP_CONFIG,
     DEFAULT_HAND,
     DEFAULT_OBJECT,
+    DEFAULT_PHYSICS_CONFIG,
     DEFAULT_SIMULATE_CONFIG,
     DEFAULT_SOLVER_CONFIG,
 )
@@ -25,6 +26,7 @@ if TYPE_CHECKING:
     from grasptask.report.browser import check_page
     from grasptask.stages.distances import run_distances
     from grasptask.stages.fit_task import FitOptions, Preprocess, entries_from_inputs, run_fit_task
+    from grasptask.stages.physics import PhysicsInputs, run_physics
     from grasptask.stages.pipeline import run_pipeline_file
     from grasptask.stages.report import ReportSummary, build_report
     from grasptask.stages.simulate import run_simulate
@@ -46,6 +48,8 @@ _LAZY = {
     "ReportSummary": "grasptask.stages.report",
     "check_page": "grasptask.report.browser",
     "run_pipeline_file": "grasptask.stages.pipeline",
+    "PhysicsInputs": "grasptask.stages.physics",
+    "run_physics": "grasptask.stages.physics",
 }
 
 __all__ = [
@@ -53,12 +57,14 @@ __all__ = [
     "DEFAULT_GRASP_CONFIG",
     "DEFAULT_HAND",
     "DEFAULT_OBJECT",
+    "DEFAULT_PHYSICS_CONFIG",
     "DEFAULT_SIMULATE_CONFIG",
     "DEFAULT_SOLVER_CONFIG",
     "FORCE_UNITS",
     "TIME_UNITS",
     "TORQUE_UNITS",
     "FitOptions",
+    "PhysicsInputs",
     "Preprocess",
     "ReportSummary",
     "SynthesisOptions",
@@ -67,6 +73,7 @@ __all__ = [
     "entries_from_inputs",
     "run_distances",
     "run_fit_task",
+    "run_physics",
     "run_pipeline_file",
     "run_simulate",
     "run_synthesize",

@@ -52,10 +52,14 @@ class SynthesisOptions:
     resume: bool = False
     #: the grasping fingers; None: the hand file's choice (the human hand's thumb, index and middle)
     fingers: tuple[str, ...] | None = None
+    #: a physics config: hold each verified grasp in MuJoCo too (grasptask.physics); None: no physics check
+    physics: Path | None = None
 
     def __post_init__(self) -> None:
         for name in ("tasks", "out", "hand", "object", "solver_config", "grasp_config"):
             object.__setattr__(self, name, Path(getattr(self, name)))  # strings from a notebook are welcome
+        if self.physics is not None:
+            object.__setattr__(self, "physics", Path(self.physics))
         if self.executor not in EXECUTORS:
             raise BadInputError("synthesize", f"unknown executor '{self.executor}' (known: {', '.join(EXECUTORS)})")
         if self.backend not in BACKENDS:
@@ -112,6 +116,10 @@ def _prepare(options: SynthesisOptions) -> _Prepared:
     solver = load_solver_config(options.solver_config)
     check_ipopt_options(solver.ipopt, options.solver_config)
     load_grasp_settings(options.grasp_config)
+    if options.physics is not None:
+        from grasptask.physics.settings import load_physics_settings
+
+        load_physics_settings(options.physics)
     hand = load_hand(options.hand)
     if options.fingers:
         try:
@@ -136,6 +144,8 @@ def _prepare(options: SynthesisOptions) -> _Prepared:
         "grasp config": path_hash(options.grasp_config),
         "fingers": list(hand.grasping),
     }
+    if options.physics is not None:  # a sweep with the physics check is another run than one without
+        definition["physics config"] = path_hash(options.physics)
     job = Job(
         hand_path=str(options.hand),
         object_path=str(options.object),
@@ -145,6 +155,7 @@ def _prepare(options: SynthesisOptions) -> _Prepared:
         solver=solver,
         settings_path=str(options.grasp_config),
         fingers=hand.grasping,
+        physics_path=str(options.physics) if options.physics is not None else "",
     )
     return _Prepared(
         job,

@@ -2,20 +2,65 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 
 import pandas as pd
 
 from grasptask.errors import BadInputError
+from grasptask.grasp.grasp import Grasp
 from grasptask.grasp.settings import load_grasp_settings
 from grasptask.grasp.verify import verify
 from grasptask.hand import load_hand
+from grasptask.hand.model import Hand
 from grasptask.io.artifacts import Provenance, StagedOutput
 from grasptask.io.solutions import fingers_in, grasp_from_row, implausible_column, joint_columns
 from grasptask.io.tables import read_table
 from grasptask.objects import load_object
 from grasptask.paths import DEFAULT_GRASP_CONFIG, DEFAULT_HAND, DEFAULT_OBJECT
 from grasptask.task.model import load_task_models
+
+
+@dataclass(frozen=True)
+class SolvedGrasps:
+    """A solutions table read for re-judging: the grasping hand it was made with, and each start's row and
+    grasp (None where the start has no solution)."""
+
+    hand: Hand
+    rows: list[tuple[dict, Grasp | None]]
+
+
+def read_grasps(
+    solutions_path: str | Path, hand_path: str | Path, fingers: tuple[str, ...] | None = None
+) -> SolvedGrasps:
+    """Every start of ``solutions_path`` as a grasp of ``hand_path``'s ``fingers`` (default: those the table
+    holds contacts of); a table from another hand, or with an implausible value, is one line naming the
+    column (and row)."""
+    solutions_path = Path(solutions_path)
+    solutions = read_table(solutions_path, ("start_id", "palm_x", "palm_r00"))
+    whole = load_hand(hand_path)
+    chosen = list(fingers) if fingers else fingers_in(list(solutions.columns), list(whole.fingers))
+    if len(chosen) < 2:
+        raise BadInputError(solutions_path, f"holds contacts of fewer than two of hand '{whole.name}''s fingers")
+    try:
+        hand = whole.with_grasping(chosen).grasping_hand()
+    except KeyError as exc:
+        raise BadInputError("--fingers", f"hand '{whole.name}' has no finger {exc}") from None
+    for column in joint_columns(hand.joint_names):
+        if column not in solutions.columns:
+            raise BadInputError(solutions_path, "missing column", column=column)
+    if not pd.api.types.is_integer_dtype(solutions["start_id"]):
+        raise BadInputError(solutions_path, "must hold whole numbers", column="start_id")
+    rows: list[tuple[dict, Grasp | None]] = []
+    for number, row in enumerate(solutions.to_dict("records"), start=1):
+        if pd.isna(row["palm_x"]):
+            rows.append((row, None))
+            continue
+        wrong = implausible_column(row, hand.joint_names)
+        if wrong is not None:
+            raise BadInputError(solutions_path, f"not a plausible value: {row[wrong]!r}", row=number, column=wrong)
+        rows.append((row, grasp_from_row(row, hand.joint_names)))
+    return SolvedGrasps(hand, rows)
 
 
 def run_verify(
@@ -31,37 +76,20 @@ def run_verify(
     """Verify every row of ``solutions_path`` for ``task``; writes ``out/verification.parquet`` (one row per
     start: ``verified``, ``verify_failures`` and the verifier's figures) and returns it. ``fingers`` defaults to
     those the table holds contacts of."""
-    solutions_path = Path(solutions_path)
-    solutions = read_table(solutions_path, ("start_id", "palm_x", "palm_r00"))
     models = load_task_models(tasks_path)
     if task not in models:
         raise BadInputError(tasks_path, f"no task '{task}'")
-    whole = load_hand(hand_path)
-    chosen = list(fingers) if fingers else fingers_in(list(solutions.columns), list(whole.fingers))
-    if len(chosen) < 2:
-        raise BadInputError(solutions_path, f"holds contacts of fewer than two of hand '{whole.name}''s fingers")
-    try:
-        hand = whole.with_grasping(chosen).grasping_hand()
-    except KeyError as exc:
-        raise BadInputError("--fingers", f"hand '{whole.name}' has no finger {exc}") from None
+    solved = read_grasps(solutions_path, hand_path, fingers)
     obj = load_object(object_path)
     settings = load_grasp_settings(grasp_config)
-    for column in joint_columns(hand.joint_names):
-        if column not in solutions.columns:
-            raise BadInputError(solutions_path, "missing column", column=column)
-    if not pd.api.types.is_integer_dtype(solutions["start_id"]):
-        raise BadInputError(solutions_path, "must hold whole numbers", column="start_id")
     rows = []
-    for number, row in enumerate(solutions.to_dict("records"), start=1):
+    for row, grasp in solved.rows:
         record: dict[str, object] = {"start_id": int(row["start_id"])}
-        if pd.isna(row["palm_x"]):
+        if grasp is None:
             record.update({"verified": False, "verify_failures": "no solution"})
         else:
-            wrong = implausible_column(row, hand.joint_names)
-            if wrong is not None:
-                raise BadInputError(solutions_path, f"not a plausible value: {row[wrong]!r}", row=number, column=wrong)
-            check = verify(grasp_from_row(row, hand.joint_names), hand, obj, models[task], settings)
-            record.update(check.record(list(hand.fingers)))
+            check = verify(grasp, solved.hand, obj, models[task], settings)
+            record.update(check.record(list(solved.hand.fingers)))
         rows.append(record)
     table = pd.DataFrame(rows)
     provenance = Provenance.of(

@@ -32,6 +32,8 @@ class Job:
     settings_path: str = ""
     #: the grasping fingers, when not the hand file's own choice
     fingers: tuple[str, ...] | None = None
+    #: a physics config: each verified grasp is also held in MuJoCo (grasptask.physics); "": not
+    physics_path: str = ""
 
 
 class SolverContext:
@@ -66,6 +68,13 @@ class SolverContext:
         self.approach = self.hand.approach
         self.fingers = list(self.nlp.hand.fingers)
         self.joint_names = self.nlp.hand.joint_names
+        self.physics = None
+        if job.physics_path:
+            from grasptask.physics.scene import object_body
+            from grasptask.physics.settings import load_physics_settings
+
+            physics = load_physics_settings(job.physics_path)
+            self.physics = (physics, object_body(self.obj, physics))
 
     def solve(self, start: Start) -> dict:
         from grasptask.grasp.verify import Grasp, verify
@@ -103,6 +112,13 @@ class SolverContext:
         row.update(grasp_columns(grasp, self.joint_names, self.fingers, solution["contacts"], solution["normals"]))
         check = verify(grasp, self.hand, self.obj, self.task, self.settings)
         row.update(check.record(self.fingers))
+        if self.physics is not None and check.ok:  # the second judge, on what the first accepted
+            from grasptask.physics.protocol import check_grasp
+            from grasptask.physics.scene import build_scene
+
+            physics, body = self.physics
+            scene = build_scene(self.nlp.hand, self.obj, body, grasp, self.settings.friction_coefficient, physics)
+            row.update(check_grasp(scene, self.task, body.mass_kg, physics).record())
         if self.surrogate is not None:  # the surrogate's distance at each contact minus the mesh's own
             seen = evaluate(self.surrogate, solution["contacts"])
             for name, value, truth in zip(self.fingers, seen, check.contact_distance_m, strict=True):

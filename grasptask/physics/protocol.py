@@ -1,0 +1,208 @@
+"""The physics check's protocol for one grasp: close and settle, then each test wrench ramped in and held,
+from the settled state each time, and the object's worst motion from where the hand settled it.
+
+The tests are the task's own wrenches, +-gamma_i u_i for the ellipsoid's six axes (eq. 10's 12 blocks), with
+their torques about the task frame's origin, and DexGraspBench's six +-axis forces of ``m a`` at the centre of
+mass, so that the numbers compare with theirs. Gravity is off: the recorded wrenches are the whole load."""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+
+from grasptask.physics.controller import FingertipController, Gains
+from grasptask.physics.scene import Scene
+from grasptask.physics.settings import PhysicsSettings
+from grasptask.task.model import TaskModel
+
+
+@dataclass(frozen=True)
+class Test:
+    """A wrench on the object: force (N) and torque (N m) in the world frame, the torque about ``about``
+    (``"frame"``: the object frame's origin, where the task was recorded; ``"com"``: its centre of mass)."""
+
+    name: str
+    wrench: np.ndarray
+    about: str
+
+    def grip_n(self, contacts: np.ndarray, friction: float) -> float:
+        """The normal force per finger that friction needs to carry this wrench: ``|f| / (mu b)`` for the
+        force, and ``|tau| / (mu sum_j r_j)`` for the torque, ``r_j`` each contact's distance from the torque's
+        axis through the task frame's origin (the hand's grip, raised with the load as a person's is)."""
+        force, torque = np.linalg.norm(self.wrench[:3]), np.linalg.norm(self.wrench[3:])
+        grip = force / (friction * len(contacts))
+        if torque > 0:
+            levers = np.linalg.norm(np.cross(self.wrench[3:] / torque, contacts), axis=1)
+            grip += torque / (friction * max(float(levers.sum()), 1e-6))
+        return float(grip)
+
+
+@dataclass(frozen=True)
+class Motion:
+    """The object's largest translation (m) and rotation (deg) during a phase, from where it started it."""
+
+    translation_m: float
+    rotation_deg: float
+
+    def within(self, translation_m: float, rotation_deg: float) -> bool:
+        return self.translation_m <= translation_m and self.rotation_deg <= rotation_deg
+
+
+@dataclass(frozen=True)
+class PhysicsResult:
+    settle: Motion
+    tests: dict[str, Motion]
+    passed: bool
+    benchmark_passed: bool
+    failed_test: str | None  # the first of the task's tests that moved the object too far (None: none did)
+    seconds: float
+
+    def worst(self, prefix: str = "task") -> Motion:
+        chosen = [m for name, m in self.tests.items() if name.startswith(prefix)]
+        return Motion(max(m.translation_m for m in chosen), max(m.rotation_deg for m in chosen))
+
+    def record(self) -> dict[str, object]:
+        """The columns of one row of ``physics.parquet``."""
+        task, bench = self.worst("task"), self.worst("dexgraspbench")
+        return {
+            "physics_passed": self.passed,
+            "physics_settle_translation_m": self.settle.translation_m,
+            "physics_settle_rotation_deg": self.settle.rotation_deg,
+            "physics_worst_translation_m": task.translation_m,
+            "physics_worst_rotation_deg": task.rotation_deg,
+            "physics_failed_wrench": self.failed_test or "",
+            "dexgraspbench_passed": self.benchmark_passed,
+            "dexgraspbench_worst_translation_m": bench.translation_m,
+            "dexgraspbench_worst_rotation_deg": bench.rotation_deg,
+            "physics_seconds": self.seconds,
+        }
+
+
+def task_tests(task: TaskModel) -> list[Test]:
+    """``+-gamma_i u_i`` for each axis of the task ellipsoid, named ``task+u1`` ... ``task-u6``."""
+    return [
+        Test(f"task{'+-'[s]}u{i + 1}", (1.0 - 2.0 * s) * task.lengths[i] * task.axes[i], "frame")
+        for i in range(len(task.lengths))
+        for s in (0, 1)
+    ]
+
+
+def benchmark_tests(mass_kg: float, settings: PhysicsSettings) -> list[Test]:
+    """DexGraspBench's force-closure test: forces of ``m a`` along -x, +x, -y, +y, -z, +z."""
+    force = mass_kg * settings.benchmark_acceleration_m_s2
+    tests = []
+    for axis, label in enumerate("xyz"):
+        for sign in (-1.0, 1.0):
+            wrench = np.zeros(6)
+            wrench[axis] = sign * force
+            tests.append(Test(f"dexgraspbench{'-+'[sign > 0]}{label}", wrench, "com"))
+    return tests
+
+
+def _rotation_deg(quat: np.ndarray, reference: np.ndarray) -> float:
+    inverse = np.zeros(4)
+    mujoco.mju_negQuat(inverse, reference)
+    difference = np.zeros(4)
+    mujoco.mju_mulQuat(difference, quat, inverse)
+    return float(np.degrees(2.0 * np.arccos(np.clip(abs(difference[0]), 0.0, 1.0))))
+
+
+class _Run:
+    """One simulation of a scene with its controller, and the object's pose to measure motion from."""
+
+    def __init__(self, scene: Scene, settings: PhysicsSettings):
+        self.scene, self.settings = scene, settings
+        self.data = mujoco.MjData(scene.model)
+        gains = Gains(
+            settings.tip_stiffness_n_per_m,
+            settings.tip_damping_ns_per_m,
+            settings.posture_stiffness_nm_per_rad,
+            settings.posture_damping_nms_per_rad,
+        )
+        self.controller = FingertipController(
+            scene.actuation, scene.posture, scene.contacts, scene.normals, settings.squeeze_m, gains
+        )
+        self.preload_n = 0.0
+        self.jacobian = np.zeros((3, scene.model.nv))
+        self.every = max(1, int(round(settings.control_period_s / settings.timestep_s)))
+        self.data.qpos[scene.hand_qpos] = scene.posture
+        self.data.qpos[scene.object_qpos : scene.object_qpos + 7] = [0, 0, 0, 1, 0, 0, 0]
+        mujoco.mj_forward(scene.model, self.data)
+
+    def pose(self) -> tuple[np.ndarray, np.ndarray]:
+        """The object frame's origin and orientation in the world."""
+        body = self.scene.object_body
+        return self.data.xpos[body].copy(), self.data.xquat[body].copy()
+
+    def control(self) -> np.ndarray:
+        scene, data = self.scene, self.data
+        jacobians = np.empty((len(scene.pad_sites), 3, len(scene.hand_dof)))
+        for k, site in enumerate(scene.pad_sites):
+            mujoco.mj_jacSite(scene.model, data, self.jacobian, None, int(site))
+            jacobians[k] = self.jacobian[:, scene.hand_dof]
+        return self.controller.activations(
+            data.qpos[scene.hand_qpos], data.qvel[scene.hand_dof], data.site_xpos[scene.pad_sites], jacobians
+        )
+
+    def simulate(self, seconds: float, test: Test | None = None) -> Motion:
+        """Run for ``seconds`` (the test's wrench ramped in over ``ramp_s``, then held) and return the worst
+        motion from the pose at the start."""
+        model, data, scene = self.scene.model, self.data, self.scene
+        origin, orientation = self.pose()
+        worst_t = worst_r = 0.0
+        steps = int(round(seconds / self.settings.timestep_s))
+        settings = self.settings
+        grip = 0.0 if test is None else settings.grip_safety * test.grip_n(scene.contacts, scene.friction)
+        for step in range(steps):
+            ramp = min(1.0, (step + 1) * settings.timestep_s / settings.ramp_s)
+            if self.preload_n > 0:
+                self.controller.scale = 1.0 + ramp * grip / self.preload_n
+            if step % self.every == 0:
+                data.ctrl[:] = self.control()
+            if test is not None:
+                force, torque = ramp * test.wrench[:3], ramp * test.wrench[3:]
+                if test.about == "frame":  # xfrc_applied acts at the centre of mass
+                    body = scene.object_body
+                    torque = torque + np.cross(data.xpos[body] - data.xipos[body], force)
+                data.xfrc_applied[scene.object_body] = np.concatenate([force, torque])
+            mujoco.mj_step(model, data)
+            position, quat = self.pose()
+            worst_t = max(worst_t, float(np.linalg.norm(position - origin)))
+            worst_r = max(worst_r, _rotation_deg(quat, orientation))
+        data.xfrc_applied[:] = 0.0
+        return Motion(worst_t, worst_r)
+
+
+def check_grasp(scene: Scene, task: TaskModel, mass_kg: float, settings: PhysicsSettings) -> PhysicsResult:
+    """Hold ``scene``'s grasp against every test wrench of ``task`` and DexGraspBench's six forces."""
+    began = time.perf_counter()
+    run = _Run(scene, settings)
+    settle = run.simulate(settings.settle_s)
+    run.preload_n = run.controller.hold(run.data.site_xpos[scene.pad_sites].copy())
+    spec = mujoco.mjtState.mjSTATE_INTEGRATION
+    settled = np.zeros(mujoco.mj_stateSize(scene.model, spec))
+    mujoco.mj_getState(scene.model, run.data, settled, spec)
+    controls = run.controller.current.copy()
+    held = (run.controller.rest.copy(), run.controller.preload.copy())
+    tests: dict[str, Motion] = {}
+    for test in task_tests(task) + benchmark_tests(mass_kg, settings):
+        mujoco.mj_setState(scene.model, run.data, settled, spec)
+        mujoco.mj_forward(scene.model, run.data)
+        run.controller.current = controls.copy()
+        run.controller.rest, run.controller.preload = held[0].copy(), held[1].copy()
+        tests[test.name] = run.simulate(settings.ramp_s + settings.hold_s, test)
+    ours = (settings.max_translation_m, settings.max_rotation_deg)
+    theirs = (settings.benchmark_translation_m, settings.benchmark_rotation_deg)
+    failed = next((n for n, m in tests.items() if n.startswith("task") and not m.within(*ours)), None)
+    return PhysicsResult(
+        settle=settle,
+        tests=tests,
+        passed=settle.within(*ours) and failed is None,
+        benchmark_passed=settle.within(*theirs)
+        and all(m.within(*theirs) for n, m in tests.items() if n.startswith("dexgraspbench")),
+        failed_test=failed if failed is not None else (None if settle.within(*ours) else "settle"),
+        seconds=time.perf_counter() - began,
+    )

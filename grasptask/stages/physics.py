@@ -1,0 +1,187 @@
+"""``grasptask physics``: every solved grasp of a solutions table held in MuJoCo against its task's wrenches
+(:mod:`grasptask.physics`), beside the analytic verifier's verdict, as a table and a summary with the 2x2
+agreement of the two judges."""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from grasptask.errors import BadInputError
+from grasptask.io.artifacts import Provenance, StagedOutput
+from grasptask.io.config import read_json
+from grasptask.paths import DEFAULT_GRASP_CONFIG, DEFAULT_HAND, DEFAULT_OBJECT, DEFAULT_PHYSICS_CONFIG
+
+
+@dataclass(frozen=True)
+class PhysicsInputs:
+    """The files one check is made from; ``None`` takes what the sweep of the solutions used (its
+    ``run.json``), else the package defaults."""
+
+    solutions: Path
+    tasks: Path
+    task: str
+    hand: Path | None = None
+    object: Path | None = None
+    grasp_config: Path | None = None
+    physics_config: Path = DEFAULT_PHYSICS_CONFIG
+    fingers: tuple[str, ...] | None = None
+
+    def resolved(self) -> PhysicsInputs:
+        run_file = Path(self.solutions).parent / "run.json"
+        used = read_json(run_file) if run_file.is_file() else {}
+
+        def pick(given: Path | None, key: str, default: Path) -> Path:
+            return Path(given) if given is not None else Path(used.get(key, default))
+
+        return PhysicsInputs(
+            solutions=Path(self.solutions),
+            tasks=Path(self.tasks),
+            task=self.task,
+            hand=pick(self.hand, "hand", DEFAULT_HAND),
+            object=pick(self.object, "object", DEFAULT_OBJECT),
+            grasp_config=pick(self.grasp_config, "grasp_config", DEFAULT_GRASP_CONFIG),
+            physics_config=Path(self.physics_config),
+            fingers=self.fingers or (tuple(used["fingers"]) if used.get("fingers") else None),
+        )
+
+
+class _Judge:
+    """What every check of one run shares, built once per process: the hand, object, its convex parts, the
+    task model and the settings."""
+
+    def __init__(self, inputs: PhysicsInputs):
+        from grasptask.grasp.settings import load_grasp_settings
+        from grasptask.objects import load_object
+        from grasptask.physics.scene import object_body
+        from grasptask.physics.settings import load_physics_settings
+        from grasptask.stages.verify import read_grasps
+        from grasptask.task.model import load_task_models
+
+        models = load_task_models(inputs.tasks)
+        if inputs.task not in models:
+            raise BadInputError(inputs.tasks, f"no task '{inputs.task}' (has: {', '.join(models)})")
+        assert inputs.hand is not None and inputs.object is not None and inputs.grasp_config is not None
+        self.task = models[inputs.task]
+        self.solved = read_grasps(inputs.solutions, inputs.hand, inputs.fingers)
+        self.obj = load_object(inputs.object, say=lambda _: None)
+        self.friction = load_grasp_settings(inputs.grasp_config).friction_coefficient
+        self.settings = load_physics_settings(inputs.physics_config)
+        self.body = object_body(self.obj, self.settings)
+
+    def check(self, index: int) -> dict[str, Any]:
+        from grasptask.physics.protocol import check_grasp
+        from grasptask.physics.scene import build_scene
+
+        row, grasp = self.solved.rows[index]
+        record: dict[str, Any] = {"start_id": int(row["start_id"]), "verified": bool(row.get("verified", False))}
+        if grasp is None:
+            return record
+        scene = build_scene(self.solved.hand, self.obj, self.body, grasp, self.friction, self.settings)
+        record.update(check_grasp(scene, self.task, self.body.mass_kg, self.settings).record())
+        return record
+
+
+_worker: _Judge | None = None
+
+
+def _start_worker(inputs: PhysicsInputs) -> None:
+    global _worker
+    os.environ["OPENBLAS_NUM_THREADS"] = "1"
+    _worker = _Judge(inputs)
+
+
+def _check_in_worker(index: int) -> dict[str, Any]:
+    assert _worker is not None
+    return _worker.check(index)
+
+
+def agreement(table: pd.DataFrame) -> dict[str, int]:
+    """The 2x2 table of the two judges over the solved grasps: verifier accepts or rejects, physics holds or
+    drops."""
+    solved = table[table["physics_passed"].notna()]
+    verified, held = solved["verified"].astype(bool), solved["physics_passed"].astype(bool)
+    return {
+        "verified_and_held": int((verified & held).sum()),
+        "verified_and_dropped": int((verified & ~held).sum()),
+        "rejected_and_held": int((~verified & held).sum()),
+        "rejected_and_dropped": int((~verified & ~held).sum()),
+    }
+
+
+def summary(table: pd.DataFrame, task: str) -> dict[str, Any]:
+    """Pass rates among the verified grasps, DexGraspBench's beside ours, the 2x2 agreement, the failing
+    wrenches and the seconds per grasp."""
+    solved = table[table["physics_passed"].notna()]
+    verified = solved[solved["verified"].astype(bool)]
+
+    def rate(frame: pd.DataFrame, column: str) -> float | None:
+        return float(frame[column].astype(bool).mean()) if len(frame) else None
+
+    failing = verified.loc[~verified["physics_passed"].astype(bool), "physics_failed_wrench"]
+    return {
+        "task": task,
+        "solved": int(len(solved)),
+        "verified": int(len(verified)),
+        "physics_pass_rate_of_verified": rate(verified, "physics_passed"),
+        "dexgraspbench_pass_rate_of_verified": rate(verified, "dexgraspbench_passed"),
+        "agreement": agreement(table),
+        "failed_wrenches_of_verified": {str(k): int(v) for k, v in failing.value_counts().items()},
+        "seconds_per_grasp_median": float(np.median(solved["physics_seconds"])) if len(solved) else None,
+    }
+
+
+def run_physics(
+    inputs: PhysicsInputs, out: str | Path, workers: int = 1, echo: Callable[[str], Any] = print
+) -> pd.DataFrame:
+    """Check every solved grasp of ``inputs.solutions``; writes ``out/physics.parquet`` (one row per start)
+    and ``out/physics_summary.json``, and returns the table."""
+    from tqdm import tqdm
+
+    inputs = inputs.resolved()
+    if workers < 1:
+        raise BadInputError("physics", "--workers must be at least 1")
+    judge = _Judge(inputs)  # every input checked here, before any work
+    indices = list(range(len(judge.solved.rows)))
+    with tqdm(total=len(indices), desc=f"physics {inputs.task}", unit="grasp", disable=None) as bar:
+        if workers == 1:
+            records = []
+            for index in indices:
+                records.append(judge.check(index))
+                bar.update()
+        else:
+            with ProcessPoolExecutor(workers, initializer=_start_worker, initargs=(inputs,)) as pool:
+                records = []
+                for record in pool.map(_check_in_worker, indices):
+                    records.append(record)
+                    bar.update()
+    table = pd.DataFrame(records)
+    for column in ("physics_passed", "dexgraspbench_passed"):
+        if column not in table:
+            table[column] = pd.NA
+    result = summary(table, inputs.task)
+    files = [inputs.solutions, inputs.tasks, inputs.hand, inputs.object, inputs.grasp_config, inputs.physics_config]
+    provenance = Provenance.of("physics", {"task": inputs.task}, [f for f in files if f is not None])
+    with StagedOutput(out, provenance) as staged:
+        staged.write_parquet("physics.parquet", table)
+        staged.write_json("physics_summary.json", result)
+    echo(physics_line(result))
+    return table
+
+
+def physics_line(result: dict[str, Any]) -> str:
+    pair = result["agreement"]
+    ours, theirs = result["physics_pass_rate_of_verified"], result["dexgraspbench_pass_rate_of_verified"]
+    rates = "no verified grasps" if ours is None else f"{ours:.0%} held (DexGraspBench's test: {theirs:.0%})"
+    return (
+        f"{result['task']}: of {result['verified']} verified grasps {rates}; verifier x physics: "
+        f"{pair['verified_and_held']} both accept, {pair['verified_and_dropped']} only the verifier, "
+        f"{pair['rejected_and_held']} only physics, {pair['rejected_and_dropped']} neither"
+    )
