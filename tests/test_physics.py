@@ -179,3 +179,17 @@ def test_the_settings_object_is_validated_once(tmp_path: Path):
     with pytest.raises(BadInputError, match="control_period_s"):
         load_physics_settings(config)
     assert replace(PhysicsSettings(), squeeze_m=0.001).squeeze_m == 0.001
+
+
+def test_a_non_convex_mesh_becomes_convex_parts_that_fill_it():
+    import trimesh
+
+    from grasptask.objects.mesh_object import MeshObject
+
+    arm = trimesh.creation.box([0.08, 0.02, 0.02])
+    leg = trimesh.creation.box([0.02, 0.08, 0.02])
+    leg.apply_translation([0.03, 0.03, 0.0])
+    shape = trimesh.boolean.union([arm, leg])
+    body = object_body(MeshObject(shape, mass_kg=0.2), SETTINGS)
+    assert len(body.parts) >= 2 and body.mass_kg == 0.2
+    assert sum(p.volume for p in body.parts) == pytest.approx(shape.volume, rel=0.1)

@@ -46,6 +46,8 @@ class Motion:
 
     translation_m: float
     rotation_deg: float
+    #: the largest actuator activation the controller asked for (1: some tendon or motor at its limit)
+    peak_activation: float = 0.0
 
     def within(self, translation_m: float, rotation_deg: float) -> bool:
         return self.translation_m <= translation_m and self.rotation_deg <= rotation_deg
@@ -62,11 +64,16 @@ class PhysicsResult:
 
     def worst(self, prefix: str = "task") -> Motion:
         chosen = [m for name, m in self.tests.items() if name.startswith(prefix)]
-        return Motion(max(m.translation_m for m in chosen), max(m.rotation_deg for m in chosen))
+        return Motion(
+            max(m.translation_m for m in chosen),
+            max(m.rotation_deg for m in chosen),
+            max(m.peak_activation for m in chosen),
+        )
 
     def record(self) -> dict[str, object]:
         """The columns of one row of ``physics.parquet``."""
         task, bench = self.worst("task"), self.worst("dexgraspbench")
+        failed = self.settle if self.failed_test == "settle" else self.tests.get(self.failed_test or "")
         return {
             "physics_passed": self.passed,
             "physics_settle_translation_m": self.settle.translation_m,
@@ -74,6 +81,9 @@ class PhysicsResult:
             "physics_worst_translation_m": task.translation_m,
             "physics_worst_rotation_deg": task.rotation_deg,
             "physics_failed_wrench": self.failed_test or "",
+            # at its limit (1.0) while the object went: the hand, as controlled, ran out of strength; below 1,
+            # the contacts slipped with strength to spare
+            "physics_failed_peak_activation": failed.peak_activation if failed is not None else float("nan"),
             "dexgraspbench_passed": self.benchmark_passed,
             "dexgraspbench_worst_translation_m": bench.translation_m,
             "dexgraspbench_worst_rotation_deg": bench.rotation_deg,
@@ -152,7 +162,7 @@ class _Run:
         motion from the pose at the start."""
         model, data, scene = self.scene.model, self.data, self.scene
         origin, orientation = self.pose()
-        worst_t = worst_r = 0.0
+        worst_t = worst_r = peak = 0.0
         steps = int(round(seconds / self.settings.timestep_s))
         settings = self.settings
         grip = 0.0 if test is None else settings.grip_safety * test.grip_n(scene.contacts, scene.friction)
@@ -162,6 +172,7 @@ class _Run:
                 self.controller.scale = 1.0 + ramp * grip / self.preload_n
             if step % self.every == 0:
                 data.ctrl[:] = self.control()
+                peak = max(peak, float(data.ctrl.max(initial=0.0)))
             if test is not None:
                 force, torque = ramp * test.wrench[:3], ramp * test.wrench[3:]
                 if test.about == "frame":  # xfrc_applied acts at the centre of mass
@@ -173,7 +184,7 @@ class _Run:
             worst_t = max(worst_t, float(np.linalg.norm(position - origin)))
             worst_r = max(worst_r, _rotation_deg(quat, orientation))
         data.xfrc_applied[:] = 0.0
-        return Motion(worst_t, worst_r)
+        return Motion(worst_t, worst_r, peak)
 
 
 def check_grasp(scene: Scene, task: TaskModel, mass_kg: float, settings: PhysicsSettings) -> PhysicsResult:
