@@ -222,6 +222,16 @@ def _fingers_option(default: str):
     return decorate
 
 
+def _physics_config_option(help_text: str):
+    return click.option(
+        "--physics-config",
+        type=click.Path(path_type=Path),
+        default=stages.DEFAULT_PHYSICS_CONFIG,
+        show_default=True,
+        help=help_text,
+    )
+
+
 def _model_options(f):
     """--hand, --object and --grasp-config, shared by synthesize and verify."""
     f = click.option(
@@ -297,13 +307,7 @@ def _model_options(f):
     is_flag=True,
     help="Also hold each verified grasp in MuJoCo against the task's wrenches (see `grasptask physics`).",
 )
-@click.option(
-    "--physics-config",
-    type=click.Path(path_type=Path),
-    default=stages.DEFAULT_PHYSICS_CONFIG,
-    show_default=True,
-    help="With --physics: scene, controller, protocol and thresholds (YAML).",
-)
+@_physics_config_option("With --physics: scene, controller, protocol and thresholds (YAML).")
 def synthesize(
     tasks_path,
     task,
@@ -393,13 +397,7 @@ def verify_command(solutions, tasks_path, task, out, hand, object_path, grasp_co
 @click.option(
     "--grasp-config", type=click.Path(path_type=Path), default=None, help="Friction settings [default: the sweep's]."
 )
-@click.option(
-    "--physics-config",
-    type=click.Path(path_type=Path),
-    default=stages.DEFAULT_PHYSICS_CONFIG,
-    show_default=True,
-    help="Scene, controller, protocol and pass thresholds (YAML).",
-)
+@_physics_config_option("Scene, controller, protocol and pass thresholds (YAML).")
 @click.option("--workers", type=click.IntRange(min=1), default=1, show_default=True, help="Simulation processes.")
 @_fingers_option("the sweep's")
 def physics(solutions, tasks_path, task, out, hand, object_path, grasp_config, physics_config, workers, fingers):

@@ -13,8 +13,11 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
+from grasptask.grasp.grasp import Grasp
+from grasptask.hand.model import Hand
+from grasptask.objects.surface import ImplicitObject
 from grasptask.physics.controller import FingertipController, Gains
-from grasptask.physics.scene import Scene
+from grasptask.physics.scene import ObjectBody, Scene, build_scene
 from grasptask.physics.settings import PhysicsSettings
 from grasptask.task.model import TaskModel
 
@@ -217,3 +220,18 @@ def check_grasp(scene: Scene, task: TaskModel, mass_kg: float, settings: Physics
         failed_test=failed if failed is not None else (None if settle.within(*ours) else "settle"),
         seconds=time.perf_counter() - began,
     )
+
+
+def hold_grasp(
+    hand: Hand,
+    obj: ImplicitObject,
+    body: ObjectBody,
+    grasp: Grasp,
+    friction: float,
+    task: TaskModel,
+    settings: PhysicsSettings,
+) -> PhysicsResult:
+    """``grasp`` by ``hand`` on ``obj`` (``body`` its MuJoCo parts) built into a scene and put through
+    :func:`check_grasp`."""
+    scene = build_scene(hand, obj, body, grasp, friction, settings)
+    return check_grasp(scene, task, body.mass_kg, settings)

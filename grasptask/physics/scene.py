@@ -79,9 +79,10 @@ def _quaternion(rotation: np.ndarray) -> np.ndarray:
     return quat
 
 
-def _collider(body, size: float, pos: np.ndarray, bits: tuple[int, int], friction: list[float]) -> None:
+def _collider(body, size: float, pos: np.ndarray, friction: list[float]) -> None:
+    """A hand sphere, which touches the object only."""
     body.add_geom(
-        type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[size, 0, 0], pos=pos, contype=bits[0], conaffinity=bits[1],
+        type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[size, 0, 0], pos=pos, contype=_HAND, conaffinity=_OBJECT,
         condim=4, friction=friction,
     )  # fmt: skip
 
@@ -121,7 +122,7 @@ def _add_hand(
     rotation, and turns about its axis), its last link carrying the pad."""
     palm = spec.worldbody.add_body(name="palm", pos=grasp.palm_position, quat=_quaternion(grasp.palm_rotation))
     for point, radius in zip(hand.palm.points, hand.palm.radii, strict=True):
-        _collider(palm, float(radius), point, (_HAND, _OBJECT), friction)
+        _collider(palm, float(radius), point, friction)
     for name, finger in hand.fingers.items():
         parent = palm
         for k, joint in enumerate(finger.joints):
@@ -135,9 +136,9 @@ def _add_hand(
             )  # fmt: skip
             for sphere in finger.spheres:
                 if sphere.link == k:
-                    _collider(body, sphere.radius, sphere.center, (_HAND, _OBJECT), friction)
+                    _collider(body, sphere.radius, sphere.center, friction)
             parent = body
-        _collider(parent, finger.radius, pads[name].centre, (_HAND, _OBJECT), friction)
+        _collider(parent, finger.radius, pads[name].centre, friction)
         parent.add_site(name=f"pad/{name}", pos=pads[name].point)
     names = hand.joint_names
     for dependent, independent, ratio, offset in hand.couplings():

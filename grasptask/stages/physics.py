@@ -54,8 +54,8 @@ class PhysicsInputs:
 
 
 class _Judge:
-    """What every check of one run shares, built once per process: the hand, object, its convex parts, the
-    task model and the settings."""
+    """What every check of one run shares, built once and handed to the worker processes: the hand, object, its
+    convex parts (CoACD can take seconds), the task model and the settings."""
 
     def __init__(self, inputs: PhysicsInputs):
         from grasptask.grasp.settings import load_grasp_settings
@@ -77,25 +77,24 @@ class _Judge:
         self.body = object_body(self.obj, self.settings)
 
     def check(self, index: int) -> dict[str, Any]:
-        from grasptask.physics.protocol import check_grasp
-        from grasptask.physics.scene import build_scene
+        from grasptask.physics.protocol import hold_grasp
 
         row, grasp = self.solved.rows[index]
         record: dict[str, Any] = {"start_id": int(row["start_id"]), "verified": bool(row.get("verified", False))}
         if grasp is None:
             return record
-        scene = build_scene(self.solved.hand, self.obj, self.body, grasp, self.friction, self.settings)
-        record.update(check_grasp(scene, self.task, self.body.mass_kg, self.settings).record())
+        result = hold_grasp(self.solved.hand, self.obj, self.body, grasp, self.friction, self.task, self.settings)
+        record.update(result.record())
         return record
 
 
 _worker: _Judge | None = None
 
 
-def _start_worker(inputs: PhysicsInputs) -> None:
+def _start_worker(judge: _Judge) -> None:
     global _worker
     os.environ["OPENBLAS_NUM_THREADS"] = "1"
-    _worker = _Judge(inputs)
+    _worker = judge
 
 
 def _check_in_worker(index: int) -> dict[str, Any]:
@@ -157,7 +156,7 @@ def run_physics(
                 records.append(judge.check(index))
                 bar.update()
         else:
-            with ProcessPoolExecutor(workers, initializer=_start_worker, initargs=(inputs,)) as pool:
+            with ProcessPoolExecutor(workers, initializer=_start_worker, initargs=(judge,)) as pool:
                 records = []
                 for record in pool.map(_check_in_worker, indices):
                     records.append(record)

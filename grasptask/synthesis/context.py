@@ -113,12 +113,11 @@ class SolverContext:
         check = verify(grasp, self.hand, self.obj, self.task, self.settings)
         row.update(check.record(self.fingers))
         if self.physics is not None and check.ok:  # the second judge, on what the first accepted
-            from grasptask.physics.protocol import check_grasp
-            from grasptask.physics.scene import build_scene
+            from grasptask.physics.protocol import hold_grasp
 
             physics, body = self.physics
-            scene = build_scene(self.nlp.hand, self.obj, body, grasp, self.settings.friction_coefficient, physics)
-            row.update(check_grasp(scene, self.task, body.mass_kg, physics).record())
+            friction = self.settings.friction_coefficient
+            row.update(hold_grasp(self.nlp.hand, self.obj, body, grasp, friction, self.task, physics).record())
         if self.surrogate is not None:  # the surrogate's distance at each contact minus the mesh's own
             seen = evaluate(self.surrogate, solution["contacts"])
             for name, value, truth in zip(self.fingers, seen, check.contact_distance_m, strict=True):
