@@ -15,7 +15,7 @@ from grasp_fixtures import ONE_SIDE, TETRAHEDRON, drawing_like_task, gripper_gra
 
 from grasptask.hand import forward, load_hand
 from grasptask.physics import PhysicsSettings, build_scene, check_grasp, load_physics_settings
-from grasptask.physics.controller import box_least_squares
+from grasptask.physics.controller import BoxLeastSquares
 from grasptask.physics.scene import object_body
 
 SETTINGS = load_physics_settings()
@@ -91,9 +91,7 @@ def test_the_projection_onto_the_capability_is_the_box_least_squares_solution():
     rng = np.random.default_rng(3)
     actuation = rng.normal(size=(9, 14))
     wanted = rng.normal(size=9) * 3
-    hessian = actuation.T @ actuation
-    step = 1.0 / np.linalg.eigvalsh(hessian).max()
-    ours = box_least_squares(hessian, actuation.T @ wanted, step, np.zeros(14), 3000)
+    ours = BoxLeastSquares.of(actuation.T @ actuation, 3000).solve(actuation.T @ wanted, np.zeros(14))
     theirs = lsq_linear(actuation, wanted, bounds=(0, 1)).x
     assert np.linalg.norm(actuation @ ours - wanted) <= np.linalg.norm(actuation @ theirs - wanted) + 1e-6
     assert ours.min() >= 0 and ours.max() <= 1

@@ -12,6 +12,7 @@ from the last control step: small matrix products only, deterministic, fast enou
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -47,9 +48,7 @@ class FingertipController:
         self.preload = np.zeros_like(contacts)
         self.scale = 1.0
         self.gains = gains
-        self.iterations = iterations
-        self.hessian = actuation.T @ actuation
-        self.step = 1.0 / max(float(np.linalg.eigvalsh(self.hessian).max()), 1e-12)
+        self.projection = BoxLeastSquares.of(actuation.T @ actuation, iterations)
         self.current = np.zeros(actuation.shape[1])
 
     def torques(self, q: np.ndarray, qdot: np.ndarray, tips: np.ndarray, jacobians: np.ndarray) -> np.ndarray:
@@ -70,21 +69,38 @@ class FingertipController:
 
     def activations(self, q: np.ndarray, qdot: np.ndarray, tips: np.ndarray, jacobians: np.ndarray) -> np.ndarray:
         wanted = self.torques(q, qdot, tips, jacobians)
-        self.current = box_least_squares(
-            self.hessian, self.actuation.T @ wanted, self.step, self.current, self.iterations
-        )
+        self.current = self.projection.solve(self.actuation.T @ wanted, self.current)
         return self.current
 
 
-def box_least_squares(
-    hessian: np.ndarray, linear: np.ndarray, step: float, start: np.ndarray, iterations: int
-) -> np.ndarray:
-    """``argmin 1/2 a^T H a - b^T a`` over ``0 <= a <= 1`` by FISTA from ``start`` (``step`` <= 1 / |H|)."""
-    a = previous = np.minimum(np.maximum(start, 0.0), 1.0)
-    momentum = 1.0
-    for _ in range(iterations):  # np.minimum / np.maximum: np.clip's dispatch is most of a small step's cost
-        ahead = np.minimum(np.maximum(a - step * (hessian @ a - linear), 0.0), 1.0)
-        following = 0.5 * (1.0 + np.sqrt(1.0 + 4.0 * momentum**2))
-        previous, a = ahead, ahead + ((momentum - 1.0) / following) * (ahead - previous)
-        momentum = following
-    return previous
+@dataclass(frozen=True)
+class BoxLeastSquares:
+    """``argmin 1/2 a^T H a - b^T a`` over ``0 <= a <= 1`` by a fixed number of FISTA steps from a warm start:
+    the gradient step ``(I - H/L) a + b/L`` and the momentum sequence depend on ``H`` alone, so they are made
+    once, and a control step is a handful of small in-place array operations."""
+
+    descent: np.ndarray
+    step: float
+    momenta: tuple[float, ...]
+
+    @classmethod
+    def of(cls, hessian: np.ndarray, iterations: int) -> BoxLeastSquares:
+        step = 1.0 / max(float(np.linalg.eigvalsh(hessian).max()), 1e-12)
+        momenta, t = [], 1.0
+        for _ in range(iterations):
+            following = 0.5 * (1.0 + math.sqrt(1.0 + 4.0 * t * t))
+            momenta.append((t - 1.0) / following)
+            t = following
+        return cls(np.eye(len(hessian)) - step * hessian, step, tuple(momenta))
+
+    def solve(self, linear: np.ndarray, start: np.ndarray) -> np.ndarray:
+        shift = self.step * linear
+        a = previous = np.minimum(np.maximum(start, 0.0), 1.0)
+        for momentum in self.momenta:  # np.minimum / np.maximum: np.clip's dispatch costs more than a step
+            ahead = self.descent @ a
+            ahead += shift
+            np.maximum(ahead, 0.0, out=ahead)
+            np.minimum(ahead, 1.0, out=ahead)
+            a = ahead + momentum * (ahead - previous)
+            previous = ahead
+        return previous

@@ -8,7 +8,7 @@ mass, so that the numbers compare with theirs. Gravity is off: the recorded wren
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import mujoco
 import numpy as np
@@ -64,6 +64,9 @@ class PhysicsResult:
     benchmark_passed: bool
     failed_test: str | None  # the first of the task's tests that moved the object too far (None: none did)
     seconds: float
+    #: with ``check_grasp(..., trace=True)``: per phase (``"settle"`` and each test), the object's motion at
+    #: every control step, ``(n, 3)``: seconds into the phase, translation (m), rotation (deg)
+    traces: dict[str, np.ndarray] = field(default_factory=dict)
 
     def worst(self, prefix: str = "task") -> Motion:
         chosen = [m for name, m in self.tests.items() if name.startswith(prefix)]
@@ -115,12 +118,15 @@ def benchmark_tests(mass_kg: float, settings: PhysicsSettings) -> list[Test]:
     return tests
 
 
-def _rotation_deg(quat: np.ndarray, reference: np.ndarray) -> float:
-    inverse = np.zeros(4)
-    mujoco.mju_negQuat(inverse, reference)
-    difference = np.zeros(4)
-    mujoco.mju_mulQuat(difference, quat, inverse)
-    return float(np.degrees(2.0 * np.arccos(np.clip(abs(difference[0]), 0.0, 1.0))))
+def _rotations_deg(quats: np.ndarray, reference: np.ndarray) -> np.ndarray:
+    """The angle of each unit quaternion's rotation from ``reference``: the scalar part of ``q r^-1`` is
+    ``q . r``."""
+    return np.degrees(2.0 * np.arccos(np.minimum(np.abs(quats @ reference), 1.0)))
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``a x b`` for two 3-vectors (np.cross's generality costs more than a control step)."""
+    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
 
 
 class _Run:
@@ -145,11 +151,6 @@ class _Run:
         self.data.qpos[scene.object_qpos : scene.object_qpos + 7] = [0, 0, 0, 1, 0, 0, 0]
         mujoco.mj_forward(scene.model, self.data)
 
-    def pose(self) -> tuple[np.ndarray, np.ndarray]:
-        """The object frame's origin and orientation in the world."""
-        body = self.scene.object_body
-        return self.data.xpos[body].copy(), self.data.xquat[body].copy()
-
     def control(self) -> np.ndarray:
         scene, data = self.scene, self.data
         jacobians = np.empty((len(scene.pad_sites), 3, len(scene.hand_dof)))
@@ -160,14 +161,15 @@ class _Run:
             data.qpos[scene.hand_qpos], data.qvel[scene.hand_dof], data.site_xpos[scene.pad_sites], jacobians
         )
 
-    def simulate(self, seconds: float, test: Test | None = None) -> Motion:
+    def simulate(self, seconds: float, test: Test | None = None, trace: list | None = None) -> Motion:
         """Run for ``seconds`` (the test's wrench ramped in over ``ramp_s``, then held) and return the worst
-        motion from the pose at the start."""
-        model, data, scene = self.scene.model, self.data, self.scene
-        origin, orientation = self.pose()
-        worst_t = worst_r = peak = 0.0
-        steps = int(round(seconds / self.settings.timestep_s))
-        settings = self.settings
+        motion from the pose at the start; ``trace`` collects the motion at every control step."""
+        model, data, scene, settings = self.scene.model, self.data, self.scene, self.settings
+        body = scene.object_body
+        steps = int(round(seconds / settings.timestep_s))
+        positions, quats = np.empty((steps + 1, 3)), np.empty((steps + 1, 4))
+        positions[0], quats[0] = data.xpos[body], data.xquat[body]
+        peak = 0.0
         grip = 0.0 if test is None else settings.grip_safety * test.grip_n(scene.contacts, scene.friction)
         for step in range(steps):
             ramp = min(1.0, (step + 1) * settings.timestep_s / settings.ramp_s)
@@ -179,22 +181,28 @@ class _Run:
             if test is not None:
                 force, torque = ramp * test.wrench[:3], ramp * test.wrench[3:]
                 if test.about == "frame":  # xfrc_applied acts at the centre of mass
-                    body = scene.object_body
-                    torque = torque + np.cross(data.xpos[body] - data.xipos[body], force)
-                data.xfrc_applied[scene.object_body] = np.concatenate([force, torque])
+                    torque = torque + _cross(data.xpos[body] - data.xipos[body], force)
+                data.xfrc_applied[body, :3], data.xfrc_applied[body, 3:] = force, torque
             mujoco.mj_step(model, data)
-            position, quat = self.pose()
-            worst_t = max(worst_t, float(np.linalg.norm(position - origin)))
-            worst_r = max(worst_r, _rotation_deg(quat, orientation))
+            positions[step + 1], quats[step + 1] = data.xpos[body], data.xquat[body]
         data.xfrc_applied[:] = 0.0
-        return Motion(worst_t, worst_r, peak)
+        moved = np.linalg.norm(positions[1:] - positions[0], axis=1)
+        turned = _rotations_deg(quats[1:], quats[0])
+        if trace is not None:
+            kept = np.arange(self.every - 1, steps, self.every)
+            trace.extend(zip((kept + 1) * settings.timestep_s, moved[kept], turned[kept], strict=True))
+        return Motion(float(moved.max(initial=0.0)), float(turned.max(initial=0.0)), peak)
 
 
-def check_grasp(scene: Scene, task: TaskModel, mass_kg: float, settings: PhysicsSettings) -> PhysicsResult:
-    """Hold ``scene``'s grasp against every test wrench of ``task`` and DexGraspBench's six forces."""
+def check_grasp(
+    scene: Scene, task: TaskModel, mass_kg: float, settings: PhysicsSettings, trace: bool = False
+) -> PhysicsResult:
+    """Hold ``scene``'s grasp against every test wrench of ``task`` and DexGraspBench's six forces; ``trace``
+    keeps the object's motion over every phase (:attr:`PhysicsResult.traces`)."""
     began = time.perf_counter()
     run = _Run(scene, settings)
-    settle = run.simulate(settings.settle_s)
+    traces: dict[str, list] = {}
+    settle = run.simulate(settings.settle_s, trace=traces.setdefault("settle", []) if trace else None)
     run.preload_n = run.controller.hold(run.data.site_xpos[scene.pad_sites].copy())
     spec = mujoco.mjtState.mjSTATE_INTEGRATION
     settled = np.zeros(mujoco.mj_stateSize(scene.model, spec))
@@ -207,7 +215,8 @@ def check_grasp(scene: Scene, task: TaskModel, mass_kg: float, settings: Physics
         mujoco.mj_forward(scene.model, run.data)
         run.controller.current = controls.copy()
         run.controller.rest, run.controller.preload = held[0].copy(), held[1].copy()
-        tests[test.name] = run.simulate(settings.ramp_s + settings.hold_s, test)
+        kept = traces.setdefault(test.name, []) if trace else None
+        tests[test.name] = run.simulate(settings.ramp_s + settings.hold_s, test, kept)
     ours = (settings.max_translation_m, settings.max_rotation_deg)
     theirs = (settings.benchmark_translation_m, settings.benchmark_rotation_deg)
     failed = next((n for n, m in tests.items() if n.startswith("task") and not m.within(*ours)), None)
@@ -219,6 +228,7 @@ def check_grasp(scene: Scene, task: TaskModel, mass_kg: float, settings: Physics
         and all(m.within(*theirs) for n, m in tests.items() if n.startswith("dexgraspbench")),
         failed_test=failed if failed is not None else (None if settle.within(*ours) else "settle"),
         seconds=time.perf_counter() - began,
+        traces={name: np.array(rows).reshape(-1, 3) for name, rows in traces.items()},
     )
 
 
@@ -230,8 +240,9 @@ def hold_grasp(
     friction: float,
     task: TaskModel,
     settings: PhysicsSettings,
+    trace: bool = False,
 ) -> PhysicsResult:
     """``grasp`` by ``hand`` on ``obj`` (``body`` its MuJoCo parts) built into a scene and put through
     :func:`check_grasp`."""
     scene = build_scene(hand, obj, body, grasp, friction, settings)
-    return check_grasp(scene, task, body.mass_kg, settings)
+    return check_grasp(scene, task, body.mass_kg, settings, trace)

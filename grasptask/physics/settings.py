@@ -28,7 +28,7 @@ class PhysicsSettings:
     grip_safety: float = 1.5
     #: ... and a weak pull towards the synthesized posture
     posture_stiffness_nm_per_rad: float = 0.2
-    posture_damping_nms_per_rad: float = 0.005
+    posture_damping_nms_per_rad: float = 0.05
     #: reflected actuator inertia on every hand joint (kg m^2): keeps the stiff controller stable at the timestep
     armature_kg_m2: float = 1e-3
     control_period_s: float = 0.002

@@ -4,6 +4,8 @@
     DIR/tasks/stats.csv, ellipsoids.parquet, task_models.json      fit-task
     DIR/tasks/distances.parquet, distance_summary.json             distances
     DIR/grasps/<task>/run.json, solutions.parquet, optima.parquet  synthesize
+    DIR/physics/<task>/physics_summary.json, physics_trace.parquet physics (or beside the sweep's own files,
+                                                                   from synthesize --physics)
 
 Any part may be missing; the report makes what it can from the rest.
 """
@@ -65,6 +67,10 @@ class ResultsFolder:
     def grasps(self) -> Path:
         return self.root / "grasps"
 
+    @property
+    def physics(self) -> Path:
+        return self.root / "physics"
+
     def _task_folders_with(self, name: str) -> list[Path]:
         return sorted(p.parent for p in self.grasps.glob(f"*/{name}")) if self.grasps.is_dir() else []
 
@@ -114,3 +120,30 @@ def read_sweep(folder: Path) -> SweepResult:
     solutions = read_table(folder / "solutions.parquet", ("start_id", "status", "seconds", "verified"))
     optima = read_table(folder / "optima.parquet")
     return SweepResult(str(run.get("task", folder.name)), folder, run, solutions, optima)
+
+
+@dataclass(frozen=True)
+class PhysicsOutcome:
+    """One task's physics check: its ``physics_summary.json`` and the best grasp's motion over the protocol
+    (``physics_trace.parquet``, empty when no grasp was verified)."""
+
+    task: str
+    folder: Path
+    summary: dict
+    trace: pd.DataFrame
+
+
+def read_physics(results: ResultsFolder, sweep: SweepResult) -> PhysicsOutcome | None:
+    """The physics check of ``sweep``'s task: ``grasptask physics``'s output under ``physics/<task>/`` when
+    there is one, else ``synthesize --physics``'s beside the sweep; None when neither ran."""
+    from grasptask.stages.physics import TRACE_COLUMNS
+
+    for folder in (results.physics / sweep.folder.name, sweep.folder):
+        if (folder / "physics_summary.json").is_file():
+            summary = read_json(folder / "physics_summary.json")
+            for name in ("verified", "agreement", "thresholds"):
+                if name not in summary:
+                    raise BadInputError(folder / "physics_summary.json", f"missing field '{name}'")
+            trace = read_table(folder / "physics_trace.parquet", TRACE_COLUMNS)
+            return PhysicsOutcome(sweep.task, folder, summary, trace)
+    return None

@@ -14,7 +14,7 @@ from grasptask.io.reference import PaperSynthesis
 from grasptask.paths import DEFAULT_GRASP_CONFIG, DEFAULT_HAND, DEFAULT_OBJECT, PAPER_ELLIPSOID_TABLES, ROOT
 from grasptask.progress import progress
 from grasptask.report import paper_tables
-from grasptask.report.inputs import ResultsFolder, SweepResult
+from grasptask.report.inputs import PhysicsOutcome, ResultsFolder, SweepResult
 from grasptask.report.page import Figure, Note, Section, Table, markdown
 
 
@@ -282,4 +282,90 @@ def grasps_section(
                 mesh=mesh,
             )
             section.blocks.append(Figure(path, title))
+    return section
+
+
+def _share(count: int, total: int) -> str:
+    return f"{count} ({count / total:.0%})" if total else "0"
+
+
+def physics_table(outcomes: dict[str, PhysicsOutcome], sweeps: dict[str, SweepResult]) -> pd.DataFrame:
+    """Per task: the analytic verifier's verdicts beside the physics check's pass rates and their 2x2
+    agreement."""
+    rows = []
+    for task, outcome in outcomes.items():
+        summary, pair = outcome.summary, outcome.summary["agreement"]
+        verified = int(summary["verified"])
+        held = pair["verified_and_held"]
+        bench = summary.get("dexgraspbench_pass_rate_of_verified")
+        failing = summary.get("failed_wrenches_of_verified") or {}
+        seconds = summary.get("seconds_per_grasp_median")
+        rows.append(
+            {
+                "task": task,
+                "starts": len(sweeps[task].solutions),
+                "verifier accepts": verified,
+                "physics holds (of those)": _share(held, verified),
+                "DexGraspBench test holds": "-" if bench is None else f"{bench:.0%}",
+                "both accept": held,
+                "only the verifier": pair["verified_and_dropped"],
+                "only physics": pair["rejected_and_held"],
+                "neither": pair["rejected_and_dropped"],
+                "wrench that fails most": max(failing, key=failing.get) if failing else "-",
+                "median s/grasp": "-" if seconds is None else round(float(seconds), 2),
+            }
+        )
+    return pd.DataFrame(rows)
+
+
+def physics_section(results: ResultsFolder, sweeps: dict[str, SweepResult], writer: Writer) -> Section:
+    from grasptask.report.inputs import read_physics
+    from grasptask.report.physics_plots import plot_physics_traces
+
+    section = Section(
+        "physics",
+        "Physics check: the grasps held in MuJoCo against each task's own wrenches",
+        "A second judge, separate from the analytic verifier: each grasp is closed on the object as a free body, "
+        "settled, then loaded with each of the task's 12 wrenches +-gamma_i u_i and DexGraspBench's six "
+        "+-10 m/s^2 x mass forces, each ramped in from the settled state and held. It holds when no task wrench "
+        "moves the object more than the thresholds. Disagreements between the judges are findings, not errors; "
+        "the README's physics section explains the main causes.",
+    )
+    outcomes = {task: o for task, sweep in sweeps.items() if (o := read_physics(results, sweep)) is not None}
+    if not outcomes:
+        section.blocks.append(
+            _run_missing(
+                "physics results", "grasptask physics DIR/grasps/TASK/solutions.parquet --tasks ... --out DIR/physics/TASK"
+            )
+        )
+        return section
+    limits = next(iter(outcomes.values())).summary["thresholds"]
+    section.intro += (
+        f" Our thresholds: {limits['max_translation_m'] * 1e3:g} mm and {limits['max_rotation_deg']:g} deg "
+        f"(DexGraspBench's: {limits['benchmark_translation_m'] * 1e3:g} mm and {limits['benchmark_rotation_deg']:g}"
+        " deg). The table counts the solved starts physics checked: synthesize --physics checks only those the "
+        "verifier accepts."
+    )
+    section.blocks.append(
+        writer.table("physics", "Physics pass rates beside the analytic verifier, with their 2x2 agreement",
+                     physics_table(outcomes, sweeps))  # fmt: skip
+    )
+    section.summary = "Physics check: " + "; ".join(
+        f"{task} {_share(o.summary['agreement']['verified_and_held'], int(o.summary['verified']))} of verified held"
+        for task, o in outcomes.items()
+    )
+    traced = {task: o.trace for task, o in outcomes.items() if len(o.trace)}
+    if traced:
+        path = writer.figure("physics_traces")
+        plot_physics_traces(traced, {task: outcomes[task].summary["thresholds"] for task in traced}, path)
+        section.blocks.append(
+            Figure(
+                path,
+                "The object's motion under each task's best verified grasp (lowest Q) over the whole protocol: "
+                "settle, then each test wrench from the settled state (DexGraspBench's forces shaded); dashed our "
+                "threshold, dotted DexGraspBench's. Log scale above 0.1.",
+            )
+        )
+    for task in outcomes.keys() - traced.keys():
+        section.blocks.append(Note(f"{task}: no verified grasp to show the motion of"))
     return section

@@ -9,15 +9,24 @@ from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pandas as pd
 
 from grasptask.errors import BadInputError
+from grasptask.grasp.grasp import Grasp
 from grasptask.io.artifacts import Provenance, StagedOutput
 from grasptask.io.config import read_json
 from grasptask.paths import DEFAULT_GRASP_CONFIG, DEFAULT_HAND, DEFAULT_OBJECT, DEFAULT_PHYSICS_CONFIG
+
+if TYPE_CHECKING:
+    from grasptask.objects.surface import ImplicitObject
+    from grasptask.physics.protocol import PhysicsResult
+    from grasptask.physics.scene import ObjectBody
+    from grasptask.physics.settings import PhysicsSettings
+    from grasptask.stages.verify import SolvedGrasps
+    from grasptask.task.model import TaskModel
 
 
 @dataclass(frozen=True)
@@ -53,15 +62,32 @@ class PhysicsInputs:
         )
 
 
-class _Judge:
-    """What every check of one run shares, built once and handed to the worker processes: the hand, object, its
-    convex parts (CoACD can take seconds), the task model and the settings."""
+@dataclass(frozen=True)
+class Judge:
+    """What every check of one run shares, built once and handed to the worker processes: the solved grasps,
+    the task model, the object and its convex parts (CoACD can take seconds), the friction and the settings."""
 
-    def __init__(self, inputs: PhysicsInputs):
+    solved: SolvedGrasps
+    task: TaskModel
+    obj: ImplicitObject
+    friction: float
+    settings: PhysicsSettings
+    body: ObjectBody
+
+    @classmethod
+    def of(cls, solved: SolvedGrasps, task: TaskModel, object_path: Path, grasp_config: Path, physics: Path) -> Judge:
         from grasptask.grasp.settings import load_grasp_settings
         from grasptask.objects import load_object
         from grasptask.physics.scene import object_body
         from grasptask.physics.settings import load_physics_settings
+
+        obj = load_object(object_path, say=lambda _: None)
+        settings = load_physics_settings(physics)
+        friction = load_grasp_settings(grasp_config).friction_coefficient
+        return cls(solved, task, obj, friction, settings, object_body(obj, settings))
+
+    @classmethod
+    def for_inputs(cls, inputs: PhysicsInputs) -> Judge:
         from grasptask.stages.verify import read_grasps
         from grasptask.task.model import load_task_models
 
@@ -69,29 +95,28 @@ class _Judge:
         if inputs.task not in models:
             raise BadInputError(inputs.tasks, f"no task '{inputs.task}' (has: {', '.join(models)})")
         assert inputs.hand is not None and inputs.object is not None and inputs.grasp_config is not None
-        self.task = models[inputs.task]
-        self.solved = read_grasps(inputs.solutions, inputs.hand, inputs.fingers)
-        self.obj = load_object(inputs.object, say=lambda _: None)
-        self.friction = load_grasp_settings(inputs.grasp_config).friction_coefficient
-        self.settings = load_physics_settings(inputs.physics_config)
-        self.body = object_body(self.obj, self.settings)
+        solved = read_grasps(inputs.solutions, inputs.hand, inputs.fingers)
+        return cls.of(solved, models[inputs.task], inputs.object, inputs.grasp_config, inputs.physics_config)
 
-    def check(self, index: int) -> dict[str, Any]:
+    def hold(self, grasp: Grasp, trace: bool = False) -> PhysicsResult:
         from grasptask.physics.protocol import hold_grasp
 
+        hand, obj, body = self.solved.hand, self.obj, self.body
+        return hold_grasp(hand, obj, body, grasp, self.friction, self.task, self.settings, trace)
+
+    def check(self, index: int) -> dict[str, Any]:
         row, grasp = self.solved.rows[index]
         record: dict[str, Any] = {"start_id": int(row["start_id"]), "verified": bool(row.get("verified", False))}
         if grasp is None:
             return record
-        result = hold_grasp(self.solved.hand, self.obj, self.body, grasp, self.friction, self.task, self.settings)
-        record.update(result.record())
+        record.update(self.hold(grasp).record())
         return record
 
 
-_worker: _Judge | None = None
+_worker: Judge | None = None
 
 
-def _start_worker(judge: _Judge) -> None:
+def _start_worker(judge: Judge) -> None:
     global _worker
     os.environ["OPENBLAS_NUM_THREADS"] = "1"
     _worker = judge
@@ -115,9 +140,37 @@ def agreement(table: pd.DataFrame) -> dict[str, int]:
     }
 
 
-def summary(table: pd.DataFrame, task: str) -> dict[str, Any]:
+TRACE_COLUMNS = ("start_id", "phase", "time_s", "translation_m", "rotation_deg")
+
+
+def best_grasp_trace(judge: Judge) -> pd.DataFrame:
+    """The object's motion over the whole protocol (``TRACE_COLUMNS``, phases in the protocol's order) under
+    the verified grasp of lowest Q, the best optimum's best start, held again with its trace kept; no rows
+    when no grasp is verified."""
+    verified = [(row, grasp) for row, grasp in judge.solved.rows if grasp is not None and row.get("verified")]
+    verified = [(row, grasp) for row, grasp in verified if np.isfinite(float(row.get("Q", np.nan)))]
+    if not verified:
+        return pd.DataFrame({column: [] for column in TRACE_COLUMNS})
+    row, grasp = min(verified, key=lambda pair: float(pair[0]["Q"]))
+    result = judge.hold(grasp, trace=True)
+    frames = [
+        pd.DataFrame(
+            {
+                "start_id": int(row["start_id"]),
+                "phase": phase,
+                "time_s": motion[:, 0],
+                "translation_m": motion[:, 1],
+                "rotation_deg": motion[:, 2],
+            }
+        )
+        for phase, motion in result.traces.items()
+    ]
+    return pd.concat(frames, ignore_index=True)
+
+
+def summary(table: pd.DataFrame, task: str, settings: PhysicsSettings) -> dict[str, Any]:
     """Pass rates among the verified grasps, DexGraspBench's beside ours, the 2x2 agreement, the failing
-    wrenches and the seconds per grasp."""
+    wrenches, the seconds per grasp and the thresholds the pass flags used."""
     solved = table[table["physics_passed"].notna()]
     verified = solved[solved["verified"].astype(bool)]
 
@@ -134,20 +187,47 @@ def summary(table: pd.DataFrame, task: str) -> dict[str, Any]:
         "agreement": agreement(table),
         "failed_wrenches_of_verified": {str(k): int(v) for k, v in failing.value_counts().items()},
         "seconds_per_grasp_median": float(np.median(solved["physics_seconds"])) if len(solved) else None,
+        "thresholds": {
+            "max_translation_m": settings.max_translation_m,
+            "max_rotation_deg": settings.max_rotation_deg,
+            "benchmark_translation_m": settings.benchmark_translation_m,
+            "benchmark_rotation_deg": settings.benchmark_rotation_deg,
+        },
     }
+
+
+def write_physics_results(
+    staged: StagedOutput,
+    table: pd.DataFrame,
+    task: str,
+    settings: PhysicsSettings,
+    trace: pd.DataFrame,
+    table_name: str | None = "physics.parquet",
+) -> dict[str, Any]:
+    """``physics_summary.json`` and ``physics_trace.parquet`` (and the table itself, unless ``table_name`` is
+    None: a sweep's solutions table already holds the columns); the summary."""
+    missing = {c: pd.NA for c in ("physics_passed", "dexgraspbench_passed") if c not in table}
+    table = table.assign(**missing)  # no columns: no grasp was checked
+    result = summary(table, task, settings)
+    if table_name is not None:
+        staged.write_parquet(table_name, table)
+    staged.write_json("physics_summary.json", result)
+    staged.write_parquet("physics_trace.parquet", trace)
+    return result
 
 
 def run_physics(
     inputs: PhysicsInputs, out: str | Path, workers: int = 1, echo: Callable[[str], Any] = print
 ) -> pd.DataFrame:
-    """Check every solved grasp of ``inputs.solutions``; writes ``out/physics.parquet`` (one row per start)
-    and ``out/physics_summary.json``, and returns the table."""
+    """Check every solved grasp of ``inputs.solutions``; writes ``out/physics.parquet`` (one row per start),
+    ``out/physics_summary.json`` and ``out/physics_trace.parquet`` (the best verified grasp's motion over the
+    protocol), and returns the table."""
     from tqdm import tqdm
 
     inputs = inputs.resolved()
     if workers < 1:
         raise BadInputError("physics", "--workers must be at least 1")
-    judge = _Judge(inputs)  # every input checked here, before any work
+    judge = Judge.for_inputs(inputs)  # every input checked here, before any work
     indices = list(range(len(judge.solved.rows)))
     with tqdm(total=len(indices), desc=f"physics {inputs.task}", unit="grasp", disable=None) as bar:
         if workers == 1:
@@ -162,15 +242,11 @@ def run_physics(
                     records.append(record)
                     bar.update()
     table = pd.DataFrame(records)
-    for column in ("physics_passed", "dexgraspbench_passed"):
-        if column not in table:
-            table[column] = pd.NA
-    result = summary(table, inputs.task)
+    trace = best_grasp_trace(judge)
     files = [inputs.solutions, inputs.tasks, inputs.hand, inputs.object, inputs.grasp_config, inputs.physics_config]
     provenance = Provenance.of("physics", {"task": inputs.task}, [f for f in files if f is not None])
     with StagedOutput(out, provenance) as staged:
-        staged.write_parquet("physics.parquet", table)
-        staged.write_json("physics_summary.json", result)
+        result = write_physics_results(staged, table, inputs.task, judge.settings, trace)
     echo(physics_line(result))
     return table
 

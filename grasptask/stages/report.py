@@ -18,6 +18,7 @@ from grasptask.report.sections import (
     ellipsoid_figures_section,
     ellipsoid_tables_section,
     grasps_section,
+    physics_section,
     sweeps_section,
 )
 from grasptask.report.style import task_order
@@ -48,6 +49,7 @@ def build_report(results_dir: str | Path, out: str | Path) -> ReportSummary:
         if p.is_file()
     ]
     inputs += [s.folder / "run.json" for s in sweeps.values()]
+    inputs += sorted(results.physics.glob("*/physics_summary.json")) if results.physics.is_dir() else []
     provenance = Provenance.of("report", {"results": str(results_dir)}, inputs)
     with StagedOutput(out, provenance) as staged:
         writer = Writer(staged)
@@ -57,6 +59,7 @@ def build_report(results_dir: str | Path, out: str | Path) -> ReportSummary:
         paper = read_paper_synthesis()
         sections.append(sweeps_section(results, sweeps, paper, writer))
         sections.append(grasps_section(results, sweeps, paper, writer))
+        sections.append(physics_section(results, sweeps, writer))
         notes = [f"{s.title}: {n}" for s in sections for n in s.notes]
         summary_lines = _summary_lines(sweeps, sections, paper)
         page = render_html(

@@ -352,8 +352,33 @@ def summarise(
     }
     config = {k: str(v) for k, v in asdict(options).items() if k != "out"}
     inputs = [options.tasks, options.hand, options.object, options.solver_config, options.grasp_config]
+    judge = _physics_judge(options, solutions, fingers) if options.physics is not None else None
     with StagedOutput(options.folder, Provenance.of("synthesize", config, inputs, options.seed)) as staged:
         staged.write_parquet("solutions.parquet", solutions)
         staged.write_parquet("optima.parquet", optima)
         staged.write_json("run.json", run)
+        if judge is not None:
+            from grasptask.stages.physics import best_grasp_trace, write_physics_results
+
+            trace = best_grasp_trace(judge)
+            write_physics_results(staged, solutions, options.task, judge.settings, trace, table_name=None)
     return run
+
+
+def _physics_judge(options: SynthesisOptions, solutions: pd.DataFrame, fingers: list[str]) -> Any:
+    """The physics check's judge over this sweep's own solutions, for the best grasp's trace and the summary
+    (the workers checked every verified start already)."""
+    from grasptask.hand import load_hand
+    from grasptask.io.solutions import grasp_from_row
+    from grasptask.stages.physics import Judge
+    from grasptask.stages.verify import SolvedGrasps
+    from grasptask.task.model import load_task_models
+
+    assert options.physics is not None
+    hand = load_hand(options.hand).with_grasping(fingers).grasping_hand()
+    rows = [
+        (row, None if pd.isna(row.get("palm_x", np.nan)) else grasp_from_row(row, hand.joint_names))
+        for row in solutions.to_dict("records")
+    ]
+    task = load_task_models(options.tasks)[options.task]
+    return Judge.of(SolvedGrasps(hand, rows), task, options.object, options.grasp_config, options.physics)
