@@ -4,6 +4,8 @@ Required columns: ``path, task, subject, trial, grasp``. Optional: ``id`` (defau
 ``<task>_<grasp>_s<subject>_t<trial>``), ``frame`` (``object`` or ``sensor``), ``force_unit``, ``torque_unit``,
 ``time_unit``, ``tool`` (a tool config, required for ``frame=sensor``) and ``bias_window_s`` (length of the
 initial static window used for bias removal, then trimmed). Paths are relative to the manifest's folder.
+A ROS bag (``.bag``, or a ROS 2 bag's folder or storage file) needs the ``topic`` of its ``WrenchStamped``
+messages, and may give a time window, ``start_s`` and ``end_s`` seconds after the topic's first message.
 Row numbers count data rows from 1.
 """
 
@@ -19,7 +21,18 @@ from grasptask.errors import BadInputError, existing_file
 from grasptask.io.units import UNIT_TABLES
 
 REQUIRED = ("path", "task", "subject", "trial", "grasp")
-OPTIONAL = ("id", "frame", "force_unit", "torque_unit", "time_unit", "tool", "bias_window_s")
+OPTIONAL = (
+    "id",
+    "frame",
+    "force_unit",
+    "torque_unit",
+    "time_unit",
+    "tool",
+    "bias_window_s",
+    "topic",
+    "start_s",
+    "end_s",
+)
 FRAMES = ("object", "sensor")
 
 
@@ -38,6 +51,10 @@ class RecordingEntry:
     tool: Path | None = None
     bias_window_s: float = 0.0
     source: str = ""  # "<manifest>: row N", for messages
+    #: a ROS bag's topic of WrenchStamped messages ("": the file is a CSV or Parquet recording) ...
+    topic: str = ""
+    #: ... and the time window to read, seconds after the topic's first message (None: from the start, to the end)
+    window_s: tuple[float | None, float | None] = (None, None)
 
     @property
     def group(self) -> str:
@@ -121,10 +138,12 @@ def _entry(path: Path, row_number: int, row: dict[str, str]) -> RecordingEntry:
         bias_window = -1.0
     if not np.isfinite(bias_window) or bias_window < 0:
         raise fail("bias_window_s", f"must be a non-negative number of seconds, got {bias!r}")
+    recording = path.parent / row["path"].strip()
+    topic, window = _bag_fields(row, recording, fail)
     task, grasp, subject = row["task"].strip(), row["grasp"].strip(), row["subject"].strip()
     return RecordingEntry(
         id=row.get("id", "").strip() or default_id(task, grasp, subject, trial),
-        path=path.parent / row["path"].strip(),
+        path=recording,
         task=task,
         subject=subject,
         trial=trial,
@@ -134,4 +153,36 @@ def _entry(path: Path, row_number: int, row: dict[str, str]) -> RecordingEntry:
         tool=tool_path,
         bias_window_s=bias_window,
         source=f"{path}: row {row_number}",
+        topic=topic,
+        window_s=window,
     )
+
+
+def _bag_fields(row: dict[str, str], recording: Path, fail) -> tuple[str, tuple[float | None, float | None]]:
+    """A bag row's topic and time window, checked; a recording that is not a bag may have neither."""
+    from grasptask.io.rosbag import is_bag
+
+    topic = row.get("topic", "").strip()
+    bounds: list[float | None] = []
+    for name in ("start_s", "end_s"):
+        text = row.get(name, "").strip()
+        try:
+            value = float(text) if text else None
+        except ValueError:
+            value = -1.0
+        if value is not None and (not np.isfinite(value) or value < 0):
+            raise fail(name, f"must be a non-negative number of seconds, got {text!r}")
+        bounds.append(value)
+    if not is_bag(recording):
+        for name in ("topic", "start_s", "end_s"):
+            if row.get(name, "").strip():
+                raise fail(name, f"only a ROS bag has a {name}; {recording.name} is not one")
+        return "", (None, None)
+    if not topic:
+        raise fail("topic", f"{recording.name} is a ROS bag: name the topic of its WrenchStamped messages")
+    if row.get("time_unit", "").strip():
+        raise fail("time_unit", "a ROS bag's times are its messages' stamps, in seconds; leave time_unit empty")
+    start, end = bounds
+    if start is not None and end is not None and end <= start:
+        raise fail("end_s", f"the window ends ({end} s) before it starts ({start} s)")
+    return topic, (start, end)

@@ -47,7 +47,7 @@ def read_recording(
     wanted = [c for c in file_columns if c not in set(ignore_columns)]
     table = _read_table(path, suffix, wanted, file_columns)
     data = _to_float(path, table, wanted, names)
-    _check_values(path, data)
+    check_values(path, data)
     return data
 
 
@@ -142,7 +142,8 @@ def _to_float(path: Path, table: pa.Table, wanted: list[str], names: list[str]) 
     return data
 
 
-def _check_values(path: Path, data: np.ndarray) -> None:
+def check_values(path: str | Path, data: np.ndarray) -> None:
+    """Finite samples, enough of them, and time strictly increasing; rows count from 1."""
     finite = np.isfinite(data)
     if not finite.all():
         row, col = np.argwhere(~finite)[0]

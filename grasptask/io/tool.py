@@ -6,6 +6,7 @@ A tool config is a YAML file named by a manifest's ``tool`` column::
     sensor:                      # pose of the sensor frame in the object frame
       position_m: [0.0, 0.0, -0.105]
       rotation_rpy_deg: [180, 0, 30]   # fixed-axis roll (x), pitch (y), yaw (z), applied in that order
+      frame_id: ft_sensor        # optional: the header frame_id of the sensor's ROS messages, checked
     columns: {t: time_ms, fx: Fx}      # optional: recording column name for each canonical column
     ignore_columns: [status]           # optional: recording columns to drop
     units: {torque_unit: N.cm, time_unit: ms}   # optional defaults; the manifest's columns win
@@ -34,6 +35,8 @@ class ToolConfig:
     columns: dict[str, str] = field(default_factory=dict)
     ignore_columns: tuple[str, ...] = ()
     units: dict[str, str] = field(default_factory=dict)
+    #: the frame_id the sensor's ROS WrenchStamped messages carry ("": not checked)
+    frame_id: str = ""
 
 
 def load_tool(path: str | Path) -> ToolConfig:
@@ -43,7 +46,7 @@ def load_tool(path: str | Path) -> ToolConfig:
     sensor = data.get("sensor", {})
     if not isinstance(sensor, dict):
         raise BadInputError(path, "field 'sensor' must be a mapping")
-    reject_unknown(sensor, {"position_m", "rotation_rpy_deg", "rotation_matrix"}, path, "sensor.")
+    reject_unknown(sensor, {"position_m", "rotation_rpy_deg", "rotation_matrix", "frame_id"}, path, "sensor.")
     position = _vector(sensor.get("position_m", [0, 0, 0]), 3, path, "sensor.position_m")
     if "rotation_matrix" in sensor:
         rotation = np.asarray(sensor["rotation_matrix"], dtype=float)
@@ -68,6 +71,7 @@ def load_tool(path: str | Path) -> ToolConfig:
         columns={str(k): str(v) for k, v in columns.items()},
         ignore_columns=tuple(str(c) for c in data.get("ignore_columns", []) or []),
         units={str(k): str(v) for k, v in units.items()},
+        frame_id=str(sensor.get("frame_id", "") or ""),
     )
 
 

@@ -42,12 +42,10 @@ def plot_physics_traces(traces: dict[str, pd.DataFrame], thresholds: dict[str, d
         )
         for ax, (column, scale, label, ours, theirs) in zip(axes[row], panels, strict=True):
             values = trace[column].to_numpy(float) * scale
-            for name, begin, end in phases:
+            for name, begin, end in phases:  # one line per phase: each test starts again from the settled state
                 if name.startswith("dexgraspbench"):
                     ax.axvspan(begin, end, color="0.92", lw=0)
                 ax.axvline(begin, color="0.75", lw=0.5)
-            # one line per phase: each test starts again from the settled state
-            for name, begin, end in phases:
                 inside = (times > begin) & (times <= end)
                 ax.plot(times[inside], values[inside], color=task_colour(task, tasks), lw=1.2)
             ax.axhline(limits[ours] * scale, color="black", ls="--", lw=1, label="our threshold")

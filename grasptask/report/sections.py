@@ -298,7 +298,7 @@ def physics_table(outcomes: dict[str, PhysicsOutcome], sweeps: dict[str, SweepRe
         verified = int(summary["verified"])
         held = pair["verified_and_held"]
         bench = summary.get("dexgraspbench_pass_rate_of_verified")
-        failing = summary.get("failed_wrenches_of_verified") or {}
+        failing: dict[str, int] = summary.get("failed_wrenches_of_verified") or {}
         seconds = summary.get("seconds_per_grasp_median")
         rows.append(
             {
@@ -311,7 +311,7 @@ def physics_table(outcomes: dict[str, PhysicsOutcome], sweeps: dict[str, SweepRe
                 "only the verifier": pair["verified_and_dropped"],
                 "only physics": pair["rejected_and_held"],
                 "neither": pair["rejected_and_dropped"],
-                "wrench that fails most": max(failing, key=failing.get) if failing else "-",
+                "wrench that fails most": max(failing, key=lambda name: failing[name]) if failing else "-",
                 "median s/grasp": "-" if seconds is None else round(float(seconds), 2),
             }
         )
@@ -335,7 +335,8 @@ def physics_section(results: ResultsFolder, sweeps: dict[str, SweepResult], writ
     if not outcomes:
         section.blocks.append(
             _run_missing(
-                "physics results", "grasptask physics DIR/grasps/TASK/solutions.parquet --tasks ... --out DIR/physics/TASK"
+                "physics results",
+                "grasptask physics DIR/grasps/TASK/solutions.parquet --tasks ... --out DIR/physics/TASK",
             )
         )
         return section
@@ -347,8 +348,11 @@ def physics_section(results: ResultsFolder, sweeps: dict[str, SweepResult], writ
         "verifier accepts."
     )
     section.blocks.append(
-        writer.table("physics", "Physics pass rates beside the analytic verifier, with their 2x2 agreement",
-                     physics_table(outcomes, sweeps))  # fmt: skip
+        writer.table(
+            "physics",
+            "Physics pass rates beside the analytic verifier, with their 2x2 agreement",
+            physics_table(outcomes, sweeps),
+        )  # fmt: skip
     )
     section.summary = "Physics check: " + "; ".join(
         f"{task} {_share(o.summary['agreement']['verified_and_held'], int(o.summary['verified']))} of verified held"

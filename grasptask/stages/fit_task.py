@@ -13,6 +13,7 @@ import pandas as pd
 from grasptask.errors import BadInputError
 from grasptask.io.artifacts import Provenance, StagedOutput
 from grasptask.io.manifest import RecordingEntry, default_id, is_manifest, read_manifest
+from grasptask.io.rosbag import is_bag
 from grasptask.progress import progress
 from grasptask.task.fit import FitOptions, FitResult, fit_recordings
 from grasptask.task.model import task_models_payload
@@ -32,6 +33,8 @@ def entries_from_inputs(inputs: Sequence[str | Path], **labels) -> list[Recordin
     for path in paths:
         if is_manifest(path):
             raise BadInputError(path, "a manifest must be the only input")
+        if is_bag(path):
+            raise BadInputError(path, "a ROS bag is read through a manifest row that names its topic (README)")
     task, grasp = labels.get("task", "unlabelled"), labels.get("grasp", "free")
     entries = []
     for trial, path in enumerate(paths, start=1):
@@ -68,7 +71,9 @@ def run_fit_task(
     entries = entries_from_inputs(inputs, **labels)
     result = fit_recordings(entries, options, skip_bad, partial(progress, desc="fit-task", unit="rec"))
     stats = statistics_table(result.ellipsoids)
-    hashed = [e.path for e in entries if e.path.is_file()] + list(dict.fromkeys(e.tool for e in entries if e.tool))
+    recorded = [e.path for e in entries if e.path.is_file()]
+    recorded += [f for e in entries if e.path.is_dir() for f in sorted(e.path.iterdir()) if f.is_file()]  # ROS 2
+    hashed = recorded + list(dict.fromkeys(e.tool for e in entries if e.tool))
     config = {"options": asdict(options), "skip_bad": skip_bad, "labels": labels}
     with StagedOutput(out, Provenance.of("fit-task", config, [*map(Path, inputs), *hashed])) as staged:
         staged.write_parquet("ellipsoids.parquet", result.ellipsoids)

@@ -32,7 +32,7 @@ def load_wrenches(
 ) -> tuple[np.ndarray, np.ndarray]:
     """Time (s) and ``(n, 6)`` wrenches (N, N.m) in the object frame, preprocessed."""
     tool = tool or ToolConfig(name="none")
-    data = read_recording(entry.path, tool.columns, tool.ignore_columns)
+    data = _read_samples(entry, tool)
     units = {**tool.units, **entry.units}
     factor = {key: table[units.get(key, next(iter(table)))] for key, table in UNIT_TABLES.items()}
     t, wrenches = data[:, 0], data[:, 1:]
@@ -49,6 +49,28 @@ def load_wrenches(
     if len(t) < MIN_SAMPLES:
         raise BadInputError(entry.path, f"only {len(t)} samples left after preprocessing (at least {MIN_SAMPLES})")
     return t, wrenches
+
+
+def _read_samples(entry: RecordingEntry, tool: ToolConfig) -> np.ndarray:
+    """The entry's ``(n, 7)`` samples from its CSV or Parquet file, or from its ROS bag's topic, whose frame
+    must be the tool's sensor frame when the manifest says the wrenches are in the sensor frame."""
+    if not entry.topic:
+        return read_recording(entry.path, tool.columns, tool.ignore_columns)
+    from grasptask.io.rosbag import read_wrench_bag
+
+    bag = read_wrench_bag(entry.path, entry.topic, *entry.window_s)
+    if entry.frame == "sensor" and tool.frame_id and bag.frame_id != tool.frame_id:
+        raise BadInputError(
+            f"{entry.path} (topic {entry.topic})",
+            f"messages in frame '{bag.frame_id}', not the sensor frame '{tool.frame_id}' of tool '{tool.name}'",
+        )
+    if entry.frame == "object" and tool.frame_id and bag.frame_id == tool.frame_id:
+        raise BadInputError(
+            f"{entry.path} (topic {entry.topic})",
+            f"messages in the sensor frame '{bag.frame_id}' of tool '{tool.name}', but the manifest says the "
+            "object frame: set its frame column to 'sensor'",
+        )
+    return bag.data
 
 
 def fit_entry(
