@@ -1,14 +1,111 @@
-"""Progress bars for long stages: shown on a terminal, silent in logs and tests."""
+"""Progress on long stages: a bar on a terminal; when stderr is not one (a log file, CI, a batch job), a short
+line at intervals and one at the end, with what is done, the stage's own counts and the time left.
+
+The interval is ``GRASPTASK_PROGRESS_S`` seconds (default 30; 0 prints a line for every item)."""
 
 from __future__ import annotations
 
-from collections.abc import Iterable
-from typing import TypeVar
+import os
+import sys
+import time
+from collections.abc import Iterable, Iterator
+from typing import IO, Any, TypeVar
 
 from tqdm import tqdm
 
+from grasptask.errors import BadInputError
+
 T = TypeVar("T")
+INTERVAL_ENV = "GRASPTASK_PROGRESS_S"
+DEFAULT_INTERVAL_S = 30.0
 
 
-def progress(items: Iterable[T], desc: str, unit: str = "it") -> Iterable[T]:
-    return tqdm(items, desc=desc, unit=unit, disable=None, leave=False)
+def interval_s() -> float:
+    """The seconds between two progress lines, from ``GRASPTASK_PROGRESS_S``."""
+    text = os.environ.get(INTERVAL_ENV, "").strip()
+    if not text:
+        return DEFAULT_INTERVAL_S
+    try:
+        value = float(text)
+    except ValueError:
+        value = -1.0
+    if not value >= 0 or value == float("inf"):
+        raise BadInputError(INTERVAL_ENV, f"must be a non-negative number of seconds, got {text!r}")
+    return value
+
+
+def _minutes(seconds: float) -> str:
+    return f"{seconds:.0f} s" if seconds < 120 else f"{seconds / 60:.1f} min"
+
+
+class Progress:
+    """``update(n, **counts)`` after each item; ``counts`` (e.g. ``verified=3, failing=1``) are shown as they
+    stand. Use as a context manager, or call :meth:`close`."""
+
+    def __init__(
+        self, total: int, desc: str, unit: str = "it", initial: int = 0, stream: IO[str] | None = None
+    ) -> None:
+        self.stream = stream if stream is not None else sys.stderr
+        self.terminal = bool(getattr(self.stream, "isatty", lambda: False)())
+        self.total, self.desc, self.unit, self.initial, self.done = total, desc, unit, initial, initial
+        self.counts: dict[str, Any] = {}
+        self.every = 0.0 if self.terminal else interval_s()
+        self.began = self.last = time.monotonic()
+        self.bar = tqdm(total=total, initial=initial, desc=desc, unit=unit, file=self.stream, leave=False) if (
+            self.terminal
+        ) else None  # fmt: skip
+
+    def update(self, n: int = 1, **counts: Any) -> None:
+        self.done += n
+        self.counts.update(counts)
+        if self.bar is not None:
+            if counts:
+                self.bar.set_postfix(self.counts, refresh=False)
+            self.bar.update(n)
+            return
+        now = time.monotonic()
+        if now - self.last >= self.every and self.done < self.total:
+            self.last = now
+            print(self.line(now), file=self.stream, flush=True)
+
+    def line(self, now: float | None = None) -> str:
+        """``desc: done/total unit (percent), counts, elapsed, time left``."""
+        elapsed = (now if now is not None else time.monotonic()) - self.began
+        parts = [f"{self.desc}: {self.done}/{self.total} {self.unit}"]
+        if self.total:
+            parts[0] += f" ({self.done / self.total:.0%})"
+        parts += [f"{name} {value}" for name, value in self.counts.items()]
+        parts.append(f"{_minutes(elapsed)} elapsed")
+        this_run = self.done - self.initial
+        if 0 < this_run and self.done < self.total:
+            parts.append(f"about {_minutes(elapsed / this_run * (self.total - self.done))} left")
+        return ", ".join(parts)
+
+    def close(self, finished: bool = True) -> None:
+        """Close the bar, or print the last line, so that a log shows how the stage ended (not when it failed:
+        the error is then the one line to read)."""
+        if self.bar is not None:
+            self.bar.close()
+        elif finished and self.done > self.initial:
+            print(self.line(), file=self.stream, flush=True)
+        self.bar, self.done, self.initial = None, 0, 0  # closed: a second close prints nothing
+
+    def __enter__(self) -> Progress:
+        return self
+
+    def __exit__(self, exc_type: type[BaseException] | None, *_: object) -> None:
+        self.close(finished=exc_type is None)
+
+
+def progress(items: Iterable[T], desc: str, unit: str = "it") -> Iterator[T]:
+    """``items``, with :class:`Progress` over them."""
+    listed = list(items)
+    shown = Progress(len(listed), desc, unit)
+    try:
+        for item in listed:
+            yield item
+            shown.update()
+    except BaseException:  # GeneratorExit too: the consumer stopped early, or failed
+        shown.close(finished=False)
+        raise
+    shown.close()

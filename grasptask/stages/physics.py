@@ -7,6 +7,7 @@ from __future__ import annotations
 import os
 from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor
+from contextlib import nullcontext
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -222,25 +223,26 @@ def run_physics(
     """Check every solved grasp of ``inputs.solutions``; writes ``out/physics.parquet`` (one row per start),
     ``out/physics_summary.json`` and ``out/physics_trace.parquet`` (the best verified grasp's motion over the
     protocol), and returns the table."""
-    from tqdm import tqdm
+    from grasptask.progress import Progress
 
     inputs = inputs.resolved()
     if workers < 1:
         raise BadInputError("physics", "--workers must be at least 1")
     judge = Judge.for_inputs(inputs)  # every input checked here, before any work
     indices = list(range(len(judge.solved.rows)))
-    with tqdm(total=len(indices), desc=f"physics {inputs.task}", unit="grasp", disable=None) as bar:
-        if workers == 1:
+    counts = {"held": 0, "dropped": 0}
+    with Progress(len(indices), f"physics {inputs.task}", "grasps") as shown:
+        parallel = workers > 1
+        with ProcessPoolExecutor(workers, initializer=_start_worker, initargs=(judge,)) if parallel else (
+            nullcontext()
+        ) as pool:  # fmt: skip
+            results = pool.map(_check_in_worker, indices) if pool is not None else map(judge.check, indices)
             records = []
-            for index in indices:
-                records.append(judge.check(index))
-                bar.update()
-        else:
-            with ProcessPoolExecutor(workers, initializer=_start_worker, initargs=(judge,)) as pool:
-                records = []
-                for record in pool.map(_check_in_worker, indices):
-                    records.append(record)
-                    bar.update()
+            for record in results:
+                records.append(record)
+                if "physics_passed" in record:
+                    counts["held" if record["physics_passed"] else "dropped"] += 1
+                shown.update(1, **counts)
     table = pd.DataFrame(records)
     trace = best_grasp_trace(judge)
     files = [inputs.solutions, inputs.tasks, inputs.hand, inputs.object, inputs.grasp_config, inputs.physics_config]

@@ -16,7 +16,6 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
-from tqdm import tqdm
 
 from grasptask.errors import BadInputError
 from grasptask.io.artifacts import Provenance, StagedOutput, config_hash, path_hash, plain_name, write_json_atomic
@@ -27,6 +26,7 @@ from grasptask.io.solutions import STATUSES
 from grasptask.io.sweep_log import LogContents, LogWriter, read_log, rewrite_log
 from grasptask.objects.surface import Symmetry
 from grasptask.paths import DEFAULT_GRASP_CONFIG, DEFAULT_HAND, DEFAULT_OBJECT, DEFAULT_SOLVER_CONFIG
+from grasptask.progress import Progress
 
 EXECUTORS = ("pool", "serial", "dask")
 BACKENDS = ("casadi", "cyipopt")
@@ -280,25 +280,20 @@ def _say_model(size: dict[str, int], paper: PaperSynthesis, echo: Callable[[str]
 
 
 def _solve(executor: Any, todo: list, rows: list[dict], log: Path, task: str, total: int) -> None:
-    """Run the executor over ``todo``, appending each row to the log (and ``rows``) with a progress bar."""
+    """Run the executor over ``todo``, appending each row to the log (and ``rows``), with progress."""
     counts = {
         "verified": sum(bool(r.get("verified")) for r in rows),
         "failing": sum(not r.get("verified") for r in rows),
     }
-    bar = tqdm(total=total, initial=len(rows), desc=f"synthesize {task}", unit="start", disable=None)
-    with LogWriter(log) as writer:
+    with Progress(total, f"synthesize {task}", "starts", initial=len(rows)) as shown, LogWriter(log) as writer:
 
         def on_result(row: dict) -> None:
             writer.append(row)
             rows.append(row)
             counts["verified" if row.get("verified") else "failing"] += 1
-            bar.set_postfix(counts)
-            bar.update(1)
+            shown.update(1, **counts)
 
-        try:
-            executor.run(todo, on_result)
-        finally:
-            bar.close()
+        executor.run(todo, on_result)
 
 
 def summarise(

@@ -1,0 +1,57 @@
+"""Long stages report progress when stderr is not a terminal: a line at intervals and one at the end, none when
+the stage fails."""
+
+from __future__ import annotations
+
+import io
+
+import pytest
+
+from grasptask.errors import BadInputError
+from grasptask.progress import INTERVAL_ENV, Progress, interval_s, progress
+
+
+def test_a_log_gets_a_line_per_interval_with_counts_and_time_left(monkeypatch):
+    monkeypatch.setenv(INTERVAL_ENV, "0")
+    log = io.StringIO()
+    with Progress(4, "synthesize drawing", "starts", initial=1, stream=log) as shown:
+        shown.update(1, verified=2, failing=0)
+        shown.update(1, verified=2, failing=1)
+        shown.update(1, verified=3, failing=1)
+    lines = log.getvalue().splitlines()
+    assert lines[0].startswith("synthesize drawing: 2/4 starts (50%), verified 2, failing 0, ")
+    assert "left" in lines[0] and "left" not in lines[-1]
+    assert lines[-1].startswith("synthesize drawing: 4/4 starts (100%), verified 3, failing 1, ")
+    assert len(lines) == 3  # two at the interval, the last at the end
+
+
+def test_the_default_interval_keeps_a_log_short(monkeypatch):
+    monkeypatch.delenv(INTERVAL_ENV, raising=False)
+    log = io.StringIO()
+    with Progress(1000, "fit-task", "rec", stream=log) as shown:
+        for _ in range(1000):
+            shown.update()
+    assert log.getvalue().splitlines() == [log.getvalue().splitlines()[-1]]
+    assert log.getvalue().startswith("fit-task: 1000/1000 rec (100%)")
+
+
+def test_a_failed_stage_prints_no_last_line(monkeypatch):
+    monkeypatch.delenv(INTERVAL_ENV, raising=False)
+    log = io.StringIO()
+    with pytest.raises(RuntimeError), Progress(3, "physics", "grasps", stream=log) as shown:
+        shown.update()
+        raise RuntimeError("stop")
+    assert log.getvalue() == ""
+
+
+def test_progress_over_items_yields_them_all(monkeypatch, capsys):
+    monkeypatch.setenv(INTERVAL_ENV, "0")
+    assert list(progress(range(3), "report", "figures")) == [0, 1, 2]
+    assert capsys.readouterr().err.splitlines()[-1].startswith("report: 3/3 figures (100%)")
+
+
+@pytest.mark.parametrize("text", ["soon", "-1", "inf", "nan"])
+def test_a_bad_interval_is_one_line(monkeypatch, text):
+    monkeypatch.setenv(INTERVAL_ENV, text)
+    with pytest.raises(BadInputError, match=INTERVAL_ENV):
+        interval_s()
