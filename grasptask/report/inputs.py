@@ -138,7 +138,10 @@ def read_physics(results: ResultsFolder, sweep: SweepResult) -> PhysicsOutcome |
     there is one, else ``synthesize --physics``'s beside the sweep; None when neither ran."""
     from grasptask.stages.physics import TRACE_COLUMNS
 
-    for folder in (results.physics / sweep.folder.name, sweep.folder):
+    folders = [results.physics / sweep.folder.name]
+    if sweep.run.get("physics_config"):  # this sweep ran synthesize --physics, not an earlier one
+        folders.append(sweep.folder)
+    for folder in folders:
         if (folder / "physics_summary.json").is_file():
             summary = read_json(folder / "physics_summary.json")
             for name in ("verified", "agreement", "thresholds"):

@@ -324,6 +324,9 @@ def summarise(
         "hand": str(options.hand),
         "grasp_config": str(options.grasp_config),
         "fingers": fingers,
+        # the physics config of synthesize --physics (None: not checked; a physics_summary.json beside this
+        # run.json is then an earlier run's)
+        "physics_config": str(options.physics) if options.physics is not None else None,
         "backend": options.backend,
         "executor": options.executor,
         "workers": options.workers,
