@@ -15,11 +15,12 @@ demo: $(INSTALLED)
 paper: $(INSTALLED) setup-browser
 	$(BIN)/grasptask pipeline run pipelines/paper.yaml
 
+# pytest in two processes (the suite is CPU-bound, 2 cores); --dist loadfile keeps each module's fixtures in one
 test: $(INSTALLED) $(CYIPOPT) setup-browser
 	$(BIN)/ruff check grasptask tests benchmarks tools
 	$(BIN)/ruff format --check grasptask tests benchmarks tools
 	$(BIN)/mypy
-	$(BIN)/python -m pytest
+	$(BIN)/python -m pytest -n 2 --dist loadfile
 
 install: $(INSTALLED)
 

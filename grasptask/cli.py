@@ -379,24 +379,33 @@ def verify_command(solutions, tasks_path, task, out, hand, object_path, grasp_co
     click.echo(f"{int(table['verified'].sum())}/{len(table)} grasps verified; wrote {out}/verification.parquet")
 
 
+def _sweep_model_options(f):
+    """--hand, --object and --grasp-config defaulting to what the sweep of SOLUTIONS used (its run.json)."""
+    f = click.option(
+        "--grasp-config",
+        type=click.Path(path_type=Path),
+        default=None,
+        help="Friction settings [default: the sweep's].",
+    )(f)
+    f = click.option(
+        "--object",
+        "object_path",
+        type=click.Path(path_type=Path),
+        default=None,
+        help="Object config or mesh [default: the sweep's].",
+    )(f)
+    f = click.option(
+        "--hand", type=click.Path(path_type=Path), default=None, help="Hand file [default: the sweep's, from run.json]."
+    )(f)
+    return f
+
+
 @main.command()
 @click.argument("solutions", type=click.Path(path_type=Path))
 @click.option("--tasks", "tasks_path", required=True, type=click.Path(path_type=Path), help="task_models.json.")
 @click.option("--task", required=True, help="The task the solutions were made for.")
 @_out_option
-@click.option(
-    "--hand", type=click.Path(path_type=Path), default=None, help="Hand file [default: the sweep's, from run.json]."
-)
-@click.option(
-    "--object",
-    "object_path",
-    type=click.Path(path_type=Path),
-    default=None,
-    help="Object config or mesh [default: the sweep's].",
-)
-@click.option(
-    "--grasp-config", type=click.Path(path_type=Path), default=None, help="Friction settings [default: the sweep's]."
-)
+@_sweep_model_options
 @_physics_config_option("Scene, controller, protocol and pass thresholds (YAML).")
 @click.option("--workers", type=click.IntRange(min=1), default=1, show_default=True, help="Simulation processes.")
 @_fingers_option("the sweep's")
@@ -409,6 +418,33 @@ def physics(solutions, tasks_path, task, out, hand, object_path, grasp_config, p
     inputs = stages.PhysicsInputs(solutions, tasks_path, task, hand, object_path, grasp_config, physics_config, fingers)
     stages.run_physics(inputs, out, workers, echo=click.echo)
     click.echo(f"wrote {out}/physics.parquet, physics_summary.json")
+
+
+@main.command()
+@click.argument("solutions", type=click.Path(path_type=Path))
+@_out_option
+@click.option(
+    "--tasks",
+    "tasks_path",
+    type=click.Path(path_type=Path),
+    default=None,
+    help="task_models.json, for the forces per task wrench [default: the sweep's].",
+)
+@click.option("--task", default=None, help="The task the solutions were made for [default: the sweep's].")
+@click.option(
+    "--all", "every_start", is_flag=True, help="Every verified start, not only the distinct optima (optima.parquet)."
+)
+@_sweep_model_options
+@_fingers_option("the sweep's")
+def export(solutions, out, tasks_path, task, every_start, hand, object_path, grasp_config, fingers):
+    """Write each distinct optimum of SOLUTIONS (solutions.parquet, with optima.parquet beside it) as
+    OUT/optimum_NN.glb (hand collision bodies, object and contacts in the object frame, a colour per finger;
+    Blender, MeshLab and three.js open it) and OUT/optimum_NN.json (joint angles by the hand file's joint names,
+    the palm pose as a 4x4 matrix, contacts and normals, the contact forces and activations or joint torques per
+    task wrench, Q and the verifier's figures; schema in docs/grasp_record.schema.json)."""
+    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+    done = stages.run_export(solutions, out, tasks_path, task, hand, object_path, grasp_config, fingers, every_start)
+    click.echo(f"wrote {done.grasps} grasps to {out} (.glb and .json each, grasps.json), {done.verified_now} verified")
 
 
 @main.command()

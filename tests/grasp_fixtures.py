@@ -1,15 +1,20 @@
-"""A precision grasp of a ball, found by a small least-squares fit, for testing the verifier and mechanics."""
+"""Grasps for tests: a precision grasp of a ball found by a small least-squares fit (for the verifier and
+mechanics), robot grippers on a ball, and a finished sweep folder made from the ball grasp."""
 
 from __future__ import annotations
 
+import shutil
 from functools import lru_cache
 
 import numpy as np
 from scipy.optimize import least_squares
 
-from grasptask.grasp.verify import Grasp
+from grasptask.grasp.verify import Grasp, verify
 from grasptask.hand import forward, load_hand
+from grasptask.io.reference import read_paper_synthesis
+from grasptask.io.solutions import grasp_columns
 from grasptask.objects import Superquadric
+from grasptask.stages import SynthesisOptions, summarise
 from grasptask.task.ellipsoid import Ellipsoid
 from grasptask.task.model import TaskModel
 
@@ -115,3 +120,48 @@ def gripper_grasp(directions: np.ndarray, effort_nm: float, bend_deg: float = 30
 #: pads all round the ball, and all on one side of it
 TETRAHEDRON = np.array([[1.0, 1.0, 1.0], [1.0, -1.0, -1.0], [-1.0, 1.0, -1.0], [-1.0, -1.0, 1.0]])
 ONE_SIDE = np.array([[1.0, 0.3, 0.3], [1.0, -0.3, 0.3], [1.0, 0.3, -0.3], [1.0, -0.3, -0.3]])
+
+
+def results_with_tasks(simulated, root):
+    """A results folder with the simulated recordings and fit-task's output (copied, so tests may add to it)."""
+    source = simulated[0]
+    root.mkdir()
+    (root / "recordings").symlink_to(source / "recordings", target_is_directory=True)
+    shutil.copytree(source / "tasks", root / "tasks")
+    return root
+
+
+def ball_sweep(results, task="drawing"):
+    """A finished sweep folder for ``task``: the verified ball grasp (twice, one optimum) and a failed start,
+    written by the same summary code as ``synthesize``."""
+    ball_config = results / "ball.yaml"
+    ball_config.write_text(
+        f"type: superquadric\nname: ball\nsize_m: [{BALL_RADIUS}, {BALL_RADIUS}, {BALL_RADIUS}]\n"
+        "exponents: [1.0, 1.0]\nsymmetry: {rotation_axis: any}\n"
+    )
+    grasp, ball = ball_grasp()
+    hand = load_hand().grasping_hand()
+    check = verify(grasp, hand, ball, drawing_like_task())
+    assert check.ok, check.failures
+    fingers = list(hand.fingers)
+    good = {"status": "optimal", "iterations": 40, "Q": check.Q}
+    good.update(grasp_columns(grasp, hand.joint_names, fingers, check.contacts, check.normals))
+    good.update(check.record(fingers))
+    rows = [
+        {"start_id": 0, "seconds": 1.5, **good},
+        {"start_id": 1, "seconds": 2.5, **good},
+        {"start_id": 2, "status": "max-iter", "iterations": 400, "seconds": 4.0, "Q": float("nan"), "verified": False},
+    ]
+    options = SynthesisOptions(
+        tasks=results / "tasks" / "task_models.json", task=task, out=results / "grasps", object=ball_config
+    )
+    size = {"variables": 643, "constraints": 462}
+    return summarise(
+        options,
+        rows,
+        model_size=size,
+        wall_seconds=5.0,
+        symmetry=None,
+        fingers=fingers,
+        paper=read_paper_synthesis(),
+    )

@@ -4,70 +4,20 @@ from __future__ import annotations
 
 import json
 import re
-import shutil
 
 import pandas as pd
 import pytest
-from grasp_fixtures import BALL_RADIUS, ball_grasp, drawing_like_task
+from grasp_fixtures import ball_sweep, results_with_tasks
 
-from grasptask.grasp.verify import verify
-from grasptask.hand import load_hand
-from grasptask.io.reference import read_paper_synthesis
-from grasptask.io.solutions import grasp_columns
 from grasptask.report.browser import check_page, find_chromium
 from grasptask.report.paper_tables import PAPER_TABLES
-from grasptask.stages import SynthesisOptions, build_report, summarise
-
-
-def _results_with_tasks(simulated, root):
-    """A results folder with the simulated recordings and fit-task's output (copied, so tests may add to it)."""
-    source = simulated[0]
-    root.mkdir()
-    (root / "recordings").symlink_to(source / "recordings", target_is_directory=True)
-    shutil.copytree(source / "tasks", root / "tasks")
-    return root
-
-
-def _ball_sweep(results, task="drawing"):
-    """A finished sweep folder for ``task``: the verified ball grasp (twice, one optimum) and a failed start,
-    written by the same summary code as ``synthesize``."""
-    ball_config = results / "ball.yaml"
-    ball_config.write_text(
-        f"type: superquadric\nname: ball\nsize_m: [{BALL_RADIUS}, {BALL_RADIUS}, {BALL_RADIUS}]\n"
-        "exponents: [1.0, 1.0]\nsymmetry: {rotation_axis: any}\n"
-    )
-    grasp, ball = ball_grasp()
-    hand = load_hand().grasping_hand()
-    check = verify(grasp, hand, ball, drawing_like_task())
-    assert check.ok, check.failures
-    fingers = list(hand.fingers)
-    good = {"status": "optimal", "iterations": 40, "Q": check.Q}
-    good.update(grasp_columns(grasp, hand.joint_names, fingers, check.contacts, check.normals))
-    good.update(check.record(fingers))
-    rows = [
-        {"start_id": 0, "seconds": 1.5, **good},
-        {"start_id": 1, "seconds": 2.5, **good},
-        {"start_id": 2, "status": "max-iter", "iterations": 400, "seconds": 4.0, "Q": float("nan"), "verified": False},
-    ]
-    options = SynthesisOptions(
-        tasks=results / "tasks" / "task_models.json", task=task, out=results / "grasps", object=ball_config
-    )
-    size = {"variables": 643, "constraints": 462}
-    return summarise(
-        options,
-        rows,
-        model_size=size,
-        wall_seconds=5.0,
-        symmetry=None,
-        fingers=fingers,
-        paper=read_paper_synthesis(),
-    )
+from grasptask.stages import build_report
 
 
 @pytest.fixture(scope="module")
 def full_report(simulated, tmp_path_factory):
-    results = _results_with_tasks(simulated, tmp_path_factory.mktemp("report") / "results")
-    run = _ball_sweep(results)
+    results = results_with_tasks(simulated, tmp_path_factory.mktemp("report") / "results")
+    run = ball_sweep(results)
     assert run["verified"] == 2 and run["distinct_optima"] == 1
     # an interrupted sweep: a per-start log but no summary
     (results / "grasps" / "cutting").mkdir(parents=True)
@@ -77,7 +27,7 @@ def full_report(simulated, tmp_path_factory):
 
 
 def test_report_from_task_results_only(simulated, tmp_path):
-    results = _results_with_tasks(simulated, tmp_path / "results")
+    results = results_with_tasks(simulated, tmp_path / "results")
     summary = build_report(results, tmp_path / "out")
     out = tmp_path / "out"
     figures = sorted(p.name for p in (out / "figures").iterdir())
@@ -99,7 +49,7 @@ def test_report_from_task_results_only(simulated, tmp_path):
 
 
 def test_tables_put_each_value_beside_the_paper(simulated, tmp_path):
-    build_report(_results_with_tasks(simulated, tmp_path / "results"), tmp_path / "out")
+    build_report(results_with_tasks(simulated, tmp_path / "results"), tmp_path / "out")
     table5 = (tmp_path / "out" / "tables" / "table_05.md").read_text()
     assert "Table 5:" in table5 and "proj paper" in table5 and "proj diff" in table5
     ours = pd.read_csv(simulated[0] / "tasks" / "stats.csv", dtype={"axis": str})
@@ -139,8 +89,8 @@ def test_report_bad_input(cli, simulated, tmp_path):
     result = cli("report", "--results", tmp_path / "nowhere")
     assert result.exit_code == 2 and "results folder not found" in result.output
     assert len(result.output.strip().splitlines()) == 1
-    results = _results_with_tasks(simulated, tmp_path / "results")
-    _ball_sweep(results)
+    results = results_with_tasks(simulated, tmp_path / "results")
+    ball_sweep(results)
     broken = results / "grasps" / "drawing" / "solutions.parquet"
     broken.write_text("not parquet")
     result = cli("report", "--results", results)

@@ -48,6 +48,18 @@ class Tolerances:
     effort_max: float = 1.0 + 1e-6  # largest muscle activation needed for the task wrenches
 
 
+@dataclass(frozen=True)
+class WrenchLoad:
+    """How the grasp applies one task wrench in the verifier's LP (the solution of least peak activation, one
+    of many): the force each contact pushes on the object with (N, object frame), the joint torques that
+    balance them (N.m, the grasping joints' order) and the actuators' activations in [0, 1]."""
+
+    wrench: np.ndarray  # (6,): force (N) and torque (N.m) on the object
+    contact_forces: np.ndarray  # (b, 3)
+    joint_torques: np.ndarray  # (n,)
+    activations: np.ndarray  # (actuators,)
+
+
 @dataclass
 class Verification:
     contact_distance_m: np.ndarray
@@ -64,6 +76,8 @@ class Verification:
     contacts: np.ndarray = field(repr=False)
     normals: np.ndarray = field(repr=False)
     failures: list[str] = field(default_factory=list)
+    #: the LP's solution behind ``torque_effort``, one per task wrench (empty when some wrench is infeasible)
+    loads: list[WrenchLoad] = field(default_factory=list, repr=False)
 
     @property
     def ok(self) -> bool:
@@ -73,7 +87,7 @@ class Verification:
         """Flat columns for a table (``verify_*``), one value per finger where there is one per finger."""
         out = {"verified": self.ok, "verify_failures": ";".join(self.failures)}
         for key, value in asdict(self).items():
-            if key in ("contacts", "normals", "failures"):
+            if key in ("contacts", "normals", "failures", "loads"):
                 continue
             if isinstance(value, np.ndarray):
                 for name, v in zip(fingers, value, strict=True):
@@ -83,13 +97,13 @@ class Verification:
         return out
 
 
-def _torque_effort(edges, points, jacobians, hand: Hand, task: TaskModel) -> float:
+def _torque_effort(edges, points, jacobians, hand: Hand, task: TaskModel) -> tuple[float, list[WrenchLoad]]:
     """Smallest ``t`` such that, for every task axis and both signs, contact forces inside the friction cones
     apply ``+-gamma_i u_i`` to the object with joint torques ``T J^T f = A a``, ``0 <= a <= t`` (eq. 1, 10;
     ``T`` and ``A`` are the hand's :class:`~grasptask.hand.model.Capability`: tendons or motors).
 
-    One LP over all twelve wrenches (each with its own forces and activations, sharing ``t``); infinite when
-    some wrench cannot be applied at all."""
+    One LP over all twelve wrenches (each with its own forces and activations, sharing ``t``); infinite, with
+    no loads, when some wrench cannot be applied at all."""
     b, m, _ = edges.shape
     capability = hand.capability
     n_act = capability.torque_map.shape[1]
@@ -126,7 +140,14 @@ def _torque_effort(edges, points, jacobians, hand: Hand, task: TaskModel) -> flo
         method="highs",
         options={"presolve": False},
     )
-    return float(result.x[-1]) if result.status == 0 else float("inf")
+    if result.status != 0:
+        return float("inf"), []
+    loads = []
+    for i, w in enumerate(targets):
+        x = result.x[i * width : (i + 1) * width]
+        forces = np.einsum("jm,jmk->jk", x[:n_force].reshape(b, m), edges)
+        loads.append(WrenchLoad(w, forces, edge_torques @ x[:n_force], x[n_force:].copy()))
+    return float(result.x[-1]), loads
 
 
 def verify(
@@ -166,7 +187,7 @@ def verify(
     scale = obj.characteristic_length
     epsilon = ferrari_canny(primitive_wrenches(surface_points, edges, obj.centre, scale))
     Q, _ = task_quality(G, J, task.axes, task.weights)
-    effort = _torque_effort(edges, surface_points, jacobians, hand, task)
+    effort, loads = _torque_effort(edges, surface_points, jacobians, hand, task)
 
     checks = {
         "contact_distance": np.abs(distance).max() <= tol.contact_distance_m,
@@ -195,4 +216,5 @@ def verify(
         contacts=surface_points,
         normals=outward,
         failures=[name for name, passed in checks.items() if not passed],
+        loads=loads,
     )

@@ -25,6 +25,7 @@ from grasptask.paths import (
 if TYPE_CHECKING:
     from grasptask.report.browser import check_page
     from grasptask.stages.distances import run_distances
+    from grasptask.stages.export import run_export
     from grasptask.stages.fit_task import FitOptions, Preprocess, entries_from_inputs, run_fit_task
     from grasptask.stages.physics import PhysicsInputs, run_physics
     from grasptask.stages.pipeline import run_pipeline_file
@@ -50,6 +51,7 @@ _LAZY = {
     "run_pipeline_file": "grasptask.stages.pipeline",
     "PhysicsInputs": "grasptask.stages.physics",
     "run_physics": "grasptask.stages.physics",
+    "run_export": "grasptask.stages.export",
 }
 
 __all__ = [
@@ -72,6 +74,7 @@ __all__ = [
     "check_page",
     "entries_from_inputs",
     "run_distances",
+    "run_export",
     "run_fit_task",
     "run_physics",
     "run_pipeline_file",

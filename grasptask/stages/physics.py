@@ -8,7 +8,7 @@ import os
 from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor
 from contextlib import nullcontext
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -18,8 +18,7 @@ import pandas as pd
 from grasptask.errors import BadInputError
 from grasptask.grasp.grasp import Grasp
 from grasptask.io.artifacts import Provenance, StagedOutput
-from grasptask.io.config import read_json
-from grasptask.paths import DEFAULT_GRASP_CONFIG, DEFAULT_HAND, DEFAULT_OBJECT, DEFAULT_PHYSICS_CONFIG
+from grasptask.paths import DEFAULT_PHYSICS_CONFIG
 
 if TYPE_CHECKING:
     from grasptask.objects.surface import ImplicitObject
@@ -45,21 +44,18 @@ class PhysicsInputs:
     fingers: tuple[str, ...] | None = None
 
     def resolved(self) -> PhysicsInputs:
-        run_file = Path(self.solutions).parent / "run.json"
-        used = read_json(run_file) if run_file.is_file() else {}
+        from grasptask.stages.verify import SweepFiles
 
-        def pick(given: Path | None, key: str, default: Path) -> Path:
-            return Path(given) if given is not None else Path(used.get(key, default))
-
-        return PhysicsInputs(
+        used = SweepFiles.of(self.solutions, self.hand, self.object, self.grasp_config, self.fingers)
+        return replace(
+            self,
             solutions=Path(self.solutions),
             tasks=Path(self.tasks),
-            task=self.task,
-            hand=pick(self.hand, "hand", DEFAULT_HAND),
-            object=pick(self.object, "object", DEFAULT_OBJECT),
-            grasp_config=pick(self.grasp_config, "grasp_config", DEFAULT_GRASP_CONFIG),
+            hand=used.hand,
+            object=used.object,
+            grasp_config=used.grasp_config,
             physics_config=Path(self.physics_config),
-            fingers=self.fingers or (tuple(used["fingers"]) if used.get("fingers") else None),
+            fingers=used.fingers,
         )
 
 
@@ -90,14 +86,12 @@ class Judge:
     @classmethod
     def for_inputs(cls, inputs: PhysicsInputs) -> Judge:
         from grasptask.stages.verify import read_grasps
-        from grasptask.task.model import load_task_models
+        from grasptask.task.model import load_task_model
 
-        models = load_task_models(inputs.tasks)
-        if inputs.task not in models:
-            raise BadInputError(inputs.tasks, f"no task '{inputs.task}' (has: {', '.join(models)})")
+        model = load_task_model(inputs.tasks, inputs.task)
         assert inputs.hand is not None and inputs.object is not None and inputs.grasp_config is not None
         solved = read_grasps(inputs.solutions, inputs.hand, inputs.fingers)
-        return cls.of(solved, models[inputs.task], inputs.object, inputs.grasp_config, inputs.physics_config)
+        return cls.of(solved, model, inputs.object, inputs.grasp_config, inputs.physics_config)
 
     def hold(self, grasp: Grasp, trace: bool = False) -> PhysicsResult:
         from grasptask.physics.protocol import hold_grasp

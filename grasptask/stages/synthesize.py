@@ -107,11 +107,9 @@ def _prepare(options: SynthesisOptions) -> _Prepared:
     from grasptask.synthesis.config import load_solver_config
     from grasptask.synthesis.context import Job
     from grasptask.synthesis.starts import make_starts, subset
-    from grasptask.task.model import load_task_models
+    from grasptask.task.model import load_task_model
 
-    models = load_task_models(options.tasks)
-    if options.task not in models:
-        raise BadInputError(options.tasks, f"no task '{options.task}' (has: {', '.join(models)})")
+    model = load_task_model(options.tasks, options.task)
     plain_name(options.task, options.tasks, "task name")
     solver = load_solver_config(options.solver_config)
     check_ipopt_options(solver.ipopt, options.solver_config)
@@ -137,7 +135,7 @@ def _prepare(options: SynthesisOptions) -> _Prepared:
         "task": options.task,
         "seed": options.seed,
         "solver": options.backend,
-        "task model": config_hash(models[options.task].ellipsoid.S.tolist()),
+        "task model": config_hash(model.ellipsoid.S.tolist()),
         "hand": path_hash(options.hand),
         "object": config_hash([path_hash(p) for p in object_files(options.object)]),
         "solver config": path_hash(options.solver_config),
@@ -323,6 +321,7 @@ def summarise(
         "object": str(options.object),
         "hand": str(options.hand),
         "grasp_config": str(options.grasp_config),
+        "tasks": str(options.tasks),
         "fingers": fingers,
         # the physics config of synthesize --physics (None: not checked; a physics_summary.json beside this
         # run.json is then an earlier run's)
@@ -370,7 +369,7 @@ def _physics_judge(options: SynthesisOptions, solutions: pd.DataFrame, fingers: 
     from grasptask.io.solutions import grasp_from_row
     from grasptask.stages.physics import Judge
     from grasptask.stages.verify import SolvedGrasps
-    from grasptask.task.model import load_task_models
+    from grasptask.task.model import load_task_model
 
     assert options.physics is not None
     hand = load_hand(options.hand).with_grasping(fingers).grasping_hand()
@@ -378,5 +377,5 @@ def _physics_judge(options: SynthesisOptions, solutions: pd.DataFrame, fingers: 
         (row, None if pd.isna(row.get("palm_x", np.nan)) else grasp_from_row(row, hand.joint_names))
         for row in solutions.to_dict("records")
     ]
-    task = load_task_models(options.tasks)[options.task]
+    task = load_task_model(options.tasks, options.task)
     return Judge.of(SolvedGrasps(hand, rows), task, options.object, options.grasp_config, options.physics)

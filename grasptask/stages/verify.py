@@ -14,11 +14,55 @@ from grasptask.grasp.verify import verify
 from grasptask.hand import load_hand
 from grasptask.hand.model import Hand
 from grasptask.io.artifacts import Provenance, StagedOutput
+from grasptask.io.config import read_json
 from grasptask.io.solutions import fingers_in, grasp_from_row, implausible_column, joint_columns
 from grasptask.io.tables import read_table
 from grasptask.objects import load_object
 from grasptask.paths import DEFAULT_GRASP_CONFIG, DEFAULT_HAND, DEFAULT_OBJECT
-from grasptask.task.model import load_task_models
+from grasptask.task.model import load_task_model
+
+
+@dataclass(frozen=True)
+class SweepFiles:
+    """The inputs a solutions table was made from: as given, else as its sweep's ``run.json`` records them,
+    else the package defaults (no default for the task models and the task)."""
+
+    hand: Path
+    object: Path
+    grasp_config: Path
+    fingers: tuple[str, ...] | None
+    tasks: Path | None
+    task: str | None
+
+    @classmethod
+    def of(
+        cls,
+        solutions: str | Path,
+        hand: str | Path | None = None,
+        object: str | Path | None = None,
+        grasp_config: str | Path | None = None,
+        fingers: tuple[str, ...] | None = None,
+        tasks: str | Path | None = None,
+        task: str | None = None,
+    ) -> SweepFiles:
+        run_file = Path(solutions).parent / "run.json"
+        used = read_json(run_file) if run_file.is_file() else {}
+
+        def pick(given: str | Path | None, key: str, default: Path | None) -> Path | None:
+            chosen = given if given is not None else used.get(key, default)
+            return None if chosen is None else Path(chosen)
+
+        hand_path, object_path = pick(hand, "hand", DEFAULT_HAND), pick(object, "object", DEFAULT_OBJECT)
+        config = pick(grasp_config, "grasp_config", DEFAULT_GRASP_CONFIG)
+        assert hand_path is not None and object_path is not None and config is not None
+        return cls(
+            hand=hand_path,
+            object=object_path,
+            grasp_config=config,
+            fingers=fingers or (tuple(used["fingers"]) if used.get("fingers") else None),
+            tasks=pick(tasks, "tasks", None),
+            task=task if task is not None else used.get("task"),
+        )
 
 
 @dataclass(frozen=True)
@@ -76,9 +120,7 @@ def run_verify(
     """Verify every row of ``solutions_path`` for ``task``; writes ``out/verification.parquet`` (one row per
     start: ``verified``, ``verify_failures`` and the verifier's figures) and returns it. ``fingers`` defaults to
     those the table holds contacts of."""
-    models = load_task_models(tasks_path)
-    if task not in models:
-        raise BadInputError(tasks_path, f"no task '{task}'")
+    model = load_task_model(tasks_path, task)
     solved = read_grasps(solutions_path, hand_path, fingers)
     obj = load_object(object_path)
     settings = load_grasp_settings(grasp_config)
@@ -88,7 +130,7 @@ def run_verify(
         if grasp is None:
             record.update({"verified": False, "verify_failures": "no solution"})
         else:
-            check = verify(grasp, solved.hand, obj, models[task], settings)
+            check = verify(grasp, solved.hand, obj, model, settings)
             record.update(check.record(list(solved.hand.fingers)))
         rows.append(record)
     table = pd.DataFrame(rows)

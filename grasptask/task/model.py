@@ -98,3 +98,12 @@ def load_task_models(path: str | Path, section: str = "tasks") -> dict[str, Task
     if not isinstance(models, dict) or not models:
         raise BadInputError(path, f"not a task-models file: no '{section}' mapping of task models")
     return {name: _model(Path(path), section, name, model) for name, model in models.items()}
+
+
+def load_task_model(path: str | Path, task: str) -> TaskModel:
+    """Task ``task`` of the task-models file ``path``; one line naming the file and its tasks when it has none
+    by that name."""
+    models = load_task_models(path)
+    if task not in models:
+        raise BadInputError(path, f"no task '{task}' (has: {', '.join(models)})")
+    return models[task]

@@ -1,0 +1,84 @@
+"""One grasp as meshes in the object frame: each finger's collision spheres as one body, the palm's, the
+object's surface, the fingertip pads and the contacts. The report's interactive views and the GLB export both
+draw from it, so the two show the same thing."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import trimesh
+
+from grasptask.grasp.grasp import Grasp
+from grasptask.hand.kinematics import forward
+from grasptask.hand.model import Hand
+
+FINGER_COLOURS = {"thumb": "#d95f02", "index": "#1b9e77", "middle": "#7570b3", "ring": "#e7298a", "little": "#66a61e"}
+#: for fingers by other names (a robot hand's), in order
+OTHER_COLOURS = ("#d95f02", "#1b9e77", "#7570b3", "#e7298a", "#66a61e", "#e6ab02")
+PALM_COLOUR = "#8c6d31"
+OBJECT_COLOUR = "#a0a0a0"
+CONTACT_COLOUR = "#d62728"
+
+
+def finger_colour(name: str, index: int) -> str:
+    """The colour of finger ``name``, the ``index``-th of its hand: the human fingers' own, else in turn."""
+    return FINGER_COLOURS.get(name, OTHER_COLOURS[index % len(OTHER_COLOURS)])
+
+
+@dataclass(frozen=True)
+class FingerBody:
+    name: str
+    colour: str
+    mesh: trimesh.Trimesh  # its collision spheres, merged
+    chain: np.ndarray  # (n+1, 3): the joints' origins, then the fingertip's end
+    pad: np.ndarray  # (3,): the pad point, where the finger touches
+    pad_normal: np.ndarray  # (3,): outward from the pad
+
+
+@dataclass(frozen=True)
+class GraspScene:
+    """A grasp's geometry in the object frame (m); ``contacts`` are the pad points, ``normals`` the object's
+    outward normals there, ``mu`` the friction coefficient of the cones."""
+
+    fingers: tuple[FingerBody, ...]
+    palm: trimesh.Trimesh
+    object_mesh: trimesh.Trimesh
+    contacts: np.ndarray
+    normals: np.ndarray
+    mu: float
+
+
+def spheres_mesh(centres: np.ndarray, radii: np.ndarray, subdivisions: int = 1) -> trimesh.Trimesh:
+    """Spheres as one mesh (an icosphere each, not unioned: the bodies are for looking at, not for volumes)."""
+    unit = trimesh.creation.icosphere(subdivisions=subdivisions)
+    count = len(radii)
+    vertices = (unit.vertices[None] * np.asarray(radii)[:, None, None] + np.asarray(centres)[:, None, :]).reshape(-1, 3)
+    faces = (unit.faces[None] + len(unit.vertices) * np.arange(count)[:, None, None]).reshape(-1, 3)
+    return trimesh.Trimesh(vertices, faces, process=False)
+
+
+def grasp_scene(
+    hand: Hand,
+    object_mesh: trimesh.Trimesh,
+    grasp: Grasp,
+    normals: np.ndarray,
+    mu: float,
+    subdivisions: int = 1,
+) -> GraspScene:
+    """The scene of ``grasp`` by ``hand`` (its grasping fingers, as the solutions hold them) on the object
+    pictured by ``object_mesh``, with the object's outward ``normals`` at the contacts."""
+    pose = forward(hand, grasp.joint_angles, grasp.palm_rotation, grasp.palm_position)
+    bodies = tuple(
+        FingerBody(
+            name,
+            finger_colour(name, k),
+            spheres_mesh(finger.samples[0], finger.radii, subdivisions),
+            finger.joint_positions[0],
+            finger.contact[0],
+            finger.pad_normal[0],
+        )
+        for k, (name, finger) in enumerate(pose.fingers.items())
+    )
+    palm = spheres_mesh(pose.palm_samples[0], pose.palm_radii, subdivisions)
+    return GraspScene(bodies, palm, object_mesh, pose.contacts()[0], np.asarray(normals, dtype=float), mu)

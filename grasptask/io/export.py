@@ -1,0 +1,150 @@
+"""A grasp in the forms other tools load: a GLB scene (Blender, MeshLab, three.js) and a JSON record whose
+joint angles are keyed by the hand file's own joint names, so that the grasp replays in the user's simulator.
+The record's schema is ``docs/grasp_record.schema.json``."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+import trimesh
+
+from grasptask.grasp.grasp import Grasp
+from grasptask.grasp.scene import CONTACT_COLOUR, OBJECT_COLOUR, PALM_COLOUR, GraspScene, spheres_mesh
+from grasptask.grasp.verify import Verification
+from grasptask.hand.model import Hand
+
+RECORD_FORMAT = "grasptask.grasp/1"
+#: the contacts' spheres in the GLB (m): big enough to see beside a fingertip, small enough not to hide it
+CONTACT_RADIUS = 0.002
+
+
+def _rgba(colour: str, alpha: float = 1.0) -> list[int]:
+    colour = colour.lstrip("#")
+    return [int(colour[i : i + 2], 16) for i in (0, 2, 4)] + [round(255 * alpha)]
+
+
+def _coloured(mesh: trimesh.Trimesh, colour: str, name: str, alpha: float = 1.0) -> trimesh.Trimesh:
+    """A copy of ``mesh`` with one PBR material (glTF viewers show a material's colour, not always vertex
+    colours)."""
+    material = trimesh.visual.material.PBRMaterial(
+        name=name, baseColorFactor=_rgba(colour, alpha), metallicFactor=0.0, roughnessFactor=0.8,
+        alphaMode="BLEND" if alpha < 1.0 else "OPAQUE",
+    )  # fmt: skip
+    out = mesh.copy()
+    out.visual = trimesh.visual.TextureVisuals(material=material)
+    return out
+
+
+def glb_scene(scene: GraspScene) -> trimesh.Scene:
+    """The grasp as a glTF scene in the object frame: nodes ``object``, ``palm``, ``finger_<name>`` (the
+    collision spheres, a colour per finger) and ``contact_<name>``."""
+    out = trimesh.Scene()
+    out.add_geometry(_coloured(scene.object_mesh, OBJECT_COLOUR, "object", 0.6), node_name="object", geom_name="object")
+    out.add_geometry(_coloured(scene.palm, PALM_COLOUR, "palm"), node_name="palm", geom_name="palm")
+    for finger, point in zip(scene.fingers, scene.contacts, strict=True):
+        name = f"finger_{finger.name}"
+        out.add_geometry(_coloured(finger.mesh, finger.colour, name), node_name=name, geom_name=name)
+        name = f"contact_{finger.name}"
+        ball = spheres_mesh(point[None], np.array([CONTACT_RADIUS]), subdivisions=2)
+        out.add_geometry(_coloured(ball, CONTACT_COLOUR, name), node_name=name, geom_name=name)
+    return out
+
+
+def glb_bytes(scene: GraspScene) -> bytes:
+    return glb_scene(scene).export(file_type="glb")
+
+
+def palm_pose(grasp: Grasp) -> np.ndarray:
+    """The palm frame in the object frame as a 4x4 homogeneous matrix."""
+    pose = np.eye(4)
+    pose[:3, :3], pose[:3, 3] = grasp.palm_rotation, grasp.palm_position
+    return pose
+
+
+def _vector(values: np.ndarray) -> list[float]:
+    return [float(v) for v in np.asarray(values).ravel()]
+
+
+def _figures(verification: Verification, fingers: list[str]) -> dict[str, Any]:
+    """The verifier's figures, per finger where there is one per finger, without the ``verify_`` prefix."""
+    flat = verification.record(fingers)
+    figures = {k[len("verify_") :]: v for k, v in flat.items() if k.startswith("verify_") and k != "verify_failures"}
+    return {k: (None if isinstance(v, float) and not np.isfinite(v) else v) for k, v in figures.items()}
+
+
+def grasp_record(
+    *,
+    task: str,
+    row: Mapping[str, Any],
+    hand: Hand,
+    grasp: Grasp,
+    scene: GraspScene,
+    verification: Verification,
+    sources: Mapping[str, str],
+) -> dict[str, Any]:
+    """One grasp as a JSON-ready record (``docs/grasp_record.schema.json``): ``row`` is its solutions or optima
+    row, ``hand`` the grasping hand it was solved with, ``verification`` the verifier's judgement of it now
+    (its LP gives the contact forces and activations per task wrench) and ``sources`` the input files."""
+    fingers = list(hand.fingers)
+    joints = hand.joint_names
+    actuators = list(hand.capability.actuators)
+    optimum = row.get("optimum_id")
+    wrenches = []
+    for k, load in enumerate(verification.loads):
+        wrenches.append(
+            {
+                "axis": k // 2 + 1,
+                "sign": 1 if k % 2 == 0 else -1,
+                "wrench": _vector(load.wrench),
+                "contact_forces": {f: _vector(v) for f, v in zip(fingers, load.contact_forces, strict=True)},
+                "joint_torques": {j: float(v) for j, v in zip(joints, load.joint_torques, strict=True)},
+                "activations": {a: float(v) for a, v in zip(actuators, load.activations, strict=True)},
+            }
+        )
+    contacts = [
+        {
+            "finger": finger.name,
+            "pad": _vector(finger.pad),
+            "pad_normal": _vector(finger.pad_normal),
+            "surface_point": _vector(surface),
+            "normal": _vector(normal),
+        }
+        for finger, surface, normal in zip(scene.fingers, verification.contacts, scene.normals, strict=True)
+    ]
+    return {
+        "format": RECORD_FORMAT,
+        "task": task,
+        "start_id": int(row["start_id"]),
+        "optimum_id": None if optimum is None or optimum != optimum else int(optimum),
+        "members": int(row["members"]) if "members" in row else None,
+        "hand": {
+            "name": hand.name,
+            "file": sources.get("hand", ""),
+            "fingers": fingers,
+            "capability": hand.capability.kind,
+        },
+        "object": {"file": sources.get("object", "")},
+        "units": {"length": "m", "angle": "rad", "force": "N", "torque": "N.m"},
+        "frame": "object",
+        "joint_angles": {name: float(q) for name, q in zip(joints, grasp.joint_angles, strict=True)},
+        "palm_pose": palm_pose(grasp).tolist(),
+        "contacts": contacts,
+        "friction_coefficient": float(scene.mu),
+        "wrenches": wrenches,
+        "Q": float(row["Q"]),
+        "verification": {
+            "verified": verification.ok,
+            "failures": list(verification.failures),
+            "figures": _figures(verification, fingers),
+        },
+    }
+
+
+def grasp_from_record(record: Mapping[str, Any], joint_names: list[str]) -> Grasp:
+    """The grasp a record holds, its joint angles in the order ``joint_names`` (a hand's own): how a record is
+    replayed through the hand's forward kinematics."""
+    pose = np.asarray(record["palm_pose"], dtype=float)
+    angles = record["joint_angles"]
+    return Grasp(pose[:3, :3], pose[:3, 3], np.array([angles[name] for name in joint_names], dtype=float))

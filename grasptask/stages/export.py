@@ -1,0 +1,100 @@
+"""``grasptask export``: the distinct optima of a sweep (or every verified start) as GLB scenes and JSON records
+that other tools load (:mod:`grasptask.io.export`)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from grasptask.errors import BadInputError
+from grasptask.io.artifacts import Provenance, StagedOutput
+from grasptask.io.solutions import grasp_from_row
+from grasptask.io.tables import read_table
+from grasptask.progress import progress
+from grasptask.stages.verify import SweepFiles, read_grasps
+
+#: the object's picture in the GLB, in triangles: smooth to the eye, a few hundred kB
+GLB_OBJECT_FACES = 20000
+
+
+@dataclass(frozen=True)
+class ExportSummary:
+    out: Path
+    grasps: int
+    verified_now: int
+    files: list[str]
+
+
+def _chosen_rows(solutions_path: Path, every_start: bool) -> tuple[list[dict], str]:
+    """The rows to export and how their files are named: the sweep's distinct optima (``optima.parquet``
+    beside the solutions), or with ``every_start`` each verified start of the solutions table."""
+    if every_start:
+        table = read_table(solutions_path, ("start_id", "verified"))
+        return table[table["verified"].astype(bool)].to_dict("records"), "start"
+    optima_path = solutions_path.parent / "optima.parquet"
+    if not optima_path.is_file():
+        raise BadInputError(optima_path, "not found: export needs the sweep's distinct optima, or --all")
+    return read_table(optima_path, ("optimum_id", "start_id", "Q")).to_dict("records"), "optimum"
+
+
+def run_export(
+    solutions: str | Path,
+    out: str | Path,
+    tasks: str | Path | None = None,
+    task: str | None = None,
+    hand: str | Path | None = None,
+    object_path: str | Path | None = None,
+    grasp_config: str | Path | None = None,
+    fingers: tuple[str, ...] | None = None,
+    every_start: bool = False,
+) -> ExportSummary:
+    """Write ``out/<name>.glb`` and ``out/<name>.json`` for each distinct optimum (``optimum_07``) or, with
+    ``every_start``, each verified start (``start_017``), and ``out/grasps.json`` listing them. Inputs not
+    given are those the sweep's ``run.json`` records. Each grasp is verified again, for the contact forces and
+    activations per task wrench that the verifier's LP finds; the record says whether it still passes."""
+    from grasptask.grasp.scene import grasp_scene
+    from grasptask.grasp.settings import load_grasp_settings
+    from grasptask.grasp.verify import verify
+    from grasptask.io.export import glb_bytes, grasp_record
+    from grasptask.objects import load_object
+    from grasptask.objects.loading import object_files
+    from grasptask.task.model import load_task_model
+
+    solutions = Path(solutions)
+    files = SweepFiles.of(solutions, hand, object_path, grasp_config, fingers, tasks, task)
+    if files.tasks is None or files.task is None:
+        raise BadInputError(solutions, "no run.json beside it names the task models and the task: give --tasks, --task")
+    model = load_task_model(files.tasks, files.task)
+    solved = read_grasps(solutions, files.hand, files.fingers)
+    rows, kind = _chosen_rows(solutions, every_start)
+    obj = load_object(files.object, say=lambda _: None)
+    settings = load_grasp_settings(files.grasp_config)
+    mesh = obj.picture(GLB_OBJECT_FACES)
+    sources = {"hand": str(files.hand), "object": str(files.object), "tasks": str(files.tasks)}
+    config = {"task": files.task, "all": every_start, **sources, "grasp_config": str(files.grasp_config)}
+    inputs = [solutions, files.tasks, files.hand, files.grasp_config, *object_files(files.object)]
+    listing: list[dict[str, Any]] = []
+    verified = 0
+    with StagedOutput(out, Provenance.of("export", config, inputs)) as staged:
+        for row in progress(rows, desc=f"export: {files.task}", unit="grasp"):
+            grasp = grasp_from_row(row, solved.hand.joint_names)
+            check = verify(grasp, solved.hand, obj, model, settings)
+            scene = grasp_scene(solved.hand, mesh, grasp, check.normals, settings.friction_coefficient)
+            record = grasp_record(
+                task=files.task,
+                row=row,
+                hand=solved.hand,
+                grasp=grasp,
+                scene=scene,
+                verification=check,
+                sources=sources,
+            )
+            number = int(row["optimum_id"] if kind == "optimum" else row["start_id"])
+            name = f"{kind}_{number:02d}" if kind == "optimum" else f"{kind}_{number:03d}"
+            staged.path(f"{name}.glb").write_bytes(glb_bytes(scene))
+            staged.write_json(f"{name}.json", record)
+            verified += check.ok
+            listing.append({"name": name, "start_id": int(row["start_id"]), "Q": float(row["Q"]), "verified": check.ok})
+        staged.write_json("grasps.json", {"task": files.task, "kind": kind, "grasps": listing})
+    return ExportSummary(Path(out), len(listing), verified, [str(g["name"]) for g in listing])
