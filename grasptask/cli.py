@@ -459,27 +459,42 @@ def export(solutions, out, tasks_path, task, every_start, hand, object_path, gra
 @click.option(
     "--check-browser",
     is_flag=True,
-    help="Open the page in headless Chromium: every image must load and the console must stay free of errors.",
+    help="Open the page in headless Chromium: every image loads, the console stays free of errors, and every "
+    "interactive view draws a non-empty WebGL scene within 5 s.",
 )
 @click.option(
     "--screenshot", type=click.Path(path_type=Path), default=None, help="With --check-browser: save the page top."
 )
-def report(results_dir, out, check_browser, screenshot):
-    """Write a self-contained HTML report (OUT/index.html, images embedded), OUT/figures/*.png and
-    OUT/tables/*.md: Tables 1-10 beside the paper, ellipsoid figures, distances, synthesis statistics and a
-    rendering of every distinct optimum. Parts whose inputs are missing become notes."""
+@click.option(
+    "--view-screenshot",
+    type=click.Path(path_type=Path),
+    default=None,
+    help="With --check-browser: save the first grasp's interactive view as drawn.",
+)
+def report(results_dir, out, check_browser, screenshot, view_screenshot):
+    """Write a self-contained HTML report (OUT/index.html: images, interactive 3D views and plotly.js inlined;
+    it works offline and can be mailed), OUT/figures/*.png and OUT/tables/*.md: Tables 1-10 beside the paper,
+    ellipsoid figures, distances, synthesis statistics, every distinct optimum (interactive and as two fixed
+    views) and the physics check. Parts whose inputs are missing become notes."""
     out = out or results_dir / "report"
     summary = stages.build_report(results_dir, out)
     for note in summary.notes:
         click.echo(f"note: {note}")
-    click.echo(f"{summary.figures} figures, {summary.tables} tables in {summary.seconds:.1f} s")
+    size = summary.index.stat().st_size / 1e6
+    click.echo(
+        f"{summary.figures} figures, {summary.views} interactive views, {summary.tables} tables in "
+        f"{summary.seconds:.1f} s; index.html {size:.1f} MB"
+    )
     if check_browser:
-        check = stages.check_page(summary.index, screenshot)
+        check = stages.check_page(summary.index, screenshot, view_screenshot=view_screenshot)
+        slowest = max((v.draw_s for v in check.views), default=0.0)
         click.echo(
             f"chromium: {check.images - len(check.broken_images)}/{check.images} images loaded, "
-            f"{len(check.console_errors)} console errors"
+            f"{len(check.console_errors)} console errors, ready in {check.ready_s:.1f} s, "
+            f"{len(check.views) - len(check.failed_views)}/{len(check.views)} views drawn and non-empty "
+            f"(slowest {slowest:.1f} s)"
         )
-        for problem in [*check.broken_images, *check.console_errors]:
+        for problem in check.problems():
             click.echo(f"  {problem}", err=True)
         if not check.ok:
             raise click.exceptions.Exit(1)

@@ -26,6 +26,11 @@ def full_report(simulated, tmp_path_factory):
     return results, summary
 
 
+def _markup(page: str) -> str:
+    """The page without its inline scripts' text (plotly.js holds 'src="' in its own strings)."""
+    return re.sub(r"<script[^>]*>.*?</script>", "<script></script>", page, flags=re.S)
+
+
 def test_report_from_task_results_only(simulated, tmp_path):
     results = results_with_tasks(simulated, tmp_path / "results")
     summary = build_report(results, tmp_path / "out")
@@ -42,7 +47,8 @@ def test_report_from_task_results_only(simulated, tmp_path):
     page = (out / "index.html").read_text()
     # self-contained: every figure inline, nothing fetched from elsewhere
     assert len(re.findall(r'<img src="data:image/png;base64,', page)) == len(figures)
-    assert not re.search(r'src="(?!data:)', page) and "<link" not in page
+    markup = _markup(page)
+    assert not re.search(r'src="(?!data:)', markup) and "<link" not in markup
     # the missing synthesis is a note that says what to run, in the page and in the summary
     assert any("grasptask synthesize" in note for note in summary.notes)
     assert "Not made (inputs missing)" in page and "grasptask synthesize" in page
@@ -76,13 +82,40 @@ def test_report_with_a_sweep_renders_every_optimum(full_report):
     assert len(report["figures"]) == summary.figures == len(figures)
 
 
+def test_report_views_are_inlined_once_and_share_the_object(full_report):
+    """An interactive view per optimum and per task's ellipsoids, plotly.js inlined once, nothing from the
+    network, and the object's surface written once however many views show it."""
+    from plotly.offline import get_plotlyjs
+
+    results, summary = full_report
+    page = (results / "report" / "index.html").read_text()
+    report = json.loads((results / "report" / "report.json").read_text())
+    assert report["views"] == [f"view-ellipsoids_{t}" for t in ("drawing", "cutting", "screwdriving")] + [
+        "view-grasp_drawing_00"
+    ]
+    assert summary.views == 4 and page.count('<div class="view"') == 4
+    assert page.count(get_plotlyjs()[:200]) == 1
+    markup = _markup(page)
+    assert not re.search(r'src="(?!data:)', markup) and not re.search(r"(src|href)=.https?:", markup)
+    assert page.count('id="shared-mesh-') == 1
+    # the figure data parses, and the grasp view's pads carry their hover text
+    data = re.search(r'<script type="application/json" id="view-grasp_drawing_00-data">(.*?)</script>', page, re.S)
+    figure = json.loads(data.group(1))
+    contacts = next(t for t in figure["data"] if t["name"] == "contacts")
+    assert len(contacts["text"]) == 3 and all("largest |force|" in t and "Q " in t for t in contacts["text"])
+    assert len(data.group(1)) < 150_000  # a view's own data; a paper report holds 57 of them within 15 MB
+
+
 @pytest.mark.skipif(find_chromium() is None, reason="Debian's chromium and chromium-driver are not installed")
 def test_report_opens_in_headless_chromium(full_report, tmp_path):
     results, summary = full_report
-    check = check_page(summary.index, tmp_path / "top.png")
-    assert check.ok, (check.broken_images, check.console_errors)
+    check = check_page(summary.index, tmp_path / "top.png", view_screenshot=tmp_path / "view.png")
+    assert check.ok, check.problems()
     assert check.images == summary.figures and check.title == "grasptask report"
-    assert (tmp_path / "top.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    # every interactive view drew a WebGL scene with something in it, within 5 s of coming into sight
+    assert len(check.views) == summary.views and all(v.ok and v.canvases for v in check.views)
+    for shot in ("top.png", "view.png"):
+        assert (tmp_path / shot).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
 def test_report_bad_input(cli, simulated, tmp_path):
@@ -96,3 +129,33 @@ def test_report_bad_input(cli, simulated, tmp_path):
     result = cli("report", "--results", results)
     assert result.exit_code == 2 and str(broken) in result.output and "Parquet" in result.output
     assert not (results / "report").exists()
+
+
+@pytest.mark.skipif(find_chromium() is None, reason="Debian's chromium and chromium-driver are not installed")
+def test_the_browser_check_fails_an_empty_view(tmp_path):
+    """A view whose scene shows nothing but its grey axes does not pass: the check can fail."""
+    import plotly.graph_objects as go
+
+    from grasptask.report.interactive import figure_json
+    from grasptask.report.page import Figure, Section, View, render_html
+    from grasptask.report.style import apply_style, save_figure
+
+    empty = go.Figure(go.Scatter3d(x=[0.0], y=[0.0], z=[0.0], mode="markers", marker={"size": 0.1}))
+    empty.update_layout(template="none", height=400)
+    data, shared = figure_json(empty)
+    import matplotlib.pyplot as plt
+
+    apply_style()
+    fig = plt.figure()
+    save_figure(fig, tmp_path / "blank.png")
+    plt.close(fig)
+    section = Section(
+        "s", "S", blocks=[View("view-empty", data, "nothing", 400, shared), Figure(tmp_path / "blank.png", "")]
+    )
+    page = tmp_path / "index.html"
+    page.write_text(render_html("t", "", [], [section]))
+    check = check_page(page)
+    assert [v.key for v in check.views] == ["view-empty"]
+    view = check.views[0]
+    assert view.drawn and view.canvases and not view.ok and not check.ok
+    assert "view-empty" in " ".join(check.problems())

@@ -1,21 +1,27 @@
 """Open a report in headless Chromium (Debian's ``chromium`` and ``chromium-driver``) and check that every image
-loads and the console stays free of errors; optionally save a screenshot of the top of the page."""
+loads, the console stays free of errors, the page is ready within 5 s, and each interactive view draws a
+non-empty WebGL scene (Chromium's software GL, SwiftShader) within 5 s of scrolling into sight; optionally save a
+screenshot of the top of the page and of one view."""
 
 from __future__ import annotations
 
 import os
 import shutil
 import tempfile
+import time
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 from grasptask.errors import BadInputError
 
-#: without the background-networking flags Chromium keeps trying to reach Google's hosts on a closed network
+#: without the background-networking flags Chromium keeps trying to reach Google's hosts on a closed network;
+#: WebGL runs on SwiftShader, Chromium's software GL, which it no longer falls back to unasked
 FLAGS = (
     "--headless=new",
     "--no-sandbox",
-    "--disable-gpu",
+    "--use-angle=swiftshader",
+    "--enable-unsafe-swiftshader",
     "--disable-dev-shm-usage",
     "--disable-quic",
     "--no-first-run",
@@ -26,16 +32,64 @@ FLAGS = (
 )
 
 
+#: the longest a page may take to be ready, and a view to draw once in sight (s)
+READY_S = 5.0
+#: a drawn view must colour at least this many pixels of its WebGL scene (the hand, cones, task axes or
+#: ellipsoids; the legend, which is not WebGL, is hidden first): grey axes alone are an empty scene
+MIN_COLOURED_PIXELS = 400
+
+
+@dataclass(frozen=True)
+class ViewCheck:
+    key: str
+    drawn: bool
+    draw_s: float
+    coloured_pixels: int
+    canvases: int
+
+    @property
+    def ok(self) -> bool:
+        return (
+            self.drawn and self.draw_s <= READY_S and self.canvases > 0 and self.coloured_pixels >= MIN_COLOURED_PIXELS
+        )
+
+
 @dataclass(frozen=True)
 class BrowserCheck:
     images: int
     broken_images: list[str] = field(default_factory=list)
     console_errors: list[str] = field(default_factory=list)
     title: str = ""
+    ready_s: float = 0.0  # from navigation to the load event
+    views: list[ViewCheck] = field(default_factory=list)
+    view_errors: list[str] = field(default_factory=list)
+
+    @property
+    def failed_views(self) -> list[ViewCheck]:
+        return [v for v in self.views if not v.ok]
 
     @property
     def ok(self) -> bool:
-        return self.images > 0 and not self.broken_images and not self.console_errors
+        return (
+            self.images > 0
+            and not self.broken_images
+            and not self.console_errors
+            and self.ready_s <= READY_S
+            and not self.failed_views
+            and not self.view_errors
+        )
+
+    def problems(self) -> list[str]:
+        """One line per thing that failed."""
+        lines = [f"image did not load: {alt}" for alt in self.broken_images] + list(self.console_errors)
+        if self.ready_s > READY_S:
+            lines.append(f"page took {self.ready_s:.1f} s to load (limit {READY_S:g} s)")
+        for view in self.failed_views:
+            lines.append(
+                f"view {view.key}: drawn {view.drawn} in {view.draw_s:.1f} s, {view.canvases} canvases, "
+                f"{view.coloured_pixels} coloured pixels (needs {MIN_COLOURED_PIXELS})"
+            )
+        return lines + self.view_errors
 
 
 def find_chromium() -> tuple[str, str] | None:
@@ -45,9 +99,54 @@ def find_chromium() -> tuple[str, str] | None:
     return (browser, driver) if browser and driver else None
 
 
-def check_page(page: Path, screenshot: Path | None = None, width: int = 1280, height: int = 900) -> BrowserCheck:
+def _coloured_pixels(png: bytes) -> int:
+    """Pixels whose colour is not a grey (white background, grey grid and object, black text)."""
+    import io
+
+    from matplotlib.image import imread
+
+    rgb = imread(io.BytesIO(png), format="png")[..., :3]
+    return int(((rgb.max(axis=-1) - rgb.min(axis=-1)) > 0.2).sum())
+
+
+def _check_view(driver: Any, element: Any, save: Path | None) -> ViewCheck:
+    """Scroll ``element`` into sight, wait for the page to draw it, then look at what its WebGL scene shows."""
+    from selenium.webdriver.support.ui import WebDriverWait
+
+    key = element.get_attribute("id")
+    driver.execute_script("arguments[0].scrollIntoView({block: 'center'});", element)
+    began = time.perf_counter()
+    try:
+        WebDriverWait(driver, 2 * READY_S, poll_frequency=0.05).until(
+            lambda d: d.execute_script("return arguments[0].dataset.state === 'drawn';", element)
+        )
+    except Exception:  # noqa: BLE001 - a view that never draws is a failed check, not a crash
+        return ViewCheck(key, False, time.perf_counter() - began, 0, 0)
+    seconds = float(driver.execute_script("return Number(arguments[0].dataset.drawMs) / 1000;", element))
+    canvases = int(driver.execute_script("return arguments[0].querySelectorAll('canvas').length;", element))
+    if save is not None:
+        save.parent.mkdir(parents=True, exist_ok=True)
+        save.write_bytes(element.screenshot_as_png)
+    driver.execute_async_script(
+        "var done = arguments[arguments.length - 1];"
+        "Plotly.relayout(arguments[0], {showlegend: false, title: {text: ''}}).then(function () { done(); });",
+        element,
+    )
+    return ViewCheck(key, True, seconds, _coloured_pixels(element.screenshot_as_png), canvases)
+
+
+def check_page(
+    page: Path,
+    screenshot: Path | None = None,
+    width: int = 1280,
+    height: int = 900,
+    view_screenshot: Path | None = None,
+) -> BrowserCheck:
+    """Open ``page`` and check it (see the module docstring); ``view_screenshot`` saves the first grasp view
+    (or the first view) as drawn."""
     from selenium import webdriver
     from selenium.webdriver.chrome.service import Service
+    from selenium.webdriver.common.by import By
 
     found = find_chromium()
     if found is None:
@@ -64,15 +163,28 @@ def check_page(page: Path, screenshot: Path | None = None, width: int = 1280, he
         options.set_capability("goog:loggingPrefs", {"browser": "ALL"})
         driver = webdriver.Chrome(service=Service(executable_path=driver_path), options=options)
         try:
+            driver.set_script_timeout(30)
             driver.get(Path(page).resolve().as_uri())
+            ready = driver.execute_script(
+                "var t = performance.getEntriesByType('navigation')[0]; return t ? t.loadEventEnd / 1000 : 0;"
+            )
             images = driver.execute_script(
                 "return Array.from(document.images).map(i => [i.alt, i.complete && i.naturalWidth > 0]);"
             )
-            errors = [e["message"] for e in driver.get_log("browser") if e.get("level") == "SEVERE"]
             if screenshot is not None:
                 Path(screenshot).parent.mkdir(parents=True, exist_ok=True)
                 driver.save_screenshot(str(screenshot))
+            elements = driver.find_elements(By.CSS_SELECTOR, "div.view")
+            keys = [str(e.get_attribute("id")) for e in elements]
+            pictured = next((k for k in keys if k.startswith("view-grasp")), keys[0] if keys else None)
+            views = [
+                _check_view(driver, e, view_screenshot if k == pictured else None)
+                for e, k in zip(elements, keys, strict=True)
+            ]
+            view_errors = list(driver.execute_script("return (window.grasptaskViews || {errors: []}).errors;"))
+            errors = [e["message"] for e in driver.get_log("browser") if e.get("level") == "SEVERE"]
             title = driver.title
         finally:
             driver.quit()
-    return BrowserCheck(len(images), [alt for alt, ok in images if not ok], errors, title)
+    broken = [alt for alt, ok in images if not ok]
+    return BrowserCheck(len(images), broken, errors, title, float(ready), views, view_errors)

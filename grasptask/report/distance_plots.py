@@ -7,7 +7,7 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import numpy as np
 
-from grasptask.report.style import GRASP_MARKERS, apply_style, task_colour
+from grasptask.report.style import GRASP_MARKERS, apply_style, save_figure, task_colour
 from grasptask.task.distances import Distances
 
 
@@ -54,7 +54,7 @@ def plot_heatmap(distances: Distances, path: Path) -> None:
     ax.set_xticks(ticks, labels, rotation=30, ha="right")
     ax.set_yticks(ticks, labels)
     ax.set_title("Distances between task ellipsoids (cf. paper Figure 9)")
-    fig.savefig(path)
+    save_figure(fig, path)
     plt.close(fig)
 
 
@@ -80,5 +80,5 @@ def plot_embedding(distances: Distances, path: Path) -> None:
     ax.set_title("Task ellipsoids, classical MDS of Log-Euclidean distances")
     ax.legend(fontsize=8, loc="best")
     ax.grid(alpha=0.3)
-    fig.savefig(path)
+    save_figure(fig, path)
     plt.close(fig)

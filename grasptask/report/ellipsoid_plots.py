@@ -14,7 +14,7 @@ import pandas as pd
 from grasptask.errors import BadInputError
 from grasptask.io.manifest import read_manifest
 from grasptask.io.units import PAPER_TORQUE_UNIT, TORQUE_UNITS
-from grasptask.report.style import apply_style, task_colour
+from grasptask.report.style import apply_style, save_figure, task_colour
 from grasptask.task.ellipsoid import FORCE, TORQUE
 from grasptask.task.fit import ellipsoid_matrices, entry_tool, load_wrenches
 
@@ -107,7 +107,7 @@ def plot_task_ellipsoids(
         color=colour,
     )
     fig.tight_layout(rect=(0, 0.05, 1, 0.96))
-    fig.savefig(path)
+    save_figure(fig, path)
     plt.close(fig)
 
 

@@ -29,6 +29,18 @@ class Note:
     text: str
 
 
+@dataclass(frozen=True)
+class View:
+    """An interactive plotly view: its figure as JSON (:func:`grasptask.report.interactive.figure_json`),
+    drawn by the page when it scrolls into sight."""
+
+    key: str
+    figure: str
+    caption: str
+    height: int = 560
+    shared: dict[str, str] = field(default_factory=dict)  # trace data several views use, by key
+
+
 @dataclass
 class Section:
     key: str
@@ -39,7 +51,7 @@ class Section:
 
     @property
     def made(self) -> bool:
-        return any(isinstance(b, (Figure, Table)) for b in self.blocks)
+        return any(isinstance(b, (Figure, Table, View)) for b in self.blocks)
 
     @property
     def notes(self) -> list[str]:
@@ -59,6 +71,44 @@ table { border-collapse: collapse; font-size: 0.86em; margin: 0.4em 0 0.2em; }
 th, td { border: 1px solid #ccc; padding: 0.2em 0.5em; text-align: right; }
 th { background: #f0f0f0; } td:first-child, th:first-child { text-align: left; }
 .caption { font-weight: 600; margin-top: 1.2em; }
+div.view { border: 1px solid #eee; margin: 1.2em 0 0.3em; }
+.view-placeholder { color: #777; padding: 1em; }
+@media print { div.view, div.view + figcaption { display: none; } }
+"""
+
+#: draws each view when it comes near the viewport and releases it when it leaves: a page of 40 3D views would
+#: otherwise hold 40 WebGL contexts, and browsers drop the oldest beyond 16. ``window.grasptaskViews`` tells a
+#: test browser what was drawn, how fast, and what failed.
+VIEWS_SCRIPT = """
+(function () {
+  var views = Array.prototype.slice.call(document.querySelectorAll("div.view"));
+  var state = window.grasptaskViews = {total: views.length, drawn: 0, errors: []};
+  function draw(div) {
+    if (div.dataset.state) { return; }
+    div.dataset.state = "drawing";
+    var started = performance.now();
+    var figure = JSON.parse(document.getElementById(div.dataset.figure).textContent);
+    figure.data.forEach(function (trace) {
+      var key = trace.meta && trace.meta.shared;
+      if (key) { Object.assign(trace, JSON.parse(document.getElementById("shared-" + key).textContent)); }
+    });
+    div.innerHTML = "";
+    Plotly.newPlot(div, figure.data, figure.layout, {responsive: true, displaylogo: false}).then(function () {
+      div.dataset.state = "drawn";
+      div.dataset.drawMs = String(performance.now() - started);
+      state.drawn += 1;
+    }, function (error) { state.errors.push(div.id + ": " + error); });
+  }
+  function release(div) {
+    if (div.dataset.state === "drawn") { Plotly.purge(div); delete div.dataset.state; }
+  }
+  var observer = new IntersectionObserver(function (entries) {
+    entries.forEach(function (entry) {
+      if (entry.isIntersecting) { draw(entry.target); } else { release(entry.target); }
+    });
+  }, {rootMargin: "400px 0px"});
+  views.forEach(function (div) { observer.observe(div); });
+})();
 """
 
 
@@ -79,6 +129,13 @@ def _block(block) -> str:
         return f'<p class="caption">{html.escape(block.caption)}</p>{body}'
     if isinstance(block, Note):
         return f'<p class="note">{html.escape(block.text)}</p>'
+    if isinstance(block, View):
+        return (
+            f'<div class="view" id="{block.key}" data-figure="{block.key}-data" style="height:{block.height}px">'
+            '<p class="view-placeholder">Interactive 3D view: drawn when it scrolls into sight (needs JavaScript)'
+            f'</p></div><script type="application/json" id="{block.key}-data">{block.figure}</script>'
+            f"<figcaption>{html.escape(block.caption)}</figcaption>"
+        )
     raise TypeError(f"not a report block: {block!r}")
 
 
@@ -100,5 +157,13 @@ def render_html(title: str, meta: str, summary: list[str], sections: list[Sectio
             parts.append(f"<p>{html.escape(section.intro)}</p>")
         parts.extend(_block(b) for b in section.blocks)
         parts.append("</section>")
+    views = [b for s in sections for b in s.blocks if isinstance(b, View)]
+    shared = {key: data for view in views for key, data in view.shared.items()}
+    parts += [f'<script type="application/json" id="shared-{key}">{data}</script>' for key, data in shared.items()]
+    if views:
+        from plotly.offline import get_plotlyjs
+
+        # the library once for every view, inline: the page works offline and can be mailed
+        parts += [f"<script>{get_plotlyjs()}</script>", f"<script>{VIEWS_SCRIPT}</script>"]
     parts.append("</body></html>\n")
     return "\n".join(parts)

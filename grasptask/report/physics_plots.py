@@ -10,7 +10,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 
-from grasptask.report.style import apply_style, task_colour
+from grasptask.report.style import apply_style, save_figure, task_colour
 
 
 def protocol_time(trace: pd.DataFrame) -> tuple[np.ndarray, list[tuple[str, float, float]]]:
@@ -60,5 +60,5 @@ def plot_physics_traces(traces: dict[str, pd.DataFrame], thresholds: dict[str, d
             ax.set_xlim(0, phases[-1][2])
         axes[row][0].legend(fontsize=7, loc="upper left")
     fig.tight_layout()
-    fig.savefig(path)
+    save_figure(fig, path)
     plt.close(fig)

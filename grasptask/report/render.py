@@ -13,14 +13,11 @@ import trimesh
 from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
 from grasptask.grasp.mechanics import friction_cone_edges
+from grasptask.grasp.scene import PALM_COLOUR, finger_colour
 from grasptask.hand.kinematics import forward
 from grasptask.hand.model import Hand
 from grasptask.objects.surface import ImplicitObject
-from grasptask.report.style import apply_style
-
-FINGER_COLOURS = {"thumb": "#d95f02", "index": "#1b9e77", "middle": "#7570b3", "ring": "#e7298a", "little": "#66a61e"}
-#: for fingers by other names (a robot hand's), in order
-OTHER_COLOURS = ("#d95f02", "#1b9e77", "#7570b3", "#e7298a", "#66a61e", "#e6ab02")
+from grasptask.report.style import apply_style, save_figure
 
 
 def display_mesh(obj: ImplicitObject, faces: int = 5000) -> trimesh.Trimesh:
@@ -63,11 +60,11 @@ def draw_grasp(
     )
     pose = forward(hand, joint_angles, palm_rotation, palm_position)
     for k, (name, finger) in enumerate(pose.fingers.items()):
-        colour = FINGER_COLOURS.get(name, OTHER_COLOURS[k % len(OTHER_COLOURS)])
+        colour = finger_colour(name, k)
         ax.plot(*finger.joint_positions[0].T, color=colour, lw=1.5, marker="o", ms=2)
         _collision_spheres(ax, finger.samples[0], finger.radii, colour)
         ax.scatter(*finger.contact[0], color=colour, s=25, edgecolors="black", zorder=5)
-    _collision_spheres(ax, pose.palm_samples[0], pose.palm_radii, "#8c6d31")
+    _collision_spheres(ax, pose.palm_samples[0], pose.palm_radii, PALM_COLOUR)
     if contacts is not None and normals is not None:
         edges = friction_cone_edges(-np.asarray(normals), mu, 12)
         scale = 0.02
@@ -103,5 +100,5 @@ def render_grasp(
         draw_grasp(ax, **grasp)
         ax.view_init(elevation, azimuth)
     fig.suptitle(title)
-    fig.savefig(path)
+    save_figure(fig, path)
     plt.close(fig)

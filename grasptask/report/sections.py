@@ -4,6 +4,7 @@ each beside the paper's figures. A part whose inputs are missing becomes a note 
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import pandas as pd
 
@@ -15,7 +16,7 @@ from grasptask.paths import DEFAULT_GRASP_CONFIG, DEFAULT_HAND, DEFAULT_OBJECT, 
 from grasptask.progress import progress
 from grasptask.report import paper_tables
 from grasptask.report.inputs import PhysicsOutcome, ResultsFolder, SweepResult
-from grasptask.report.page import Figure, Note, Section, Table, markdown
+from grasptask.report.page import Figure, Note, Section, Table, View, markdown
 
 
 class Writer:
@@ -25,12 +26,24 @@ class Writer:
         self.staged = staged
         self.figures: list[str] = []
         self.tables: list[str] = []
+        self.views: list[str] = []
 
     def figure(self, name: str) -> Path:
         if name in self.figures:  # two labels that map to the same file stem
             name = f"{name}_{sum(f.startswith(name) for f in self.figures)}"
         self.figures.append(name)
         return self.staged.path(f"figures/{name}.png")
+
+    def view(self, name: str, figure: Any, caption: str, height: int) -> View:
+        """An interactive view of the plotly ``figure``, its element id made unique and safe from ``name``."""
+        from grasptask.report.interactive import figure_json
+
+        key = f"view-{file_stem(name)}"
+        if key in self.views:
+            key = f"{key}_{len(self.views)}"
+        self.views.append(key)
+        data, shared = figure_json(figure)
+        return View(key, data, caption, height, shared)
 
     def table(self, name: str, caption: str, frame: pd.DataFrame) -> Table:
         table = Table(name, caption, frame)
@@ -90,7 +103,9 @@ def ellipsoid_tables_section(results: ResultsFolder, writer: Writer) -> Section:
 
 def ellipsoid_figures_section(results: ResultsFolder, writer: Writer) -> Section:
     from grasptask.report.ellipsoid_plots import load_samples_or_note, plot_task_ellipsoids
-    from grasptask.task.fit import read_ellipsoids
+    from grasptask.report.interactive import ellipsoid_view
+    from grasptask.report.style import task_colour
+    from grasptask.task.fit import ellipsoid_matrices, read_ellipsoids
     from grasptask.task.model import load_task_models
 
     section = Section("ellipsoids", "Force and torque ellipsoids (Figures 2, 7, 10)")
@@ -109,6 +124,18 @@ def ellipsoid_figures_section(results: ResultsFolder, writer: Writer) -> Section
         members = ellipsoids[ellipsoids["task"] == task]
         if members.empty:
             continue
+        figure = ellipsoid_view(
+            task, models[task].ellipsoid.S, list(ellipsoid_matrices(members)), task_colour(task, tasks)
+        )
+        section.blocks.append(
+            writer.view(
+                f"ellipsoids_{task}",
+                figure,
+                f"{task}: the force and torque ellipsoids in 3D, the task model's and (faint) each of its "
+                f"{len(members)} recordings'; drag to turn, scroll to zoom, click a legend entry to hide it.",
+                480,
+            )
+        )
         path = writer.figure(f"ellipsoids_{file_stem(task)}")
         plot_task_ellipsoids(task, members, models[task].ellipsoid.S, path, samples, tasks)
         lengths = models[task].lengths
@@ -217,10 +244,13 @@ def sweeps_section(
 def grasps_section(
     results: ResultsFolder, sweeps: dict[str, SweepResult], paper: PaperSynthesis, writer: Writer
 ) -> Section:
+    from grasptask.grasp.scene import grasp_scene
     from grasptask.grasp.settings import load_grasp_settings
+    from grasptask.grasp.verify import verify
     from grasptask.hand import load_hand
     from grasptask.io.solutions import contacts_from_row, fingers_in, grasp_from_row, normals_from_row
     from grasptask.objects import load_object
+    from grasptask.report.interactive import HEIGHT, grasp_view
     from grasptask.report.render import display_mesh, render_grasp
     from grasptask.task.model import load_task_models
 
@@ -256,8 +286,9 @@ def grasps_section(
         fingers = run.get("fingers") or fingers_in(list(sweep.optima.columns), list(whole.fingers))
         hand = whole.with_grasping(fingers).grasping_hand()
         if object_path not in objects:
-            objects[object_path] = (obj := load_object(object_path)), display_mesh(obj)
-        obj, mesh = objects[object_path]
+            obj = load_object(object_path)
+            objects[object_path] = obj, display_mesh(obj), display_mesh(obj, VIEW_FACES)
+        obj, mesh, view_mesh = objects[object_path]
         task_axis = task_models[task].axes[0] if task in task_models else None
         rows = list(sweep.optima.iterrows())
         for _, optimum in progress(rows, desc=f"report: {task} grasps", unit="grasp"):
@@ -267,6 +298,15 @@ def grasps_section(
             contacts = contacts_from_row(optimum, fingers)
             normals = normals_from_row(optimum, fingers)
             title = f"{task}, optimum {number}: Q = {optimum['Q']:.4g} ({int(optimum['members'])} starts)"
+            if task in task_models:
+                check = verify(grasp, hand, obj, task_models[task], settings)
+                scene = grasp_scene(hand, view_mesh, grasp, check.normals, settings.friction_coefficient)
+                view = grasp_view(scene, check, title, obj.centre, task_axis)
+                caption = (
+                    f"{title}: drag to turn, scroll to zoom, click a legend entry to hide it; hover over a contact "
+                    "for its forces under the task wrenches (the verifier's LP) and the verifier's figures."
+                )
+                section.blocks.append(writer.view(f"grasp_{task}_{number:02d}", view, caption, HEIGHT))
             render_grasp(
                 path,
                 title,
@@ -281,8 +321,15 @@ def grasps_section(
                 task_axis=task_axis,
                 mesh=mesh,
             )
-            section.blocks.append(Figure(path, title))
+            section.blocks.append(Figure(path, f"{title}: two fixed viewpoints (for print)"))
+    if not task_models:
+        section.blocks.append(Note(f"no task models at {results.task_models}: the grasps have no interactive views"))
     return section
+
+
+#: the object's picture in an interactive view, in triangles: smooth enough to turn, small enough that 40 views
+#: keep the page within its 15 MB
+VIEW_FACES = 2500
 
 
 def _share(count: int, total: int) -> str:

@@ -2,6 +2,10 @@
 
 from __future__ import annotations
 
+import io
+from pathlib import Path
+from typing import Any
+
 import matplotlib
 
 matplotlib.use("Agg")
@@ -23,6 +27,18 @@ def task_order(task: str) -> tuple[int, str]:
     """Sort key: the paper's tasks in its order (drawing, cutting, screw driving), then the rest by name."""
     known = list(TASK_COLOURS)
     return (known.index(task) if task in known else len(known), task)
+
+
+def save_figure(fig: Any, path: Path) -> None:
+    """Save ``fig`` as a PNG of at most 256 colours: a third of the bytes of a full-colour one for these flat
+    plots, and the report inlines every figure (its 15 MB budget)."""
+    from PIL import Image
+
+    buffer = io.BytesIO()
+    fig.savefig(buffer, format="png")
+    buffer.seek(0)
+    with Image.open(buffer) as image:
+        image.convert("RGB").quantize(colors=256, method=Image.Quantize.MEDIANCUT).save(path, optimize=True)
 
 
 def apply_style() -> None:

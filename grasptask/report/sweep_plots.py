@@ -10,7 +10,7 @@ import numpy as np
 from matplotlib.ticker import MaxNLocator
 
 from grasptask.io.solutions import STATUSES
-from grasptask.report.style import apply_style, task_colour
+from grasptask.report.style import apply_style, save_figure, task_colour
 
 STATUS_COLOURS = {
     "optimal": "#1a9850",
@@ -70,5 +70,5 @@ def plot_sweeps(sweeps: dict, paper_mean_s: float, paper_sd_s: float, paper_opti
     ax_found.set_ylabel("starts ending in a verified grasp (%)")
     ax_found.set_title("Verified grasps and distinct optima")
     fig.tight_layout()
-    fig.savefig(path)
+    save_figure(fig, path)
     plt.close(fig)

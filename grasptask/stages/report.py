@@ -28,6 +28,7 @@ from grasptask.report.style import task_order
 class ReportSummary:
     index: Path
     figures: int
+    views: int
     tables: int
     notes: list[str]
     seconds: float
@@ -71,10 +72,17 @@ def build_report(results_dir: str | Path, out: str | Path) -> ReportSummary:
         staged.write_with("index.html", lambda p: p.write_text(page))
         staged.write_json(
             "report.json",
-            {"figures": writer.figures, "tables": writer.tables, "notes": notes, "summary": summary_lines},
+            {
+                "figures": writer.figures,
+                "views": writer.views,
+                "tables": writer.tables,
+                "notes": notes,
+                "summary": summary_lines,
+            },
         )
     index = Path(out) / "index.html"
-    return ReportSummary(index, len(writer.figures), len(writer.tables), notes, time.perf_counter() - start)
+    seconds = time.perf_counter() - start
+    return ReportSummary(index, len(writer.figures), len(writer.views), len(writer.tables), notes, seconds)
 
 
 def _summary_lines(sweeps: dict[str, SweepResult], sections: list[Section], paper: PaperSynthesis) -> list[str]:

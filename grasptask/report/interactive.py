@@ -1,0 +1,205 @@
+"""Interactive 3D views for the report (plotly): a grasp that can be turned, zoomed and have its parts toggled,
+and a task's force and torque ellipsoids. Each view is figure data; the page draws it with the one inlined
+plotly.js when it scrolls into sight (:mod:`grasptask.report.page`)."""
+
+from __future__ import annotations
+
+import html
+from typing import Any
+
+import numpy as np
+import plotly.graph_objects as go
+import trimesh
+from plotly.io.json import to_json_plotly
+from plotly.subplots import make_subplots
+
+from grasptask.grasp.mechanics import friction_cone_edges
+from grasptask.grasp.scene import CONTACT_COLOUR, OBJECT_COLOUR, PALM_COLOUR, GraspScene
+from grasptask.grasp.verify import Verification
+from grasptask.io.units import PAPER_TORQUE_UNIT, TORQUE_UNITS
+from grasptask.task.ellipsoid import FORCE, TORQUE
+
+#: the friction cones' drawn length (m) and edges: long enough to read the cone's opening beside a fingertip
+CONE_LENGTH, CONE_EDGES = 0.015, 16
+HEIGHT = 560
+
+
+def _mesh_trace(mesh: trimesh.Trimesh, colour: str, name: str, opacity: float, **extra: Any) -> go.Mesh3d:
+    """A mesh as a plotly trace, in single precision (a tenth of a micrometre at hand scale) and 16-bit
+    indices where they fit: a page of forty views stays within its budget."""
+    vertices = np.asarray(mesh.vertices, dtype=np.float32)
+    faces = np.asarray(mesh.faces, dtype=np.uint16 if len(vertices) < 2**16 else np.int32)
+    return go.Mesh3d(
+        x=vertices[:, 0], y=vertices[:, 1], z=vertices[:, 2], i=faces[:, 0], j=faces[:, 1], k=faces[:, 2],
+        color=colour, opacity=opacity, name=name, flatshading=False,
+        lighting={"ambient": 0.55, "diffuse": 0.7, "specular": 0.15}, **{"showlegend": True, **extra},
+    )  # fmt: skip
+
+
+def _line(points: np.ndarray, colour: str, name: str, width: float = 5, **extra: Any) -> go.Scatter3d:
+    points = np.asarray(points, dtype=np.float32)
+    return go.Scatter3d(
+        x=points[:, 0], y=points[:, 1], z=points[:, 2], mode="lines", line={"color": colour, "width": width},
+        name=name, **extra,
+    )  # fmt: skip
+
+
+def cone_mesh(points: np.ndarray, inward: np.ndarray, mu: float) -> trimesh.Trimesh:
+    """The friction cones as one surface: apex at each contact, opening out of the object, as the forces they
+    admit push in."""
+    edges = friction_cone_edges(inward, mu, CONE_EDGES)
+    vertices: list[np.ndarray] = []
+    faces: list[np.ndarray] = []
+    for point, cone in zip(points, edges, strict=True):
+        base = len(vertices) * (CONE_EDGES + 1)
+        vertices.append(np.vstack([point, point - CONE_LENGTH * cone]))
+        ring = np.arange(CONE_EDGES)
+        faces.append(np.column_stack([np.full(CONE_EDGES, base), base + 1 + ring, base + 1 + (ring + 1) % CONE_EDGES]))
+    return trimesh.Trimesh(np.vstack(vertices), np.vstack(faces), process=False)
+
+
+def _contact_text(scene: GraspScene, verification: Verification) -> list[str]:
+    """Hover text per contact: its forces over the task wrenches and the verifier's figures at it."""
+    texts = []
+    for k, finger in enumerate(scene.fingers):
+        lines = [f"<b>{html.escape(finger.name)}</b>"]
+        if verification.loads:
+            forces = np.array([load.contact_forces[k] for load in verification.loads])
+            first = forces[0]
+            lines.append(f"force under +gamma_1 u_1: [{first[0]:.2f}, {first[1]:.2f}, {first[2]:.2f}] N")
+            lines.append(f"largest |force| over the 12 task wrenches: {np.linalg.norm(forces, axis=1).max():.2f} N")
+        else:
+            lines.append("no contact forces: some task wrench cannot be applied")
+        lines.append(f"pad to surface: {verification.contact_distance_m[k] * 1e3:.2f} mm")
+        lines.append(f"pad angle: {verification.pad_angle_deg[k]:.1f} deg")
+        texts.append("<br>".join(lines))
+    return texts
+
+
+def grasp_view(
+    scene: GraspScene,
+    verification: Verification,
+    title: str,
+    centre: np.ndarray,
+    task_axis: np.ndarray | None = None,
+) -> go.Figure:
+    """One grasp: the object, the palm's and each finger's collision spheres and links, the pads with hover
+    text (contact forces, Q and the verifier's figures), the friction cones and the task's main axis."""
+    shared = {"shared": f"mesh-{mesh_digest(scene.object_mesh)}"}  # one copy in the page for every view
+    traces: list[Any] = [_mesh_trace(scene.object_mesh, OBJECT_COLOUR, "object", 0.45, hoverinfo="skip", meta=shared)]
+    traces.append(_mesh_trace(scene.palm, PALM_COLOUR, "palm", 0.5, hoverinfo="skip"))
+    for finger in scene.fingers:
+        group = finger.name
+        name = html.escape(finger.name)
+        traces.append(_mesh_trace(finger.mesh, finger.colour, name, 0.55, hoverinfo="skip", legendgroup=group))
+        traces.append(_line(finger.chain, finger.colour, f"{name} links", showlegend=False, legendgroup=group))
+    summary = (
+        f"Q {verification.Q:.4g}, epsilon {verification.epsilon:.3g}, peak activation "
+        f"{verification.torque_effort:.3g}, clearance {verification.min_clearance_m * 1e3:.2f} mm, "
+        f"{'verified' if verification.ok else 'rejected: ' + ', '.join(verification.failures)}"
+    )
+    title = html.escape(title)  # plotly reads titles as HTML; a task or finger name is the user's text
+    pads = np.array([f.pad for f in scene.fingers], dtype=np.float32)
+    traces.append(
+        go.Scatter3d(
+            x=pads[:, 0],
+            y=pads[:, 1],
+            z=pads[:, 2],
+            mode="markers",
+            name="contacts",
+            marker={"size": 5, "color": [f.colour for f in scene.fingers], "line": {"color": "black", "width": 1}},
+            text=[f"{t}<br>{summary}" for t in _contact_text(scene, verification)],
+            hoverinfo="text",
+        )  # fmt: skip
+    )
+    cones = cone_mesh(np.asarray(verification.contacts), -scene.normals, scene.mu)
+    traces.append(_mesh_trace(cones, CONTACT_COLOUR, f"friction cones (mu {scene.mu:g})", 0.35, hoverinfo="skip"))
+    if task_axis is not None:
+        for vector, colour, label in ((task_axis[:3], "magenta", "force"), (task_axis[3:], "black", "torque")):
+            norm = np.linalg.norm(vector)
+            if norm > 1e-6:
+                tip = centre + 0.06 * vector / norm
+                traces.append(_line(np.vstack([centre, tip]), colour, f"main task axis ({label})", width=7))
+    figure = go.Figure(traces)
+    axis = {"title": "", "showbackground": False, "gridcolor": "#dddddd", "zerolinecolor": "#bbbbbb"}
+    figure.update_layout(
+        template="none", height=HEIGHT, margin={"l": 0, "r": 0, "t": 50, "b": 0},
+        title={"text": f"{title}<br><sup>{summary}</sup>", "x": 0.02, "font": {"size": 14}},
+        scene={"aspectmode": "data", "xaxis": axis | {"title": "x (m)"}, "yaxis": axis | {"title": "y (m)"},
+               "zaxis": axis | {"title": "z (m)"}},
+        legend={"itemclick": "toggle", "x": 0.0, "y": 0.95, "bgcolor": "rgba(255,255,255,0.6)"},
+    )  # fmt: skip
+    return figure
+
+
+def ellipsoid_mesh(blocks: list[np.ndarray], subdivisions: int) -> trimesh.Trimesh:
+    """The ellipsoids ``{B^(1/2) u : |u| = 1}`` of the 3 x 3 ``blocks`` as one mesh (one trace draws fast;
+    forty do not, in a software-GL browser)."""
+    sphere = trimesh.creation.icosphere(subdivisions=subdivisions)
+    vertices, faces = [], []
+    for k, block in enumerate(blocks):
+        values, vectors = np.linalg.eigh(block)
+        root = vectors @ np.diag(np.sqrt(np.clip(values, 0, None))) @ vectors.T
+        vertices.append(sphere.vertices @ root.T)
+        faces.append(sphere.faces + k * len(sphere.vertices))
+    return trimesh.Trimesh(np.vstack(vertices), np.vstack(faces), process=False)
+
+
+def ellipsoid_view(task: str, model: np.ndarray, recordings: list[np.ndarray], colour: str) -> go.Figure:
+    """A task's force (N) and torque (N.cm) ellipsoids in 3D: the task model's (the Log-Euclidean mean) and,
+    faint, each recording's, with the model's main axis."""
+    torque_factor = 1.0 / TORQUE_UNITS[PAPER_TORQUE_UNIT]
+    titles = (f"force (N), {html.escape(task)}", f"torque ({PAPER_TORQUE_UNIT}), {html.escape(task)}")
+    figure = make_subplots(rows=1, cols=2, specs=[[{"type": "scene"}, {"type": "scene"}]], subplot_titles=titles)
+    for col, (block, factor) in enumerate(((FORCE, 1.0), (TORQUE, torque_factor)), start=1):
+        scale, first = factor**2, col == 1
+        trials = ellipsoid_mesh([m[block, block] * scale for m in recordings], subdivisions=1)
+        model_block = model[block, block] * scale
+        values, vectors = np.linalg.eigh(model_block)
+        axis = vectors[:, -1] * np.sqrt(max(values[-1], 0.0))
+        for trace in (
+            _mesh_trace(trials, colour, f"{len(recordings)} recordings", 0.12, hoverinfo="skip",
+                        legendgroup="recordings", showlegend=first),
+            _mesh_trace(ellipsoid_mesh([model_block], subdivisions=3), colour, "task model", 0.75, hoverinfo="skip",
+                        legendgroup="model", showlegend=first),
+            _line(np.vstack([-axis, axis]), "black", "main axis", width=6, legendgroup="axis", showlegend=first),
+        ):  # fmt: skip
+            figure.add_trace(trace, row=1, col=col)
+    axis_style = {"showbackground": False, "gridcolor": "#dddddd", "zerolinecolor": "#999999"}
+    for name, unit in (("scene", "N"), ("scene2", PAPER_TORQUE_UNIT)):
+        figure.update_layout(
+            {name: {"aspectmode": "data", **{f"{a}axis": axis_style | {"title": f"{a} ({unit})"} for a in "xyz"}}}
+        )
+    figure.update_layout(
+        template="none", height=480, margin={"l": 0, "r": 0, "t": 40, "b": 0},
+        legend={"x": 0.0, "y": 1.0, "bgcolor": "rgba(255,255,255,0.6)"},
+    )  # fmt: skip
+    return figure
+
+
+def mesh_digest(mesh: trimesh.Trimesh) -> str:
+    import hashlib
+
+    digest = hashlib.sha1(np.asarray(mesh.vertices, dtype=np.float32).tobytes())
+    digest.update(np.asarray(mesh.faces, dtype=np.int64).tobytes())
+    return digest.hexdigest()[:16]
+
+
+#: the data of a trace marked ``meta.shared``, kept once in the page and put back by the page's script
+SHARED_KEYS = ("x", "y", "z", "i", "j", "k")
+
+
+def figure_json(figure: go.Figure) -> tuple[str, dict[str, str]]:
+    """The figure as JSON that is safe inside an HTML ``<script>`` element (no ``</`` can close it), and the
+    data of its shared traces by key (``meta.shared``), left out of the figure."""
+    data = figure.to_plotly_json()
+    shared: dict[str, str] = {}
+    for trace in data["data"]:
+        key = (trace.get("meta") or {}).get("shared")
+        if key:
+            shared[key] = _safe_json({name: trace.pop(name) for name in SHARED_KEYS if name in trace})
+    return _safe_json(data), shared
+
+
+def _safe_json(value: Any) -> str:
+    return to_json_plotly(value).replace("</", "<\\/")
