@@ -173,3 +173,15 @@ def test_export_bad_input(cli, simulated, tmp_path):
     assert not (tmp_path / "out").exists()
     result = cli("export", solutions, "--out", tmp_path / "out", "--task", "juggling")
     assert result.exit_code == 2 and "no task 'juggling'" in result.output
+
+
+def test_export_refuses_a_run_json_with_wrong_types(cli, simulated, tmp_path):
+    results = results_with_tasks(simulated, tmp_path / "results")
+    ball_sweep(results)
+    run_file = results / "grasps" / "drawing" / "run.json"
+    original = json.loads(run_file.read_text())
+    for field, value in (("hand", 5), ("fingers", "thumb"), ("task", ["drawing"])):
+        run_file.write_text(json.dumps({**original, field: value}))
+        result = cli("export", run_file.parent / "solutions.parquet", "--out", tmp_path / "out")
+        assert result.exit_code == 2 and "run.json" in result.output and f"'{field}'" in result.output, result.output
+        assert len(result.output.strip().splitlines()) == 1 and not (tmp_path / "out").exists()

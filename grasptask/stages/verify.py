@@ -50,7 +50,15 @@ class SweepFiles:
 
         def pick(given: str | Path | None, key: str, default: Path | None) -> Path | None:
             chosen = given if given is not None else used.get(key, default)
+            if chosen is not None and not isinstance(chosen, (str, Path)):
+                raise BadInputError(run_file, f"field '{key}' must be a path, got {chosen!r}")
             return None if chosen is None else Path(chosen)
+
+        recorded = used.get("fingers")
+        if recorded is not None and not (isinstance(recorded, list) and all(isinstance(f, str) for f in recorded)):
+            raise BadInputError(run_file, f"field 'fingers' must be a list of finger names, got {recorded!r}")
+        if task is None and not isinstance(used.get("task", ""), str):
+            raise BadInputError(run_file, f"field 'task' must be a name, got {used['task']!r}")
 
         hand_path, object_path = pick(hand, "hand", DEFAULT_HAND), pick(object, "object", DEFAULT_OBJECT)
         config = pick(grasp_config, "grasp_config", DEFAULT_GRASP_CONFIG)
@@ -59,7 +67,7 @@ class SweepFiles:
             hand=hand_path,
             object=object_path,
             grasp_config=config,
-            fingers=fingers or (tuple(used["fingers"]) if used.get("fingers") else None),
+            fingers=fingers or (tuple(recorded) if recorded else None),
             tasks=pick(tasks, "tasks", None),
             task=task if task is not None else used.get("task"),
         )
