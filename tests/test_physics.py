@@ -15,7 +15,7 @@ from grasp_fixtures import ONE_SIDE, TETRAHEDRON, drawing_like_task, gripper_gra
 
 from grasptask.hand import forward, load_hand
 from grasptask.physics import PhysicsSettings, build_scene, check_grasp, load_physics_settings
-from grasptask.physics.controller import BoxLeastSquares
+from grasptask.physics.controller import BoxLeastSquares, IndependentMotors
 from grasptask.physics.scene import object_body
 
 SETTINGS = load_physics_settings()
@@ -95,6 +95,31 @@ def test_the_projection_onto_the_capability_is_the_box_least_squares_solution():
     theirs = lsq_linear(actuation, wanted, bounds=(0, 1)).x
     assert np.linalg.norm(actuation @ ours - wanted) <= np.linalg.norm(actuation @ theirs - wanted) + 1e-6
     assert ours.min() >= 0 and ours.max() <= 1
+
+
+def test_independent_motors_are_projected_exactly():
+    """Motors that drive their own joints (one of them two, as a mimic pair does) get the box least-squares
+    optimum in closed form; tendons that share joints are not taken for motors."""
+    from scipy.optimize import lsq_linear
+
+    rng = np.random.default_rng(5)
+    push = np.zeros((7, 4))
+    for motor, joints in enumerate(([0], [1, 2], [3, 4], [5, 6])):
+        push[joints, motor] = rng.uniform(0.2, 2.0, size=len(joints))
+    actuation = np.hstack([push, -push])
+    projection = IndependentMotors.of(actuation)
+    assert projection is not None
+    for scale in (0.3, 3.0):  # inside the box, and beyond it
+        wanted = rng.normal(size=7) * scale
+        ours = projection.solve(actuation.T @ wanted, np.zeros(8))
+        theirs = lsq_linear(actuation, wanted, bounds=(0, 1)).x
+        residual = np.linalg.norm(actuation @ ours - wanted)
+        assert residual == pytest.approx(np.linalg.norm(actuation @ theirs - wanted), abs=1e-9)
+        assert ours.min() >= 0 and ours.max() <= 1
+    shared = push.copy()
+    shared[0, 1] = 0.5  # motor 1 reaches joint 0 as well: no longer separable
+    assert IndependentMotors.of(np.hstack([shared, -shared])) is None
+    assert IndependentMotors.of(rng.uniform(size=(7, 8))) is None
 
 
 @pytest.fixture(scope="module")

@@ -7,8 +7,10 @@ object in equilibrium, which the protocol scales by ``s`` with each test's load,
 joint torques this asks for, ``sum_j J_j^T F_j + K_q (q* - q)``, are projected onto what the hand's tendons or
 motors can produce with activations in [0, 1].
 
-The projection is ``min |A a - tau|^2, 0 <= a <= 1``, solved by accelerated projected gradient warm-started
-from the last control step: small matrix products only, deterministic, fast enough for the control rate."""
+The projection is ``min |A a - tau|^2, 0 <= a <= 1``. Motors that each drive their own joints, pushing both ways
+(a robot hand's), make it separable, and it is solved exactly (:class:`IndependentMotors`); tendons that share
+joints (the human hand's) by accelerated projected gradient warm-started from the last control step
+(:class:`BoxLeastSquares`): small matrix products only, deterministic, fast enough for the control rate."""
 
 from __future__ import annotations
 
@@ -48,7 +50,9 @@ class FingertipController:
         self.preload = np.zeros_like(contacts)
         self.scale = 1.0
         self.gains = gains
-        self.projection = BoxLeastSquares.of(actuation.T @ actuation, iterations)
+        self.projection: IndependentMotors | BoxLeastSquares = IndependentMotors.of(actuation) or BoxLeastSquares.of(
+            actuation.T @ actuation, iterations
+        )
         self.current = np.zeros(actuation.shape[1])
 
     def torques(self, q: np.ndarray, qdot: np.ndarray, tips: np.ndarray, jacobians: np.ndarray) -> np.ndarray:
@@ -71,6 +75,34 @@ class FingertipController:
         wanted = self.torques(q, qdot, tips, jacobians)
         self.current = self.projection.solve(self.actuation.T @ wanted, self.current)
         return self.current
+
+
+@dataclass(frozen=True)
+class IndependentMotors:
+    """The exact projection for motors in pairs ``[C, -C]`` (each motor's push and pull, as
+    :meth:`~grasptask.hand.model.Capability.motors` makes them) whose columns ``C`` are orthogonal, each motor
+    driving joints no other drives: per motor, ``m = clip(c . tau / |c|^2, -1, 1)``, its push ``max(m, 0)`` and
+    its pull ``max(-m, 0)``."""
+
+    norms: np.ndarray  # |c|^2 per motor
+
+    @classmethod
+    def of(cls, actuation: np.ndarray) -> IndependentMotors | None:
+        """The projection for ``actuation`` (joints x actuators), or None when it is not of that form."""
+        count = actuation.shape[1] // 2
+        if count == 0 or actuation.shape[1] != 2 * count:
+            return None
+        push, pull = actuation[:, :count], actuation[:, count:]
+        gram = push.T @ push
+        norms = np.diag(gram).copy()
+        if not np.allclose(pull, -push) or np.any(norms <= 0) or not np.allclose(gram, np.diag(norms)):
+            return None
+        return cls(norms)
+
+    def solve(self, linear: np.ndarray, start: np.ndarray) -> np.ndarray:
+        """``linear`` is ``A^T tau``, whose first half is ``C^T tau``; ``start`` is not needed."""
+        motor = np.minimum(np.maximum(linear[: len(self.norms)] / self.norms, -1.0), 1.0)
+        return np.concatenate([np.maximum(motor, 0.0), np.maximum(-motor, 0.0)])
 
 
 @dataclass(frozen=True)

@@ -129,6 +129,13 @@ def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]])
 
 
+def _as_slice(index: np.ndarray) -> slice | np.ndarray:
+    """``index`` as a slice when it is a contiguous increasing range, else as it is."""
+    if len(index) and np.array_equal(index, np.arange(index[0], index[0] + len(index))):
+        return slice(int(index[0]), int(index[0]) + len(index))
+    return index
+
+
 class _Run:
     """One simulation of a scene with its controller, and the object's pose to measure motion from."""
 
@@ -145,7 +152,11 @@ class _Run:
             scene.actuation, scene.posture, scene.contacts, scene.normals, settings.squeeze_m, gains
         )
         self.preload_n = 0.0
-        self.jacobian = np.zeros((3, scene.model.nv))
+        self.jacobians = np.zeros((len(scene.pad_sites), 3, scene.model.nv))
+        self.sites = [int(site) for site in scene.pad_sites]
+        # the hand's joints as slices where they are contiguous (they are, before the object's free joint): a
+        # view costs less than fancy indexing at every control step
+        self.qpos, self.dof = _as_slice(scene.hand_qpos), _as_slice(scene.hand_dof)
         self.every = max(1, int(round(settings.control_period_s / settings.timestep_s)))
         self.data.qpos[scene.hand_qpos] = scene.posture
         self.data.qpos[scene.object_qpos : scene.object_qpos + 7] = [0, 0, 0, 1, 0, 0, 0]
@@ -153,12 +164,10 @@ class _Run:
 
     def control(self) -> np.ndarray:
         scene, data = self.scene, self.data
-        jacobians = np.empty((len(scene.pad_sites), 3, len(scene.hand_dof)))
-        for k, site in enumerate(scene.pad_sites):
-            mujoco.mj_jacSite(scene.model, data, self.jacobian, None, int(site))
-            jacobians[k] = self.jacobian[:, scene.hand_dof]
+        for k, site in enumerate(self.sites):
+            mujoco.mj_jacSite(scene.model, data, self.jacobians[k], None, site)
         return self.controller.activations(
-            data.qpos[scene.hand_qpos], data.qvel[scene.hand_dof], data.site_xpos[scene.pad_sites], jacobians
+            data.qpos[self.qpos], data.qvel[self.dof], data.site_xpos[scene.pad_sites], self.jacobians[:, :, self.dof]
         )
 
     def simulate(self, seconds: float, test: Test | None = None, trace: list | None = None) -> Motion:
