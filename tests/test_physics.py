@@ -122,6 +122,22 @@ def test_independent_motors_are_projected_exactly():
     assert IndependentMotors.of(rng.uniform(size=(7, 8))) is None
 
 
+def test_a_sweep_with_no_verified_grasp_summarises_to_no_rates(tmp_path):
+    """synthesize --physics on a sweep where the verifier accepted nothing: physics checked nothing, and the
+    summary says so instead of failing on the columns no grasp wrote."""
+    import pandas as pd
+
+    from grasptask.io.artifacts import Provenance, StagedOutput
+    from grasptask.stages.physics import TRACE_COLUMNS, write_physics_results
+
+    table = pd.DataFrame({"start_id": [0, 1], "verified": [False, False], "Q": [float("nan")] * 2})
+    with StagedOutput(tmp_path / "out", Provenance.of("test", {}, [])) as staged:
+        result = write_physics_results(staged, table, "drawing", SETTINGS, pd.DataFrame(columns=TRACE_COLUMNS), None)
+    assert result["solved"] == result["verified"] == 0 and result["physics_pass_rate_of_verified"] is None
+    assert result["seconds_per_grasp_median"] is None and result["failed_wrenches_of_verified"] == {}
+    assert (tmp_path / "out" / "physics_summary.json").is_file()
+
+
 @pytest.fixture(scope="module")
 def sweep(simulated, tmp_path_factory):
     from click.testing import CliRunner

@@ -201,8 +201,8 @@ def write_physics_results(
 ) -> dict[str, Any]:
     """``physics_summary.json`` and ``physics_trace.parquet`` (and the table itself, unless ``table_name`` is
     None: a sweep's solutions table already holds the columns); the summary."""
-    missing = {c: pd.NA for c in ("physics_passed", "dexgraspbench_passed") if c not in table}
-    table = table.assign(**missing)  # no columns: no grasp was checked
+    summarised = ("physics_passed", "dexgraspbench_passed", "physics_failed_wrench", "physics_seconds")
+    table = table.assign(**{c: pd.NA for c in summarised if c not in table})  # no columns: no grasp was checked
     result = summary(table, task, settings)
     if table_name is not None:
         staged.write_parquet(table_name, table)
