@@ -11,7 +11,7 @@ export OPENBLAS_NUM_THREADS ?= 1
 demo: $(INSTALLED)
 	$(BIN)/grasptask pipeline run pipelines/demo.yaml
 
-# the paper reproduction: 3 x 126 synthesis starts (about half an hour on 2 cores), report checked in Chromium
+# the paper reproduction: 3 x 126 synthesis starts, their physics check and export (12 min on 2 cores), report checked in Chromium
 paper: $(INSTALLED) setup-browser
 	$(BIN)/grasptask pipeline run pipelines/paper.yaml
 

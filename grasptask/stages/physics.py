@@ -142,8 +142,11 @@ def best_grasp_trace(judge: Judge) -> pd.DataFrame:
     """The object's motion over the whole protocol (``TRACE_COLUMNS``, phases in the protocol's order) under
     the verified grasp of lowest Q, the best optimum's best start, held again with its trace kept; no rows
     when no grasp is verified."""
-    verified = [(row, grasp) for row, grasp in judge.solved.rows if grasp is not None and row.get("verified")]
-    verified = [(row, grasp) for row, grasp in verified if np.isfinite(float(row.get("Q", np.nan)))]
+    verified = [
+        (row, grasp)
+        for row, grasp in judge.solved.rows
+        if grasp is not None and row.get("verified") and np.isfinite(float(row.get("Q", np.nan)))
+    ]
     if not verified:
         return pd.DataFrame({column: [] for column in TRACE_COLUMNS})
     row, grasp = min(verified, key=lambda pair: float(pair[0]["Q"]))
