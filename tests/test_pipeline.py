@@ -74,7 +74,9 @@ def test_bundled_pipelines_parse_and_end_with_the_report(name, cli):
     spec = load_pipeline(f"pipelines/{name}.yaml")
     assert [s.name for s in spec.stages] == [
         "simulate", "fit-task", "distances",
-        "synthesize-drawing", "synthesize-cutting", "synthesize-screwdriving", "report",
+        "synthesize-drawing", "synthesize-cutting", "synthesize-screwdriving",
+        "physics-drawing", "physics-cutting", "physics-screwdriving",
+        "export-drawing", "export-cutting", "export-screwdriving", "report",
     ]  # fmt: skip
     assert spec.final_message == f"report: results/{name}/report/index.html"
     starts = [s.args[s.args.index("--starts") + 1] for s in spec.stages if "--starts" in s.args]
