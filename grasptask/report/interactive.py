@@ -110,7 +110,7 @@ def grasp_view(
             marker={"size": 5, "color": [f.colour for f in scene.fingers], "line": {"color": "black", "width": 1}},
             text=[f"{t}<br>{summary}" for t in _contact_text(scene, verification)],
             hoverinfo="text",
-        )  # fmt: skip
+        )
     )
     cones = cone_mesh(np.asarray(verification.contacts), -scene.normals, scene.mu)
     traces.append(_mesh_trace(cones, CONTACT_COLOUR, f"friction cones (mu {scene.mu:g})", 0.35, hoverinfo="skip"))
