@@ -232,31 +232,31 @@ def _physics_config_option(help_text: str):
     )
 
 
-def _model_options(f):
-    """--hand, --object and --grasp-config, shared by synthesize and verify."""
-    f = click.option(
-        "--grasp-config",
-        type=click.Path(path_type=Path),
-        default=DEFAULT_GRASP_CONFIG,
-        show_default=True,
-        help="Friction and pad-angle settings (YAML).",
-    )(f)
-    f = click.option(
-        "--object",
-        "object_path",
-        type=click.Path(path_type=Path),
-        default=DEFAULT_OBJECT,
-        show_default=True,
-        help="Object config (YAML): superquadric or GP.",
-    )(f)
-    f = click.option(
-        "--hand",
-        type=click.Path(path_type=Path),
-        default=DEFAULT_HAND,
-        show_default=True,
-        help="Hand: the project's YAML, a URDF, an MJCF file, or a YAML pointing at one (model: FILE).",
-    )(f)
-    return f
+def _model_option_set(sweep: bool):
+    """--hand, --object and --grasp-config: the package's defaults (synthesize, verify), or with ``sweep`` what
+    the sweep of SOLUTIONS used, from its run.json (physics, export)."""
+    options = (
+        ("--grasp-config", "grasp_config", DEFAULT_GRASP_CONFIG, "Friction and pad-angle settings (YAML)."),
+        ("--object", "object_path", DEFAULT_OBJECT, "Object config (YAML) or mesh."),
+        ("--hand", "hand", DEFAULT_HAND,
+         "Hand: the project's YAML, a URDF, an MJCF file, or a YAML pointing at one (model: FILE)."),
+    )  # fmt: skip
+
+    def decorate(f):
+        for flag, name, default, text in options:
+            if sweep:
+                f = click.option(flag, name, type=click.Path(path_type=Path), default=None,
+                                 help=f"{text} [default: the sweep's, from run.json].")(f)  # fmt: skip
+            else:
+                f = click.option(flag, name, type=click.Path(path_type=Path), default=default, show_default=True,
+                                 help=text)(f)  # fmt: skip
+        return f
+
+    return decorate
+
+
+_model_options = _model_option_set(sweep=False)
+_sweep_model_options = _model_option_set(sweep=True)
 
 
 @main.command()
@@ -377,27 +377,6 @@ def verify_command(solutions, tasks_path, task, out, hand, object_path, grasp_co
     OUT/verification.parquet with one row per start and its verification figures."""
     table = stages.run_verify(solutions, tasks_path, task, out, hand, object_path, grasp_config, fingers)
     click.echo(f"{int(table['verified'].sum())}/{len(table)} grasps verified; wrote {out}/verification.parquet")
-
-
-def _sweep_model_options(f):
-    """--hand, --object and --grasp-config defaulting to what the sweep of SOLUTIONS used (its run.json)."""
-    f = click.option(
-        "--grasp-config",
-        type=click.Path(path_type=Path),
-        default=None,
-        help="Friction settings [default: the sweep's].",
-    )(f)
-    f = click.option(
-        "--object",
-        "object_path",
-        type=click.Path(path_type=Path),
-        default=None,
-        help="Object config or mesh [default: the sweep's].",
-    )(f)
-    f = click.option(
-        "--hand", type=click.Path(path_type=Path), default=None, help="Hand file [default: the sweep's, from run.json]."
-    )(f)
-    return f
 
 
 @main.command()

@@ -49,13 +49,20 @@ class GraspScene:
     mu: float
 
 
-def spheres_mesh(centres: np.ndarray, radii: np.ndarray, subdivisions: int = 1) -> trimesh.Trimesh:
-    """Spheres as one mesh (an icosphere each, not unioned: the bodies are for looking at, not for volumes)."""
+def icosphere_copies(linear: np.ndarray, offsets: np.ndarray, subdivisions: int = 1) -> trimesh.Trimesh:
+    """Copies of the unit icosphere as one mesh, copy ``k`` mapped by ``x -> linear[k] @ x + offsets[k]`` (not
+    unioned: the bodies are for looking at, not for volumes)."""
     unit = trimesh.creation.icosphere(subdivisions=subdivisions)
-    count = len(radii)
-    vertices = (unit.vertices[None] * np.asarray(radii)[:, None, None] + np.asarray(centres)[:, None, :]).reshape(-1, 3)
-    faces = (unit.faces[None] + len(unit.vertices) * np.arange(count)[:, None, None]).reshape(-1, 3)
+    vertices = np.einsum("kij,vj->kvi", np.asarray(linear, dtype=float), unit.vertices)
+    vertices = (vertices + np.asarray(offsets, dtype=float)[:, None, :]).reshape(-1, 3)
+    faces = (unit.faces[None] + len(unit.vertices) * np.arange(len(offsets))[:, None, None]).reshape(-1, 3)
     return trimesh.Trimesh(vertices, faces, process=False)
+
+
+def spheres_mesh(centres: np.ndarray, radii: np.ndarray, subdivisions: int = 1) -> trimesh.Trimesh:
+    """Spheres of ``radii`` at ``centres`` as one mesh."""
+    radii = np.asarray(radii, dtype=float)
+    return icosphere_copies(radii[:, None, None] * np.eye(3), np.asarray(centres).reshape(-1, 3), subdivisions)
 
 
 def grasp_scene(

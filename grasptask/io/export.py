@@ -20,16 +20,13 @@ RECORD_FORMAT = "grasptask.grasp/1"
 CONTACT_RADIUS = 0.002
 
 
-def _rgba(colour: str, alpha: float = 1.0) -> list[int]:
-    colour = colour.lstrip("#")
-    return [int(colour[i : i + 2], 16) for i in (0, 2, 4)] + [round(255 * alpha)]
-
-
 def _coloured(mesh: trimesh.Trimesh, colour: str, name: str, alpha: float = 1.0) -> trimesh.Trimesh:
     """A copy of ``mesh`` with one PBR material (glTF viewers show a material's colour, not always vertex
     colours)."""
+    rgba = trimesh.visual.color.hex_to_rgba(colour)
+    rgba[3] = round(255 * alpha)
     material = trimesh.visual.material.PBRMaterial(
-        name=name, baseColorFactor=_rgba(colour, alpha), metallicFactor=0.0, roughnessFactor=0.8,
+        name=name, baseColorFactor=rgba, metallicFactor=0.0, roughnessFactor=0.8,
         alphaMode="BLEND" if alpha < 1.0 else "OPAQUE",
     )  # fmt: skip
     out = mesh.copy()

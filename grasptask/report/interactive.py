@@ -14,7 +14,7 @@ from plotly.io.json import to_json_plotly
 from plotly.subplots import make_subplots
 
 from grasptask.grasp.mechanics import friction_cone_edges
-from grasptask.grasp.scene import CONTACT_COLOUR, OBJECT_COLOUR, PALM_COLOUR, GraspScene
+from grasptask.grasp.scene import CONTACT_COLOUR, OBJECT_COLOUR, PALM_COLOUR, GraspScene, icosphere_copies
 from grasptask.grasp.verify import Verification
 from grasptask.io.units import PAPER_TORQUE_UNIT, TORQUE_UNITS
 from grasptask.task.ellipsoid import FORCE, TORQUE
@@ -135,14 +135,11 @@ def grasp_view(
 def ellipsoid_mesh(blocks: list[np.ndarray], subdivisions: int) -> trimesh.Trimesh:
     """The ellipsoids ``{B^(1/2) u : |u| = 1}`` of the 3 x 3 ``blocks`` as one mesh (one trace draws fast;
     forty do not, in a software-GL browser)."""
-    sphere = trimesh.creation.icosphere(subdivisions=subdivisions)
-    vertices, faces = [], []
-    for k, block in enumerate(blocks):
+    roots = []
+    for block in blocks:
         values, vectors = np.linalg.eigh(block)
-        root = vectors @ np.diag(np.sqrt(np.clip(values, 0, None))) @ vectors.T
-        vertices.append(sphere.vertices @ root.T)
-        faces.append(sphere.faces + k * len(sphere.vertices))
-    return trimesh.Trimesh(np.vstack(vertices), np.vstack(faces), process=False)
+        roots.append(vectors @ np.diag(np.sqrt(np.clip(values, 0, None))) @ vectors.T)
+    return icosphere_copies(np.array(roots), np.zeros((len(roots), 3)), subdivisions)
 
 
 def ellipsoid_view(task: str, model: np.ndarray, recordings: list[np.ndarray], colour: str) -> go.Figure:
