@@ -8,6 +8,7 @@ from pathlib import Path
 
 import jsonschema
 import numpy as np
+import pandas as pd
 import pytest
 import trimesh
 from grasp_fixtures import ball_grasp, ball_sweep, drawing_like_task, results_with_tasks
@@ -167,7 +168,13 @@ def test_export_bad_input(cli, simulated, tmp_path):
     results = results_with_tasks(simulated, tmp_path / "results")
     ball_sweep(results)
     solutions = results / "grasps" / "drawing" / "solutions.parquet"
-    (results / "grasps" / "drawing" / "optima.parquet").unlink()
+    optima_path = results / "grasps" / "drawing" / "optima.parquet"
+    optima = pd.read_parquet(optima_path)
+    optima.assign(start_id=99).to_parquet(optima_path)  # an optimum whose start the solutions do not hold
+    result = cli("export", solutions, "--out", tmp_path / "out")
+    assert result.exit_code == 2 and "optima.parquet" in result.output and "start 99" in result.output
+    assert "start_id" in result.output and not (tmp_path / "out").exists()
+    optima_path.unlink()
     result = cli("export", solutions, "--out", tmp_path / "out")
     assert result.exit_code == 2 and "optima.parquet" in result.output and "--all" in result.output
     assert not (tmp_path / "out").exists()

@@ -8,11 +8,11 @@ from pathlib import Path
 from typing import Any
 
 from grasptask.errors import BadInputError
+from grasptask.grasp.grasp import Grasp
 from grasptask.io.artifacts import Provenance, StagedOutput
-from grasptask.io.solutions import grasp_from_row
 from grasptask.io.tables import read_table
 from grasptask.progress import progress
-from grasptask.stages.verify import SweepFiles, read_grasps
+from grasptask.stages.verify import SolvedGrasps, SweepFiles, read_grasps
 
 #: the object's picture in the GLB, in triangles: smooth to the eye, a few hundred kB
 GLB_OBJECT_FACES = 20000
@@ -26,16 +26,25 @@ class ExportSummary:
     files: list[str]
 
 
-def _chosen_rows(solutions_path: Path, every_start: bool) -> tuple[list[dict], str]:
-    """The rows to export and how their files are named: the sweep's distinct optima (``optima.parquet``
-    beside the solutions), or with ``every_start`` each verified start of the solutions table."""
+def _chosen(solved: SolvedGrasps, solutions_path: Path, every_start: bool) -> tuple[list[tuple[dict, Grasp]], str]:
+    """The rows and grasps to export and how their files are named: the sweep's distinct optima
+    (``optima.parquet`` beside the solutions, each its best start's solution with the optimum's columns), or
+    with ``every_start`` each verified start of the solutions table."""
+    solved_starts = {int(row["start_id"]): (row, grasp) for row, grasp in solved.rows if grasp is not None}
     if every_start:
-        table = read_table(solutions_path, ("start_id", "verified"))
-        return table[table["verified"].astype(bool)].to_dict("records"), "start"
+        return [(row, grasp) for row, grasp in solved_starts.values() if row.get("verified")], "start"
     optima_path = solutions_path.parent / "optima.parquet"
     if not optima_path.is_file():
         raise BadInputError(optima_path, "not found: export needs the sweep's distinct optima, or --all")
-    return read_table(optima_path, ("optimum_id", "start_id", "Q")).to_dict("records"), "optimum"
+    chosen = []
+    for number, optimum in enumerate(read_table(optima_path, ("optimum_id", "start_id", "Q")).to_dict("records"), 1):
+        start = int(optimum["start_id"])
+        if start not in solved_starts:
+            message = f"start {start} has no solution in {solutions_path.name}"
+            raise BadInputError(optima_path, message, row=number, column="start_id")
+        row, grasp = solved_starts[start]
+        chosen.append(({**row, **optimum}, grasp))
+    return chosen, "optimum"
 
 
 def run_export(
@@ -67,7 +76,7 @@ def run_export(
         raise BadInputError(solutions, "no run.json beside it names the task models and the task: give --tasks, --task")
     model = load_task_model(files.tasks, files.task)
     solved = read_grasps(solutions, files.hand, files.fingers)
-    rows, kind = _chosen_rows(solutions, every_start)
+    chosen, kind = _chosen(solved, solutions, every_start)
     obj = load_object(files.object, say=lambda _: None)
     settings = load_grasp_settings(files.grasp_config)
     mesh = obj.picture(GLB_OBJECT_FACES)
@@ -77,8 +86,7 @@ def run_export(
     listing: list[dict[str, Any]] = []
     verified = 0
     with StagedOutput(out, Provenance.of("export", config, inputs)) as staged:
-        for row in progress(rows, desc=f"export: {files.task}", unit="grasp"):
-            grasp = grasp_from_row(row, solved.hand.joint_names)
+        for row, grasp in progress(chosen, desc=f"export: {files.task}", unit="grasp"):
             check = verify(grasp, solved.hand, obj, model, settings)
             scene = grasp_scene(solved.hand, mesh, grasp, check.normals, settings.friction_coefficient)
             record = grasp_record(
