@@ -85,3 +85,24 @@ def ratios_to(entries: dict, reference: str, key: str) -> None:
         for task, figures in entry["tasks"].items():
             median = base.get(task, {}).get("median_s_per_start")
             figures[key] = figures["median_s_per_start"] / median if median else None
+
+
+def first_attempt_figures(solutions: Any) -> dict:
+    """What the sweep would have been without the retry postures, from the same run: the first attempt's median
+    seconds and verified fraction, and how many starts were retried (columns absent: no retries were made)."""
+    if "first_attempt_seconds" not in solutions:
+        return {"median_s_per_start": None, "verified_fraction": None, "retried_starts": 0}
+    seconds = solutions["first_attempt_seconds"].fillna(solutions["seconds"])
+    verified = solutions["first_attempt_verified"].fillna(False).astype(bool)
+    return {
+        "median_s_per_start": float(seconds.median()),
+        "verified_fraction": float(verified.mean()),
+        "retried_starts": int((solutions["attempts"].fillna(1) > 1).sum()),
+    }
+
+
+def first_attempt_cell(figures: dict | None) -> str:
+    """A table cell for :func:`first_attempt_figures`: "-" for a sweep without retries."""
+    if not figures or figures["median_s_per_start"] is None:
+        return "-"
+    return f"{figures['median_s_per_start']:.2f}, {figures['verified_fraction']:.0%}"

@@ -358,7 +358,8 @@ def synthesize(
         raise click.exceptions.Exit(130) from None
     seconds = run["seconds_per_start"]
     click.echo(
-        f"{task}: {run['verified']}/{run['starts']} starts verified, {run['distinct_optima']} distinct optima, "
+        f"{task}: {run['verified']}/{run['starts']} starts verified ({run['verified_on_retry']} on a retry), "
+        f"{run['distinct_optima']} distinct optima, "
         f"best Q {_number(run['best_Q'])}; {seconds['median']:.2f} s per start (median), "
         f"statuses {', '.join(f'{k} {v}' for k, v in run['status_counts'].items() if v)}"
     )

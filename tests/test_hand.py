@@ -94,6 +94,18 @@ def test_pad_is_offset_from_the_bone_by_the_finger_radius():
         np.testing.assert_allclose(off_axis / np.linalg.norm(off_axis), finger.pad_normal[0], atol=1e-12)
 
 
+@settings(max_examples=20, deadline=None)
+@given(st.floats(0.0, 1.0))
+def test_postures_lie_within_the_limits_and_honour_the_couplings(fraction):
+    """The retry postures of synthesis: each independent joint that fraction of its range, couplings applied."""
+    q = HAND.posture(fraction)
+    assert np.all(q >= HAND.lower - 1e-12) and np.all(q <= HAND.upper + 1e-12)
+    np.testing.assert_array_equal(q, HAND.apply_coupling(q))
+    free = [i for i in range(HAND.n_joints) if i not in {d for d, *_ in HAND.couplings()}]
+    np.testing.assert_allclose(q[free], (HAND.lower + fraction * (HAND.upper - HAND.lower))[free])
+    np.testing.assert_array_equal(HAND.posture(0.5), HAND.mid_range())
+
+
 def test_straight_index_reaches_its_length():
     q = np.zeros(HAND.n_joints)
     index = forward(HAND, q).fingers["index"]

@@ -2,6 +2,7 @@
 NLP's surface that stay finite where a cylinder's exponents meet zero."""
 
 import math
+import re
 
 import numpy as np
 import pyomo.environ as pyo
@@ -118,6 +119,8 @@ def test_cylinder_contact_has_finite_second_derivatives_on_its_axis_planes():
         ("search_bounds: {edge: 5}\n", "unknown field 'search_bounds.edge'"),
         ("ipopt: [tol]\n", "field 'ipopt' must be a mapping"),
         ("regularisation: {activation: -1.0e-6}\n", "regularisation.activation' must be a number >= 0"),
+        ("retry_postures: [0.25, 1.5]\n", "field 'retry_postures' must be a list of numbers in [0, 1]"),
+        ("retry_postures: 0.25\n", "field 'retry_postures' must be a list of numbers in [0, 1]"),
         ("regularisation: {lam: 0.1}\n", "unknown field 'regularisation.lam'"),
         ("regularisation: 0\n", "field 'regularisation' must be a mapping"),
     ],
@@ -125,7 +128,7 @@ def test_cylinder_contact_has_finite_second_derivatives_on_its_axis_planes():
 def test_bad_solver_config_is_one_clear_line(tmp_path, text, message):
     path = tmp_path / "solver.yaml"
     path.write_text(text)
-    with pytest.raises(BadInputError, match=message.replace("(", r"\(")):
+    with pytest.raises(BadInputError, match=re.escape(message)):
         load_solver_config(path)
 
 
@@ -135,6 +138,7 @@ def test_solver_config_defaults_and_bundled_files():
     assert bundled.bounds == SearchBounds(100.0, 50.0)
     assert bundled.regularisation == Regularisation()
     assert bundled.time_limit == bundled.ipopt["max_wall_time"]
+    assert bundled.start_time_limit == bundled.time_limit * (1 + len(bundled.retry_postures))
     assert load_solver_config("tests/data/solver_fast.yaml").placement
 
 

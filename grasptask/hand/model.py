@@ -197,7 +197,12 @@ class Hand:
 
     def mid_range(self) -> np.ndarray:
         """Joint angles halfway between the limits, with the coupling applied."""
-        return self.apply_coupling(0.5 * (self.lower + self.upper))
+        return self.posture(0.5)
+
+    def posture(self, fraction: float) -> np.ndarray:
+        """Every joint ``fraction`` of its range from its lower limit, with the coupling applied; for hand files
+        whose lower limits are the extended fingers, a small fraction is an open hand."""
+        return self.apply_coupling(self.lower + fraction * (self.upper - self.lower))
 
     def couplings(self) -> list[tuple[int, int, float, float]]:
         """``(dependent, independent, ratio, offset)`` joint indices and values:

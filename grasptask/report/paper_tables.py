@@ -108,12 +108,14 @@ def sweep_table(sweeps: dict, paper: PaperSynthesis) -> pd.DataFrame:
     for task, sweep in sweeps.items():
         seconds = sweep.solutions["seconds"].astype(float)
         statuses = sweep.solutions["status"].value_counts()
+        verified = sweep.solutions["verified"]
+        on_retry = int((verified & (sweep.solutions.get("attempts", pd.Series(1, index=verified.index)) > 1)).sum())
         rows.append(
             {
                 "task": task,
                 "starts": len(sweep.solutions),
                 "statuses": ", ".join(f"{s} {n}" for s, n in statuses.items()),
-                "verified": f"{int(sweep.solutions['verified'].sum())} ({sweep.solutions['verified'].mean():.0%})",
+                "verified": f"{int(verified.sum())} ({verified.mean():.0%}; {on_retry} on a retry)",
                 "distinct optima": len(sweep.optima),
                 "paper optima": paper.optima.get(task),
                 "median s/start": round(float(seconds.median()), 2),

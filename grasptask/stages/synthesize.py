@@ -160,7 +160,7 @@ def _prepare(options: SynthesisOptions) -> _Prepared:
         subset(every, options.starts),
         list(hand.grasping),
         obj.symmetry,
-        solver.time_limit + solver.hang_grace_s,
+        solver.start_time_limit + solver.hang_grace_s,
         definition,
         read_paper_synthesis(),
     )
@@ -315,6 +315,7 @@ def summarise(
     solutions["verified"] = solutions["verified"].fillna(False).astype(bool)
     optima = cluster(solutions, fingers, symmetry)
     seconds = solutions["seconds"].astype(float)
+    retried = solutions.get("attempts", pd.Series(1, index=solutions.index)).fillna(1) > 1
     status_counts = {s: int((solutions["status"] == s).sum()) for s in STATUSES}
     run = {
         "task": options.task,
@@ -334,6 +335,9 @@ def summarise(
         "status_counts": status_counts,
         "verified": int(solutions["verified"].sum()),
         "verified_fraction": float(solutions["verified"].mean()) if len(solutions) else 0.0,
+        # starts solved again from the solver config's retry postures, and those of them the verifier accepted
+        "retried_starts": int(retried.sum()),
+        "verified_on_retry": int((retried & solutions["verified"]).sum()),
         "distinct_optima": int(len(optima)),
         "best_Q": float(optima["Q"].min()) if len(optima) else None,
         "seconds_per_start": {

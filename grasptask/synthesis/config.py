@@ -1,6 +1,6 @@
 """Solver settings (``configs/solver.yaml``), read and validated once: IPOPT's options, whether a start is
-placed at the object before IPOPT, the NLP's search bounds on forces and the small regularising weights on the
-variables its objective does not see."""
+placed at the object before IPOPT, the postures a rejected start is solved again from, the NLP's search bounds
+on forces and the small regularising weights on the variables its objective does not see."""
 
 from __future__ import annotations
 
@@ -44,11 +44,19 @@ class SolverConfig:
     placement: bool = True
     bounds: SearchBounds = SearchBounds()
     regularisation: Regularisation = Regularisation()
+    #: a start the verifier rejects is solved again from each of these postures in turn (each joint this
+    #: fraction of its range from its lower limit), until one is verified; () solves each start once
+    retry_postures: tuple[float, ...] = ()
 
     @property
     def time_limit(self) -> float:
-        """The longest a start's solves may take, by IPOPT's own wall-time limit."""
+        """The longest one solve may take, by IPOPT's own wall-time limit."""
         return float(self.ipopt.get("max_wall_time", 60.0))
+
+    @property
+    def start_time_limit(self) -> float:
+        """The longest a start may take: every attempt at its time limit."""
+        return self.time_limit * (1 + len(self.retry_postures))
 
 
 def _positive_or_none(value, path: Path, name: str) -> float | None:
@@ -65,6 +73,14 @@ def _non_negative(value, path: Path, name: str) -> float:
     return float(value)
 
 
+def _fractions(value, path: Path, name: str) -> tuple[float, ...]:
+    if not isinstance(value, list) or not all(
+        isinstance(v, int | float) and not isinstance(v, bool) and 0 <= v <= 1 for v in value
+    ):
+        raise BadInputError(path, f"field '{name}' must be a list of numbers in [0, 1], got {value!r}")
+    return tuple(float(v) for v in value)
+
+
 def _section(data: dict, name: str, fields: tuple[str, ...], path: Path) -> dict:
     section = data.get(name, {})
     if not isinstance(section, dict):
@@ -76,7 +92,8 @@ def _section(data: dict, name: str, fields: tuple[str, ...], path: Path) -> dict
 def load_solver_config(path: str | Path) -> SolverConfig:
     path = Path(path)
     data = load_yaml(path)
-    reject_unknown(data, {"ipopt", "hang_grace_s", "placement", "search_bounds", "regularisation"}, path)
+    known = {"ipopt", "hang_grace_s", "placement", "search_bounds", "regularisation", "retry_postures"}
+    reject_unknown(data, known, path)
     ipopt = data.get("ipopt", {})
     if not isinstance(ipopt, dict):
         raise BadInputError(path, f"field 'ipopt' must be a mapping of IPOPT options, got {ipopt!r}")
@@ -90,6 +107,7 @@ def load_solver_config(path: str | Path) -> SolverConfig:
         ipopt=dict(ipopt),
         hang_grace_s=_positive_or_none(data.get("hang_grace_s", 30.0), path, "hang_grace_s") or 30.0,
         placement=data.get("placement", True),
+        retry_postures=_fractions(data.get("retry_postures", []), path, "retry_postures"),
         bounds=SearchBounds(
             *(
                 _positive_or_none(bounds.get(name, getattr(defaults, name)), path, f"search_bounds.{name}")
