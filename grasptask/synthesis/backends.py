@@ -51,6 +51,16 @@ _IPOPT_CODES = {
 _USER_STOP_STATUS, _USER_STOP_CODE = "User_Requested_Stop", 5
 
 
+@dataclass(frozen=True)
+class Bounds:
+    """The variable and constraint bounds of one solve, in the NL file's order."""
+
+    lbx: np.ndarray
+    ubx: np.ndarray
+    lbg: np.ndarray
+    ubg: np.ndarray
+
+
 @dataclass
 class SolveResult:
     status: str
@@ -128,12 +138,16 @@ class CasadiNLP:
                 handle.write(nl_text)
             builder = casadi.NlpBuilder()
             builder.import_nl(path, {"verbose": False})
-        self.lbx, self.ubx = np.array(builder.x_lb, float), np.array(builder.x_ub, float)
-        self.lbg, self.ubg = np.array(builder.g_lb, float), np.array(builder.g_ub, float)
+        self.bounds = Bounds(
+            np.array(builder.x_lb, float),
+            np.array(builder.x_ub, float),
+            np.array(builder.g_lb, float),
+            np.array(builder.g_ub, float),
+        )
         self.expandable = surrogate is None
         whole = casadi.Function("nlp", [casadi.vertcat(*builder.x)], [builder.f, casadi.vertcat(*builder.g)])
         whole = whole.expand()  # CasADi's import gives MX
-        n_x, n_g = len(self.lbx), len(self.lbg)
+        n_x, n_g = len(self.bounds.lbx), len(self.bounds.lbg)
         # SX symbols, or MX ones with a surrogate (untyped here: CasADi's stubs keep the two apart)
         self.x: Any = casadi.SX.sym("x", n_x)
         self.sigma: Any = casadi.SX.sym("sigma")
@@ -184,10 +198,11 @@ class CasadiBackend:
             options.update(self.nlp.derivative_functions())
         self.solver = casadi.nlpsol("grasp", "ipopt", {"x": self.nlp.x, "f": self.nlp.f, "g": self.nlp.g}, options)
 
-    def solve(self, x0: np.ndarray) -> SolveResult:
+    def solve(self, x0: np.ndarray, bounds: Bounds | None = None) -> SolveResult:
+        b = bounds or self.nlp.bounds
         start = time.perf_counter()
         try:
-            out = self.solver(x0=x0, lbx=self.nlp.lbx, ubx=self.nlp.ubx, lbg=self.nlp.lbg, ubg=self.nlp.ubg)
+            out = self.solver(x0=x0, lbx=b.lbx, ubx=b.ubx, lbg=b.lbg, ubg=b.ubg)
         except RuntimeError as exc:  # an evaluation error inside IPOPT, or CasADi's own report of Ctrl-C
             if "interrupt" in str(exc).lower():
                 raise KeyboardInterrupt from exc
@@ -229,7 +244,7 @@ class CyipoptBackend:
         self._hess_rc = hess.sparsity().get_triplet()
         self.options = ipopt_options
 
-    def solve(self, x0: np.ndarray) -> SolveResult:
+    def solve(self, x0: np.ndarray, bounds: Bounds | None = None) -> SolveResult:
         backend = self
         iterations = [0]
 
@@ -259,15 +274,15 @@ class CyipoptBackend:
             def hessianstructure(self):
                 return tuple(np.array(v) for v in backend._hess_rc)
 
-        nlp = self.nlp
+        b = bounds or self.nlp.bounds
         problem = self.cyipopt.Problem(
-            n=len(x0), m=len(nlp.lbg), problem_obj=Problem(), lb=nlp.lbx, ub=nlp.ubx, cl=nlp.lbg, cu=nlp.ubg
+            n=len(x0), m=len(b.lbg), problem_obj=Problem(), lb=b.lbx, ub=b.ubx, cl=b.lbg, cu=b.ubg
         )
         for key, value in self.options.items():
             problem.add_option(key, value)
         start = time.perf_counter()
         try:
-            x, info = problem.solve(np.clip(x0, nlp.lbx, nlp.ubx))
+            x, info = problem.solve(np.clip(x0, b.lbx, b.ubx))
         except Exception as exc:  # noqa: BLE001 - any failure inside IPOPT is a recorded status
             return SolveResult("error", 0, time.perf_counter() - start, None, str(exc)[:200])
         if int(info["status"]) == _USER_STOP_CODE:
@@ -280,8 +295,9 @@ class CyipoptBackend:
 
 class Backend(Protocol):
     name: str
+    nlp: CasadiNLP
 
-    def solve(self, x0: np.ndarray) -> SolveResult: ...
+    def solve(self, x0: np.ndarray, bounds: Bounds | None = None) -> SolveResult: ...
 
 
 BACKENDS: dict[str, Callable[..., Backend]] = {"casadi": CasadiBackend, "cyipopt": CyipoptBackend}

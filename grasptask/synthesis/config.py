@@ -1,6 +1,7 @@
 """Solver settings (``configs/solver.yaml``), read and validated once: IPOPT's options, whether a start is
-placed at the object before IPOPT, the postures a rejected start is solved again from, the NLP's search bounds
-on forces and the small regularising weights on the variables its objective does not see."""
+placed at the object before IPOPT, how a rejected start is solved again (other postures, the verifier's
+feedback), the NLP's search bounds on forces and the small regularising weights on the variables its objective
+does not see."""
 
 from __future__ import annotations
 
@@ -47,6 +48,9 @@ class SolverConfig:
     #: a start the verifier rejects is solved again from each of these postures in turn (each joint this
     #: fraction of its range from its lower limit), until one is verified; () solves each start once
     retry_postures: tuple[float, ...] = ()
+    #: a solved grasp the verifier rejects only on the torque check or the pad angle is solved again from itself
+    #: with those limits tightened by what the verifier measured, up to this many times (synthesis.feedback)
+    feedback_rounds: int = 0
 
     @property
     def time_limit(self) -> float:
@@ -55,8 +59,8 @@ class SolverConfig:
 
     @property
     def start_time_limit(self) -> float:
-        """The longest a start may take: every attempt at its time limit."""
-        return self.time_limit * (1 + len(self.retry_postures))
+        """The longest a start may take: every attempt and every feedback round at its time limit."""
+        return self.time_limit * (1 + len(self.retry_postures)) * (1 + self.feedback_rounds)
 
 
 def _positive_or_none(value, path: Path, name: str) -> float | None:
@@ -71,6 +75,12 @@ def _non_negative(value, path: Path, name: str) -> float:
     if isinstance(value, bool) or not isinstance(value, int | float) or value < 0:
         raise BadInputError(path, f"field '{name}' must be a number >= 0, got {value!r}")
     return float(value)
+
+
+def _count(value, path: Path, name: str) -> int:
+    if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+        raise BadInputError(path, f"field '{name}' must be a whole number >= 0, got {value!r}")
+    return value
 
 
 def _fractions(value, path: Path, name: str) -> tuple[float, ...]:
@@ -93,6 +103,7 @@ def load_solver_config(path: str | Path) -> SolverConfig:
     path = Path(path)
     data = load_yaml(path)
     known = {"ipopt", "hang_grace_s", "placement", "search_bounds", "regularisation", "retry_postures"}
+    known |= {"feedback_rounds"}
     reject_unknown(data, known, path)
     ipopt = data.get("ipopt", {})
     if not isinstance(ipopt, dict):
@@ -108,6 +119,7 @@ def load_solver_config(path: str | Path) -> SolverConfig:
         hang_grace_s=_positive_or_none(data.get("hang_grace_s", 30.0), path, "hang_grace_s") or 30.0,
         placement=data.get("placement", True),
         retry_postures=_fractions(data.get("retry_postures", []), path, "retry_postures"),
+        feedback_rounds=_count(data.get("feedback_rounds", 0), path, "feedback_rounds"),
         bounds=SearchBounds(
             *(
                 _positive_or_none(bounds.get(name, getattr(defaults, name)), path, f"search_bounds.{name}")

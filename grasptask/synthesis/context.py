@@ -7,13 +7,18 @@ import os
 import time
 import traceback
 from dataclasses import dataclass, replace
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from grasptask.io import solutions as schema
 from grasptask.synthesis.config import SolverConfig
+from grasptask.synthesis.feedback import Limits, tightened
 from grasptask.synthesis.starts import Start
+
+if TYPE_CHECKING:  # the solver stack loads in the workers, not where a Job is made
+    from grasptask.grasp.verify import Verification
+    from grasptask.synthesis.backends import Bounds, SolveResult
 
 # a test hook: a start whose id is listed here makes its worker exit abruptly (to exercise crash handling)
 CRASH_ENV = "GRASPTASK_CRASH_STARTS"
@@ -62,6 +67,10 @@ class SolverContext:
         text, self.order, rows = write_nl_rows(self.nlp.model)
         self.nlp.compile()  # now, so that its one-off cost is not counted in the first start's seconds
         self.backend = BACKENDS[job.backend](text, job.solver.ipopt, self.nlp.surrogate_spec(self.order, rows))
+        self.limit_positions = self.nlp.limit_positions(self.order, rows)
+        self.nominal = Limits(
+            1.0 - self.settings.activation_margin, np.full(len(self.nlp.hand.fingers), self.settings.pad_angle_max_deg)
+        )
         # what the NLP saw of a mesh's or point cloud's surface, to record its error at each contact
         self.surrogate = distance_function(self.nlp.surrogate.grid) if self.nlp.surrogate is not None else None
         self.bounds = self.obj.bounds()
@@ -78,15 +87,16 @@ class SolverContext:
 
     def solve(self, start: Start) -> dict:
         """One start: solved from mid-range joints (Section 7.3) and, while the verifier rejects the result, again
-        from each of the solver config's retry postures. The row is the last attempt's; its seconds, iterations
-        and placement seconds are those of every attempt together, and ``first_attempt_*`` say how the first did."""
+        from each of the solver config's retry postures. The row is the last attempt's; its seconds, iterations,
+        placement seconds and feedback rounds are those of every attempt together, and ``first_attempt_*`` say
+        how the first did."""
         if str(start.start_id) in os.environ.get(CRASH_ENV, "").split(","):
             os._exit(13)
         if self.approach is not None:  # the start's palm normal is the hand's approach direction
             start = replace(start, palm_rotation=start.palm_rotation @ self.approach.T)
         hand = self.nlp.hand
         postures = [hand.mid_range()] + [hand.posture(f) for f in self.job.solver.retry_postures]
-        spent = {"seconds": 0.0, "iterations": 0, "placement_seconds": 0.0}
+        spent = {"seconds": 0.0, "iterations": 0, "placement_seconds": 0.0, "feedback_rounds": 0}
         for attempt, joints in enumerate(postures, 1):
             row = self._attempt(start, joints)
             if attempt == 1:
@@ -98,10 +108,8 @@ class SolverContext:
         return {**row, **spent, **first, "attempts": attempt}
 
     def _attempt(self, start: Start, joints: np.ndarray) -> dict:
-        from grasptask.grasp.verify import Grasp, verify
-        from grasptask.io.solutions import grasp_columns
+        """Placement, IPOPT and the verifier from one posture, with the verifier's feedback rounds."""
         from grasptask.synthesis.placement import place
-        from grasptask.synthesis.spline import evaluate
 
         row: dict[str, Any] = {
             "start_id": start.start_id,
@@ -115,18 +123,63 @@ class SolverContext:
             self.nlp.initialise(start.palm_rotation, start.palm_position, joints)
         row["placement_seconds"] = placed = time.perf_counter() - began
         result = self.backend.solve(_values(self.order))
-        # a start's seconds are all it took to solve it: placement (or initialisation) and IPOPT
+        seconds, iterations, rounds = result.seconds + placed, result.iterations, 0
+        judged = self._judge(result)
+        limits = self.nominal
+        while judged is not None and rounds < self.job.solver.feedback_rounds:
+            check = judged[1]
+            if result.status not in ("optimal", "acceptable") or check.ok:
+                break
+            tighter = tightened(limits, self.nominal.activation_cap, check.failures, check.torque_effort,
+                                check.pad_angle_deg)  # fmt: skip
+            if tighter is None:
+                break
+            limits, rounds = tighter, rounds + 1
+            again = self.backend.solve(_values(self.order), self._bounds(limits))
+            seconds, iterations = seconds + again.seconds, iterations + again.iterations
+            retried = self._judge(again)
+            if retried is None:  # IPOPT left no point: the last solution stands
+                _assign(self.order, judged[2])
+                break
+            result, judged = again, retried
+        # a start's seconds are all it took to solve it: placement (or initialisation), IPOPT and its re-solves
         row.update(
-            status=result.status, iterations=result.iterations, seconds=result.seconds + placed, message=result.message
+            status=result.status, iterations=iterations, seconds=seconds, message=result.message, feedback_rounds=rounds
         )
-        if result.x is None:
+        if judged is None:
             return {**row, "Q": float("nan"), "verified": False}
+        return {**row, **self._record(*judged[:2])}
+
+    def _judge(self, result: SolveResult) -> tuple[dict, Verification, np.ndarray] | None:
+        """IPOPT's point read back and checked by the verifier (None: no point), with the point itself."""
+        from grasptask.grasp.verify import Grasp, verify
+
+        if result.x is None:
+            return None
         _assign(self.order, result.x)
         solution = self.nlp.read()
-        row["Q"] = float(solution["Q"])
+        grasp = Grasp(solution["palm_rotation"], solution["palm_position"], solution["joint_angles"])
+        return solution, verify(grasp, self.hand, self.obj, self.task, self.settings), result.x
+
+    def _bounds(self, limits: Limits) -> Bounds:
+        """The NLP's bounds with ``limits`` in place of the activation cap and the pads' angle bounds."""
+        base = self.backend.nlp.bounds
+        columns, rows = self.limit_positions
+        ubx, lbg = base.ubx.copy(), base.lbg.copy()
+        ubx[columns] = limits.activation_cap
+        lbg[rows] = np.cos(np.radians(limits.pad_angle_deg))
+        return replace(base, ubx=ubx, lbg=lbg)
+
+    def _record(self, solution: dict, check: Verification) -> dict:
+        """The columns of a solved start: Q, the grasp, the verifier's figures, and (where configured) the
+        physics check and the surrogate's error at the contacts."""
+        from grasptask.grasp.verify import Grasp
+        from grasptask.io.solutions import grasp_columns
+        from grasptask.synthesis.spline import evaluate
+
+        row: dict[str, Any] = {"Q": float(solution["Q"])}
         grasp = Grasp(solution["palm_rotation"], solution["palm_position"], solution["joint_angles"])
         row.update(grasp_columns(grasp, self.joint_names, self.fingers, solution["contacts"], solution["normals"]))
-        check = verify(grasp, self.hand, self.obj, self.task, self.settings)
         row.update(check.record(self.fingers))
         if self.physics is not None and check.ok:  # the second judge, on what the first accepted
             from grasptask.physics.protocol import hold_grasp

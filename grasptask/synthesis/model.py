@@ -415,6 +415,17 @@ class GraspNLP:
             tuple(link.component for link in links),
         )
 
+    def limit_positions(self, variables: list, constraints: list) -> tuple[np.ndarray, np.ndarray]:
+        """Where the bounds of :class:`~grasptask.synthesis.feedback.Limits` sit, by the NL file's order: the
+        columns of eq. 10's activations and the rows of the pads' angle constraints."""
+        column = {id(v): k for k, v in enumerate(variables)}
+        row = {id(c): k for k, c in enumerate(constraints)}
+        m = self.model
+        return (
+            np.array([column[id(v)] for v in m.act.values()], dtype=int),
+            np.array([row[id(m.pad_facing[j])] for j in m.pad_facing], dtype=int),
+        )
+
     def initialise(self, palm_rotation: np.ndarray, palm_position: np.ndarray, joint_angles: np.ndarray) -> None:
         """Set the palm pose and joints, then every defined variable from its defining expression."""
         m = self.model
