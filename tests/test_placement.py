@@ -121,6 +121,8 @@ def test_cylinder_contact_has_finite_second_derivatives_on_its_axis_planes():
         ("regularisation: {activation: -1.0e-6}\n", "regularisation.activation' must be a number >= 0"),
         ("retry_postures: [0.25, 1.5]\n", "field 'retry_postures' must be a list of numbers in [0, 1]"),
         ("retry_postures: 0.25\n", "field 'retry_postures' must be a list of numbers in [0, 1]"),
+        ("feedback_rounds: 1.5\n", "field 'feedback_rounds' must be a whole number >= 0"),
+        ("feedback_rounds: -1\n", "field 'feedback_rounds' must be a whole number >= 0"),
         ("regularisation: {lam: 0.1}\n", "unknown field 'regularisation.lam'"),
         ("regularisation: 0\n", "field 'regularisation' must be a mapping"),
     ],
@@ -138,7 +140,8 @@ def test_solver_config_defaults_and_bundled_files():
     assert bundled.bounds == SearchBounds(100.0, 50.0)
     assert bundled.regularisation == Regularisation()
     assert bundled.time_limit == bundled.ipopt["max_wall_time"]
-    assert bundled.start_time_limit == bundled.time_limit * (1 + len(bundled.retry_postures))
+    attempts = (1 + len(bundled.retry_postures)) * (1 + bundled.feedback_rounds)
+    assert bundled.start_time_limit == bundled.time_limit * attempts
     assert load_solver_config("tests/data/solver_fast.yaml").placement
 
 
