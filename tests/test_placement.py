@@ -16,7 +16,7 @@ from grasptask.hand import load_hand
 from grasptask.objects import load_object
 from grasptask.synthesis.config import Regularisation, SearchBounds, load_solver_config
 from grasptask.synthesis.model import build_model
-from grasptask.synthesis.placement import anchor_point, place
+from grasptask.synthesis.placement import ANCHOR_DEPTH_CELLS, Anchors, anchor_point, place
 from grasptask.synthesis.starts import make_starts
 from grasptask.synthesis.surfaces import surface_for
 from grasptask.task.model import load_task_models
@@ -44,7 +44,7 @@ def test_placed_start_keeps_its_orientation_and_starts_collision_free(nlp, start
     obj = load_object(TOOL)
     start = make_starts(obj.bounds(), seed=0)[start_id]
     joints = nlp.hand.mid_range()
-    backoff = place(nlp, start, obj.bounds(), joints)
+    backoff = place(nlp, start, Anchors(obj.bounds()), joints)
     state = nlp.read()
     np.testing.assert_allclose(state["palm_rotation"], start.palm_rotation, atol=1e-12)
     np.testing.assert_allclose(state["joint_angles"], np.clip(joints, nlp.hand.lower, nlp.hand.upper))
@@ -60,8 +60,8 @@ def test_placed_start_keeps_its_orientation_and_starts_collision_free(nlp, start
 def test_placement_is_deterministic(nlp):
     obj = load_object(TOOL)
     start = make_starts(obj.bounds(), seed=0)[40]
-    first = place(nlp, start, obj.bounds(), nlp.hand.mid_range()), nlp.read()["palm_position"]
-    second = place(nlp, start, obj.bounds(), nlp.hand.mid_range()), nlp.read()["palm_position"]
+    first = place(nlp, start, Anchors(obj.bounds()), nlp.hand.mid_range()), nlp.read()["palm_position"]
+    second = place(nlp, start, Anchors(obj.bounds()), nlp.hand.mid_range()), nlp.read()["palm_position"]
     assert first[0] == second[0]
     np.testing.assert_array_equal(first[1], second[1])
 
@@ -176,3 +176,20 @@ def test_min_clearance_is_the_smallest_eq14_margin(nlp, start_id, shift):
     nlp.initialise(start.palm_rotation, start.palm_position + shift, nlp.hand.mid_range())
     margins = [pyo.value(c.body) - pyo.value(c.lower) for c in nlp.model.eq14_collision.values()]
     assert nlp.min_clearance() == pytest.approx(min(margins), abs=1e-13)
+
+
+def test_anchors_on_a_mesh_lie_on_parts_its_surrogate_resolves():
+    """The knife's bounding box is mostly blade, 1.2-3 mm thick: the box's anchors for the starts above and on
+    the diagonal fall on it. On the mesh they move to the nearest point at least 1.5 grid cells inside, on the
+    handle (z below 6 cm). Superquadrics keep the box's anchors."""
+    knife = load_object("configs/objects/kitchen_knife.yaml")
+    grid = knife.distance_grid()
+    anchors = Anchors(knife.bounds(), grid)
+    depth = ANCHOR_DEPTH_CELLS * grid.spacing
+    for start in make_starts(knife.bounds(), seed=0)[::7]:
+        point = anchors(start.palm_position)
+        assert point[2] < 0.06 and knife.signed_distance(point[None])[0] <= -depth + 1e-3
+    tool = load_object(TOOL)
+    start = make_starts(tool.bounds(), seed=0)[5]
+    expected = anchor_point(start.palm_position, tool.bounds())
+    np.testing.assert_array_equal(Anchors(tool.bounds())(start.palm_position), expected)

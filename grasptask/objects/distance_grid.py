@@ -40,6 +40,11 @@ class DistanceGrid:
     def upper(self) -> np.ndarray:
         return self.origin + self.spacing * (np.array(self.shape) - 1)
 
+    def points_inside(self, depth: float) -> np.ndarray:
+        """``(n, 3)``: the grid points at least ``depth`` (m) inside the surface."""
+        index = np.argwhere(self.values <= -depth)
+        return self.origin + self.spacing * index
+
 
 def distance_grid(
     points: np.ndarray,

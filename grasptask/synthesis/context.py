@@ -50,6 +50,7 @@ class SolverContext:
         from grasptask.objects import load_object
         from grasptask.synthesis.backends import BACKENDS, write_nl_rows
         from grasptask.synthesis.model import build_model
+        from grasptask.synthesis.placement import Anchors
         from grasptask.synthesis.spline import distance_function
         from grasptask.task.model import load_task_models
 
@@ -74,6 +75,7 @@ class SolverContext:
         # what the NLP saw of a mesh's or point cloud's surface, to record its error at each contact
         self.surrogate = distance_function(self.nlp.surrogate.grid) if self.nlp.surrogate is not None else None
         self.bounds = self.obj.bounds()
+        self.anchors = Anchors(self.bounds, self.nlp.surrogate.grid if self.nlp.surrogate is not None else None)
         self.approach = self.hand.approach
         self.fingers = list(self.nlp.hand.fingers)
         self.joint_names = self.nlp.hand.joint_names
@@ -118,7 +120,7 @@ class SolverContext:
         }
         began = time.perf_counter()
         if self.job.solver.placement:
-            row["placement_backoff_m"] = place(self.nlp, start, self.bounds, joints)
+            row["placement_backoff_m"] = place(self.nlp, start, self.anchors, joints)
         else:
             self.nlp.initialise(start.palm_rotation, start.palm_position, joints)
         row["placement_seconds"] = placed = time.perf_counter() - began
