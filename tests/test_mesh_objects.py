@@ -219,29 +219,35 @@ def test_a_mesh_gives_verified_grasps_end_to_end(cli, simulated, tmp_path):
 
 
 def test_the_verifiers_feedback_turns_a_narrow_miss_into_a_verified_grasp(simulated):
-    """On the spray bottle a cutting grasp at the NLP's activation cap needs a little more than the hand has
-    under the mesh's own normals. Re-solved from itself with the cap lowered by the verifier's effort, it is
-    verified; without the feedback the same start is rejected on the torque check alone."""
+    """On the spray bottle a cutting grasp at the NLP's limits fails the verifier by a little under the mesh's own
+    normals. Re-solved from itself with the limits tightened by what the verifier measured, it is verified;
+    without the feedback the same start is rejected on the torque check or the pad angle alone."""
     from dataclasses import replace
 
     from grasptask.synthesis.config import load_solver_config
     from grasptask.synthesis.context import Job, SolverContext
+    from grasptask.synthesis.feedback import NARROW
     from grasptask.synthesis.starts import make_starts
 
     tasks = str(simulated[0] / "tasks" / "task_models.json")
     solver = replace(load_solver_config("configs/solver.yaml"), retry_postures=())
     assert solver.feedback_rounds > 0
-    start = make_starts(load_object(Path("configs/objects/spray_bottle.yaml")).bounds())[58]
-    rows = {}
-    for rounds in (0, solver.feedback_rounds):
-        job = Job("configs/hands/human.yaml", "configs/objects/spray_bottle.yaml", tasks, "cutting",
-                  solver=replace(solver, feedback_rounds=rounds))  # fmt: skip
-        rows[rounds] = SolverContext(job).solve(start)
-    without, with_feedback = rows[0], rows[solver.feedback_rounds]
-    assert not without["verified"] and without["verify_failures"] == "torque_feasibility"
-    assert without["verify_torque_effort"] > 1 and without["feedback_rounds"] == 0
-    assert with_feedback["verified"] and with_feedback["feedback_rounds"] >= 1
-    assert with_feedback["iterations"] > without["iterations"] and with_feedback["seconds"] > without["seconds"]
+    starts = make_starts(load_object(Path("configs/objects/spray_bottle.yaml")).bounds())
+    hand, bottle = "configs/hands/human.yaml", "configs/objects/spray_bottle.yaml"
+    contexts = {
+        rounds: SolverContext(Job(hand, bottle, tasks, "cutting", solver=replace(solver, feedback_rounds=rounds)))
+        for rounds in (0, solver.feedback_rounds)
+    }
+    for start_id in (75, 67, 17):  # starts that were narrow misses in the objects benchmark
+        without = contexts[0].solve(starts[start_id])
+        if without["verified"] or not set(without["verify_failures"].split(";")) <= NARROW:
+            continue
+        with_feedback = contexts[solver.feedback_rounds].solve(starts[start_id])
+        assert without["feedback_rounds"] == 0
+        assert with_feedback["verified"] and with_feedback["feedback_rounds"] >= 1
+        assert with_feedback["iterations"] > without["iterations"] and with_feedback["seconds"] > without["seconds"]
+        return
+    pytest.fail("none of the spray bottle's narrow misses was a narrow miss without the feedback")
 
 
 def test_the_report_renders_a_mesh_object(tmp_path):
