@@ -132,8 +132,8 @@ class SolverContext:
             check = judged[1]
             if result.status not in ("optimal", "acceptable") or check.ok:
                 break
-            tighter = tightened(limits, self.nominal.activation_cap, check.failures, check.torque_effort,
-                                check.pad_angle_deg)  # fmt: skip
+            cap = self.nominal.activation_cap
+            tighter = tightened(limits, cap, check.failures, check.torque_effort, check.pad_angle_deg)
             if tighter is None:
                 break
             limits, rounds = tighter, rounds + 1
