@@ -49,6 +49,14 @@ def grasp_columns(
     return row
 
 
+def retried(solutions: Any) -> np.ndarray:
+    """Which starts of a solutions table were solved again from a retry posture (``attempts`` above 1); a table
+    without the column, or a row without a value, was solved once."""
+    if "attempts" not in solutions:
+        return np.zeros(len(solutions), dtype=bool)
+    return np.asarray(solutions["attempts"].fillna(1) > 1, dtype=bool)
+
+
 def fingers_in(columns: list[str], known: list[str]) -> list[str]:
     """The fingers a solutions table holds contacts of (its ``contact_<finger>_x`` columns), in its order."""
     found = [c[len("contact_") : -len("_x")] for c in columns if c.startswith("contact_") and c.endswith("_x")]

@@ -9,6 +9,7 @@ import numpy as np
 import pandas as pd
 
 from grasptask.io.reference import PaperSynthesis
+from grasptask.io.solutions import retried
 from grasptask.task.stats import compare_with_reference
 
 DRAWING_GROUPS = ("drawing_tripod", "drawing_cylindrical", "drawing_power")
@@ -109,7 +110,7 @@ def sweep_table(sweeps: dict, paper: PaperSynthesis) -> pd.DataFrame:
         seconds = sweep.solutions["seconds"].astype(float)
         statuses = sweep.solutions["status"].value_counts()
         verified = sweep.solutions["verified"]
-        on_retry = int((verified & (sweep.solutions.get("attempts", pd.Series(1, index=verified.index)) > 1)).sum())
+        on_retry = int((verified & retried(sweep.solutions)).sum())
         rows.append(
             {
                 "task": task,

@@ -22,7 +22,7 @@ from grasptask.io.artifacts import Provenance, StagedOutput, config_hash, path_h
 from grasptask.io.config import read_json
 from grasptask.io.locking import folder_lock
 from grasptask.io.reference import PaperSynthesis, read_paper_synthesis
-from grasptask.io.solutions import STATUSES
+from grasptask.io.solutions import STATUSES, retried
 from grasptask.io.sweep_log import LogContents, LogWriter, read_log, rewrite_log
 from grasptask.objects.surface import Symmetry
 from grasptask.paths import DEFAULT_GRASP_CONFIG, DEFAULT_HAND, DEFAULT_OBJECT, DEFAULT_SOLVER_CONFIG
@@ -315,7 +315,7 @@ def summarise(
     solutions["verified"] = solutions["verified"].fillna(False).astype(bool)
     optima = cluster(solutions, fingers, symmetry)
     seconds = solutions["seconds"].astype(float)
-    retried = solutions.get("attempts", pd.Series(1, index=solutions.index)).fillna(1) > 1
+    again = retried(solutions)
     status_counts = {s: int((solutions["status"] == s).sum()) for s in STATUSES}
     run = {
         "task": options.task,
@@ -336,8 +336,8 @@ def summarise(
         "verified": int(solutions["verified"].sum()),
         "verified_fraction": float(solutions["verified"].mean()) if len(solutions) else 0.0,
         # starts solved again from the solver config's retry postures, and those of them the verifier accepted
-        "retried_starts": int(retried.sum()),
-        "verified_on_retry": int((retried & solutions["verified"]).sum()),
+        "retried_starts": int(again.sum()),
+        "verified_on_retry": int((again & solutions["verified"]).sum()),
         "distinct_optima": int(len(optima)),
         "best_Q": float(optima["Q"].min()) if len(optima) else None,
         "seconds_per_start": {

@@ -102,8 +102,16 @@ def _section(data: dict, name: str, fields: tuple[str, ...], path: Path) -> dict
 def load_solver_config(path: str | Path) -> SolverConfig:
     path = Path(path)
     data = load_yaml(path)
-    known = {"ipopt", "hang_grace_s", "placement", "search_bounds", "regularisation"}
-    reject_unknown(data, known | {"retry_postures", "feedback_rounds"}, path)
+    known = {
+        "ipopt",
+        "hang_grace_s",
+        "placement",
+        "retry_postures",
+        "feedback_rounds",
+        "search_bounds",
+        "regularisation",
+    }
+    reject_unknown(data, known, path)
     ipopt = data.get("ipopt", {})
     if not isinstance(ipopt, dict):
         raise BadInputError(path, f"field 'ipopt' must be a mapping of IPOPT options, got {ipopt!r}")

@@ -40,13 +40,12 @@ class Anchors:
         self.bounds = np.asarray(bounds, dtype=float)
         inside = grid.points_inside(ANCHOR_DEPTH_CELLS * grid.spacing) if grid is not None else np.zeros((0, 3))
         self._inside = cKDTree(inside) if len(inside) else None
-        self._points = inside
 
     def __call__(self, start_position: np.ndarray) -> np.ndarray:
         point = anchor_point(start_position, self.bounds)
         if self._inside is None:
             return point
-        return self._points[self._inside.query(point)[1]]
+        return self._inside.data[self._inside.query(point)[1]]
 
 
 def place(
