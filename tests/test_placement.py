@@ -125,6 +125,8 @@ def test_cylinder_contact_has_finite_second_derivatives_on_its_axis_planes():
         ("feedback_rounds: -1\n", "field 'feedback_rounds' must be a whole number >= 0"),
         ("regularisation: {lam: 0.1}\n", "unknown field 'regularisation.lam'"),
         ("regularisation: 0\n", "field 'regularisation' must be a mapping"),
+        ("torque_axes: 0\n", "field 'torque_axes' must be a whole number from 1 to 6 or null"),
+        ("torque_axes: 2.5\n", "field 'torque_axes' must be a whole number from 1 to 6 or null"),
     ],
 )
 def test_bad_solver_config_is_one_clear_line(tmp_path, text, message):
@@ -140,8 +142,8 @@ def test_solver_config_defaults_and_bundled_files():
     assert bundled.bounds == SearchBounds(100.0, 50.0)
     assert bundled.regularisation == Regularisation()
     assert bundled.time_limit == bundled.ipopt["max_wall_time"]
-    attempts = (1 + len(bundled.retry_postures)) * (1 + bundled.feedback_rounds)
-    assert bundled.start_time_limit == bundled.time_limit * attempts
+    solves = (1 + len(bundled.retry_postures)) * (1 + bundled.feedback_rounds + (bundled.torque_axes is not None))
+    assert bundled.start_time_limit == bundled.time_limit * solves
     assert load_solver_config("tests/data/solver_fast.yaml").placement
 
 

@@ -20,6 +20,7 @@ import pytest
 from grasptask.hand import load_hand
 from grasptask.io.solutions import STATUSES
 from grasptask.objects import load_object
+from grasptask.paths import DEFAULT_HAND
 from grasptask.synthesis.model import build_model
 from grasptask.synthesis.starts import make_starts, palm_directions, subset
 from grasptask.synthesis.sweep import _next_start
@@ -310,3 +311,38 @@ def test_cyipopt_backend_on_the_grasp_nlp(cli, tasks, tmp_path):
     assert result.exit_code == 0, result.output
     run = json.loads((tmp_path / "drawing" / "run.json").read_text())
     assert run["backend"] == "cyipopt" and run["starts"] == 2 and run["status_counts"]["error"] == 0
+
+
+def test_eq10_for_the_task_longest_axes_only(tasks):
+    """``torque_axes`` keeps eq. 10's blocks for the task's longest axes, both signs, and every other family."""
+    hand, obj, task = load_hand(), load_object("configs/objects/tool.yaml"), load_task_models(tasks)["cutting"]
+    whole = build_model(hand, obj, task).model
+    two = build_model(hand, obj, task, torque_axes=2).model
+    assert len(whole.eq10_wrench) == 6 * 2 * 6 and len(two.eq10_wrench) == 2 * 2 * 6
+    assert {index[:2] for index in two.act.index_set()} == {(0, 0), (0, 1), (1, 0), (1, 1)}
+    for name in ("eq2_frame", "eq4_force_closure", "eq8_task_force", "eq14_collision"):
+        assert len(getattr(two, name)) == len(getattr(whole, name))
+    assert build_model(hand, obj, task, torque_axes=9).model.act.index_set() == whole.act.index_set()
+
+
+def test_a_grasp_the_left_out_axes_reject_is_solved_again_with_all_of_them(tasks):
+    """With eq. 10 for cutting's longest axis only, some grasps cannot hold the others: the verifier, which
+    checks all six, rejects them, and each is solved again from itself with the whole model. The whole model
+    starts from the first model's point, and every verified row holds every axis within the tendons' capability."""
+    from dataclasses import replace
+
+    from grasptask.synthesis.config import load_solver_config
+    from grasptask.synthesis.context import Job, SolverContext, _values
+
+    solver = replace(load_solver_config(FAST), torque_axes=1, retry_postures=(), feedback_rounds=0)
+    context = SolverContext(Job(str(DEFAULT_HAND), "configs/objects/tool.yaml", str(tasks), "cutting", solver=solver))
+    first, whole = context.first, context.whole
+    assert first.nlp.size()["variables"] < whole.nlp.size()["variables"]
+    rows = [context.solve(start) for start in subset(make_starts(context.bounds), 12)[:6]]
+    assert any(row["all_axes_solves"] for row in rows), [(r["status"], r.get("verify_failures")) for r in rows]
+    assert all(row["verify_torque_effort"] <= 1 + 1e-6 for row in rows if row["verified"])
+    carried = context._in_whole(_values(first.order))
+    values = {v.name: v.value for v in first.order}
+    shared = [(k, v.name) for k, v in enumerate(whole.order) if v.name in values]
+    assert len(shared) == len(first.order)
+    assert all(carried[k] == values[name] for k, name in shared)

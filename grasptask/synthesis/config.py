@@ -51,6 +51,9 @@ class SolverConfig:
     #: a solved grasp the verifier rejects only on the torque check or the pad angle is solved again from itself
     #: with those limits tightened by what the verifier measured, up to this many times (synthesis.feedback)
     feedback_rounds: int = 0
+    #: eq. 10 in the NLP for the task's this many longest axes (None: all six); a grasp the verifier then rejects
+    #: on its torque check is solved again from itself with all six (grasptask.synthesis.context)
+    torque_axes: int | None = None
 
     @property
     def time_limit(self) -> float:
@@ -59,8 +62,10 @@ class SolverConfig:
 
     @property
     def start_time_limit(self) -> float:
-        """The longest a start may take: every attempt and every feedback round at its time limit."""
-        return self.time_limit * (1 + len(self.retry_postures)) * (1 + self.feedback_rounds)
+        """The longest a start may take: every attempt, its solve with all axes and every feedback round at its
+        time limit."""
+        per_attempt = 1 + self.feedback_rounds + (self.torque_axes is not None)
+        return self.time_limit * (1 + len(self.retry_postures)) * per_attempt
 
 
 def _positive_or_none(value, path: Path, name: str) -> float | None:
@@ -80,6 +85,14 @@ def _non_negative(value, path: Path, name: str) -> float:
 def _count(value, path: Path, name: str) -> int:
     if isinstance(value, bool) or not isinstance(value, int) or value < 0:
         raise BadInputError(path, f"field '{name}' must be a whole number >= 0, got {value!r}")
+    return value
+
+
+def _axes(value, path: Path) -> int | None:
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, int) or not 1 <= value <= 6:
+        raise BadInputError(path, f"field 'torque_axes' must be a whole number from 1 to 6 or null, got {value!r}")
     return value
 
 
@@ -108,6 +121,7 @@ def load_solver_config(path: str | Path) -> SolverConfig:
         "placement",
         "retry_postures",
         "feedback_rounds",
+        "torque_axes",
         "search_bounds",
         "regularisation",
     }
@@ -127,6 +141,7 @@ def load_solver_config(path: str | Path) -> SolverConfig:
         placement=data.get("placement", True),
         retry_postures=_fractions(data.get("retry_postures", []), path, "retry_postures"),
         feedback_rounds=_count(data.get("feedback_rounds", 0), path, "feedback_rounds"),
+        torque_axes=_axes(data.get("torque_axes"), path),
         bounds=SearchBounds(
             *(
                 _positive_or_none(bounds.get(name, getattr(defaults, name)), path, f"search_bounds.{name}")

@@ -17,8 +17,13 @@ from grasptask.synthesis.feedback import Limits, tightened
 from grasptask.synthesis.starts import Start
 
 if TYPE_CHECKING:  # the solver stack loads in the workers, not where a Job is made
+    from grasptask.grasp.settings import GraspSettings
     from grasptask.grasp.verify import Verification
-    from grasptask.synthesis.backends import Bounds, SolveResult
+    from grasptask.hand.model import Hand
+    from grasptask.objects.surface import ImplicitObject
+    from grasptask.synthesis.backends import Backend, Bounds, SolveResult
+    from grasptask.synthesis.model import GraspNLP
+    from grasptask.task.model import TaskModel
 
 # a test hook: a start whose id is listed here makes its worker exit abruptly (to exercise crash handling)
 CRASH_ENV = "GRASPTASK_CRASH_STARTS"
@@ -41,15 +46,52 @@ class Job:
     physics_path: str = ""
 
 
+@dataclass
+class Solver:
+    """One NLP and the IPOPT backend built for it, with the NL file's variable order and the positions of the
+    limits that the verifier's feedback tightens."""
+
+    nlp: GraspNLP
+    order: list
+    backend: Backend
+    limit_positions: tuple[np.ndarray, np.ndarray]
+
+    def bounds(self, limits: Limits) -> Bounds:
+        """The NLP's bounds with ``limits`` in place of the activation cap and the pads' angle bounds."""
+        base = self.backend.nlp.bounds
+        columns, rows = self.limit_positions
+        ubx, lbg = base.ubx.copy(), base.lbg.copy()
+        ubx[columns] = limits.activation_cap
+        lbg[rows] = np.cos(np.radians(limits.pad_angle_deg))
+        return replace(base, ubx=ubx, lbg=lbg)
+
+
+def build_solver(
+    hand: Hand, obj: ImplicitObject, task: TaskModel, settings: GraspSettings, job: Job, torque_axes: int | None = None
+) -> Solver:
+    """The NLP for ``job`` written, imported into the backend and compiled for initialisation."""
+    from grasptask.synthesis.backends import BACKENDS, write_nl_rows
+    from grasptask.synthesis.model import build_model
+
+    nlp = build_model(hand, obj, task, settings, job.solver.bounds, job.solver.regularisation, torque_axes)
+    text, order, rows = write_nl_rows(nlp.model)
+    nlp.compile()  # now, so that its one-off cost is not counted in the first start's seconds
+    backend = BACKENDS[job.backend](text, job.solver.ipopt, nlp.surrogate_spec(order, rows))
+    return Solver(nlp, order, backend, nlp.limit_positions(order, rows))
+
+
 class SolverContext:
-    """A worker's model and solver, built once; ``size`` is the model's variable and constraint count."""
+    """A worker's models and solvers, built once; ``size`` is the variable and constraint count of the model a
+    start is solved with first.
+
+    With the solver config's ``torque_axes``, a start is first solved with eq. 10 for the task's longest axes
+    only, a model half the size whose iterations cost about half as much. A grasp the verifier then rejects on its
+    torque check, which covers all six axes, is solved again from itself with the whole model."""
 
     def __init__(self, job: Job):
         from grasptask.grasp.settings import GraspSettings, load_grasp_settings
         from grasptask.hand import load_hand
         from grasptask.objects import load_object
-        from grasptask.synthesis.backends import BACKENDS, write_nl_rows
-        from grasptask.synthesis.model import build_model
         from grasptask.synthesis.placement import Anchors
         from grasptask.synthesis.spline import distance_function
         from grasptask.task.model import load_task_models
@@ -61,14 +103,15 @@ class SolverContext:
         self.obj = load_object(job.object_path)
         self.task = load_task_models(job.tasks_path)[job.task]
         self.settings = load_grasp_settings(job.settings_path) if job.settings_path else GraspSettings()
-        self.nlp = build_model(
-            self.hand, self.obj, self.task, self.settings, job.solver.bounds, job.solver.regularisation
-        )
+        parts = (self.hand, self.obj, self.task, self.settings, job)
+        self.whole = build_solver(*parts)
+        axes = job.solver.torque_axes
+        self.first = build_solver(*parts, axes) if axes is not None and axes < len(self.task.weights) else self.whole
+        # where each of the whole model's variables is in the first model's order (-1: only in the whole model)
+        position = {v.name: k for k, v in enumerate(self.first.order)}
+        self._carried = np.array([position.get(v.name, -1) for v in self.whole.order], dtype=int)
+        self.nlp = self.first.nlp
         self.size = self.nlp.size()
-        text, self.order, rows = write_nl_rows(self.nlp.model)
-        self.nlp.compile()  # now, so that its one-off cost is not counted in the first start's seconds
-        self.backend = BACKENDS[job.backend](text, job.solver.ipopt, self.nlp.surrogate_spec(self.order, rows))
-        self.limit_positions = self.nlp.limit_positions(self.order, rows)
         self.nominal = Limits(
             1.0 - self.settings.activation_margin, np.full(len(self.nlp.hand.fingers), self.settings.pad_angle_max_deg)
         )
@@ -98,7 +141,7 @@ class SolverContext:
             start = replace(start, palm_rotation=start.palm_rotation @ self.approach.T)
         hand = self.nlp.hand
         postures = [hand.mid_range()] + [hand.posture(f) for f in self.job.solver.retry_postures]
-        spent = {"seconds": 0.0, "iterations": 0, "placement_seconds": 0.0, "feedback_rounds": 0}
+        spent = {"seconds": 0.0, "iterations": 0, "placement_seconds": 0.0, "feedback_rounds": 0, "all_axes_solves": 0}
         for attempt, joints in enumerate(postures, 1):
             row = self._attempt(start, joints)
             if attempt == 1:
@@ -110,7 +153,8 @@ class SolverContext:
         return {**row, **spent, **first, "attempts": attempt}
 
     def _attempt(self, start: Start, joints: np.ndarray) -> dict:
-        """Placement, IPOPT and the verifier from one posture, with the verifier's feedback rounds."""
+        """Placement, IPOPT and the verifier from one posture; the whole model's solve when the first model left
+        out an axis the grasp cannot hold; the verifier's feedback rounds."""
         from grasptask.synthesis.placement import place
 
         row: dict[str, Any] = {
@@ -124,53 +168,67 @@ class SolverContext:
         else:
             self.nlp.initialise(start.palm_rotation, start.palm_position, joints)
         row["placement_seconds"] = placed = time.perf_counter() - began
-        result = self.backend.solve(_values(self.order))
-        seconds, iterations, rounds = result.seconds + placed, result.iterations, 0
-        judged = self._judge(result)
+        solver = self.first
+        result = solver.backend.solve(_values(solver.order))
+        seconds, iterations, rounds, whole = result.seconds + placed, result.iterations, 0, 0
+        judged = self._judge(solver, result)
+        if solver is not self.whole and _solved_but(result, judged, "torque_feasibility"):
+            assert judged is not None
+            again = self.whole.backend.solve(self._in_whole(judged[2]))
+            seconds, iterations, whole = seconds + again.seconds, iterations + again.iterations, 1
+            retried = self._judge(self.whole, again)
+            if retried is None:  # IPOPT left no point: the first model's solution stands
+                _assign(solver.order, judged[2])
+            else:
+                solver, result, judged = self.whole, again, retried
         limits = self.nominal
-        while judged is not None and rounds < self.job.solver.feedback_rounds:
+        while rounds < self.job.solver.feedback_rounds and _solved_but(result, judged):
+            assert judged is not None
             check = judged[1]
-            if result.status not in ("optimal", "acceptable") or check.ok:
-                break
             cap = self.nominal.activation_cap
             tighter = tightened(limits, cap, check.failures, check.torque_effort, check.pad_angle_deg)
             if tighter is None:
                 break
             limits, rounds = tighter, rounds + 1
-            again = self.backend.solve(_values(self.order), self._bounds(limits))
+            again = solver.backend.solve(_values(solver.order), solver.bounds(limits))
             seconds, iterations = seconds + again.seconds, iterations + again.iterations
-            retried = self._judge(again)
+            retried = self._judge(solver, again)
             if retried is None:  # IPOPT left no point: the last solution stands
-                _assign(self.order, judged[2])
+                _assign(solver.order, judged[2])
                 break
             result, judged = again, retried
         # a start's seconds are all it took to solve it: placement (or initialisation), IPOPT and its re-solves
         row.update(
-            status=result.status, iterations=iterations, seconds=seconds, message=result.message, feedback_rounds=rounds
+            status=result.status,
+            iterations=iterations,
+            seconds=seconds,
+            message=result.message,
+            feedback_rounds=rounds,
+            all_axes_solves=whole,
         )
         if judged is None:
             return {**row, "Q": float("nan"), "verified": False}
         return {**row, **self._record(*judged[:2])}
 
-    def _judge(self, result: SolveResult) -> tuple[dict, Verification, np.ndarray] | None:
+    def _judge(self, solver: Solver, result: SolveResult) -> tuple[dict, Verification, np.ndarray] | None:
         """IPOPT's point read back and checked by the verifier (None: no point), with the point itself."""
         from grasptask.grasp.verify import Grasp, verify
 
         if result.x is None:
             return None
-        _assign(self.order, result.x)
-        solution = self.nlp.read()
+        _assign(solver.order, result.x)
+        solution = solver.nlp.read()
         grasp = Grasp(solution["palm_rotation"], solution["palm_position"], solution["joint_angles"])
         return solution, verify(grasp, self.hand, self.obj, self.task, self.settings), result.x
 
-    def _bounds(self, limits: Limits) -> Bounds:
-        """The NLP's bounds with ``limits`` in place of the activation cap and the pads' angle bounds."""
-        base = self.backend.nlp.bounds
-        columns, rows = self.limit_positions
-        ubx, lbg = base.ubx.copy(), base.lbg.copy()
-        ubx[columns] = limits.activation_cap
-        lbg[rows] = np.cos(np.radians(limits.pad_angle_deg))
-        return replace(base, ubx=ubx, lbg=lbg)
+    def _in_whole(self, x: np.ndarray) -> np.ndarray:
+        """The first model's point as a starting point of the whole model: the shared variables carried over,
+        the other axes' eq. 10 forces and activations at their initial values."""
+        self.whole.nlp.initialise_forces()
+        x0 = _values(self.whole.order)
+        carried = self._carried >= 0
+        x0[carried] = x[self._carried[carried]]
+        return x0
 
     def _record(self, solution: dict, check: Verification) -> dict:
         """The columns of a solved start: Q, the grasp, the verifier's figures, and (where configured) the
@@ -194,6 +252,13 @@ class SolverContext:
             for name, value, truth in zip(self.fingers, seen, check.contact_distance_m, strict=True):
                 row[f"surrogate_error_m_{name}"] = float(value - truth)
         return row
+
+
+def _solved_but(result: SolveResult, judged: tuple | None, failure: str | None = None) -> bool:
+    """IPOPT solved the NLP and the verifier rejected the grasp (on ``failure`` among others, when given)."""
+    if judged is None or result.status not in ("optimal", "acceptable") or judged[1].ok:
+        return False
+    return failure is None or failure in judged[1].failures
 
 
 def _values(order: list) -> np.ndarray:

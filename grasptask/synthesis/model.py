@@ -12,7 +12,8 @@ family of variables and constraints, in this order, and the component names carr
     force_closure            eq. 4      phi >= eps, sum phi = 1, sum phi w = 0
     task_forces_and_quality  eq. 8, 12  G f_i = u_i and Q = sum_i gamma_i tau_i^T tau_i, tau_i = J^T f_i (eq. 13)
     torque_feasibility       eq. 1, 10  every +-gamma_i u_i applied with cone forces, the joint torques carried by
-                                        the finger's tendons or motors with activations in [0, cap]
+                                        the finger's tendons or motors with activations in [0, cap] (for the
+                                        task's longest axes only when asked: :func:`build_model`)
     objective                eq. 12     Q plus the small terms of :class:`Regularisation`
 
 Every quantity that several constraints share (frames, contacts, normals, cone edges, wrenches, Jacobians, edge
@@ -57,6 +58,8 @@ class NLPBuilder:
     settings: GraspSettings
     bounds: SearchBounds
     regularisation: Regularisation
+    #: the task axes whose wrenches eq. 10 holds, longest first
+    torque_axes: range
     #: ``(variable, expression)`` pairs in dependency order, for :meth:`GraspNLP.initialise`
     definitions: list[tuple[Any, Any]] = field(default_factory=list)
     palm_rotation: Matrix = field(default_factory=list)
@@ -319,7 +322,7 @@ def torque_feasibility(nlp: NLPBuilder) -> None:
     active bound)."""
     m, fingers, cells, wrenches = nlp.model, nlp.fingers, nlp.cells, nlp.wrenches
     axes, lengths, m_edges = nlp.task.axes, nlp.task.lengths, nlp.settings.cone_edges
-    blocks = [(a, s) for a in range(len(nlp.task.weights)) for s in (0, 1)]
+    blocks = [(a, s) for a in nlp.torque_axes for s in (0, 1)]
     m.lam = pyo.Var(
         blocks, cells, bounds=(0, nlp.bounds.edge_force_n), doc="cone-edge force magnitudes per task wrench"
     )
@@ -436,6 +439,12 @@ class GraspNLP:
         for k, value in enumerate(joint_angles):
             m.theta[k].set_value(float(np.clip(value, m.theta[k].lb, m.theta[k].ub)))
         self._compiled.assign_defined(self._compiled.input_values())
+        self.initialise_forces()
+
+    def initialise_forces(self) -> None:
+        """The force-closure weights, task forces, eq. 10's cone-edge forces and activations at their initial
+        values, which depend on no pose."""
+        m = self.model
         for var in m.phi.values():
             var.set_value(1.0 / len(m.phi))
         for var in m.force.values():
@@ -475,10 +484,17 @@ def build_model(
     settings: GraspSettings = GraspSettings(),
     bounds: SearchBounds = SearchBounds(),
     regularisation: Regularisation = Regularisation(),
+    torque_axes: int | None = None,
 ) -> GraspNLP:
     """The NLP for ``hand``'s grasping fingers on ``obj`` for ``task``: :data:`EQUATIONS` in order, its forces
-    searched within ``bounds``, its objective eq. 12 plus the small terms of ``regularisation``."""
+    searched within ``bounds``, its objective eq. 12 plus the small terms of ``regularisation``.
+
+    ``torque_axes``: eq. 10 for the task's that many longest axes only (None: all of them, the paper's model).
+    Eq. 10's blocks are half of the model's variables, and at an optimum only a few of them bind; a grasp that
+    needs the others is caught by the verifier, which checks every axis
+    (:class:`~grasptask.synthesis.context.SolverContext`)."""
     grasping = hand.grasping_hand()
+    n_axes = len(task.weights)
     builder = NLPBuilder(
         pyo.ConcreteModel(name="task_oriented_grasp"),
         grasping,
@@ -487,6 +503,7 @@ def build_model(
         settings,
         bounds,
         regularisation,
+        range(n_axes if torque_axes is None else min(torque_axes, n_axes)),
     )
     builder.surface.attach(builder.model, builder.definitions)
     for equation in EQUATIONS:
