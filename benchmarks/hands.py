@@ -75,6 +75,7 @@ def sweep_figures(run: dict, solutions: pd.DataFrame) -> dict:
         "median_torque_effort_of_those": float(failing["verify_torque_effort"].median()) if len(failing) else None,
         "sweep_wall_s": run["sweep_wall_seconds_this_run"],
         "first_attempt": first_attempt_figures(solutions),
+        "all_axes_starts": run.get("all_axes_starts", 0),
     }
 
 

@@ -79,6 +79,7 @@ def sweep_figures(run: dict, solutions: pd.DataFrame) -> dict:
         ),
         "sweep_wall_s": run["sweep_wall_seconds_this_run"],
         "first_attempt": first_attempt_figures(solutions),
+        "all_axes_starts": run.get("all_axes_starts", 0),
     }  # fmt: skip
 
 

@@ -338,6 +338,8 @@ def summarise(
         # starts solved again from the solver config's retry postures, and those of them the verifier accepted
         "retried_starts": int(again.sum()),
         "verified_on_retry": int((again & solutions["verified"]).sum()),
+        # starts with an attempt solved again with eq. 10 for all six task axes (solver config torque_axes)
+        "all_axes_starts": int((solutions.get("all_axes_solves", pd.Series(dtype=float)).fillna(0) > 0).sum()),
         "distinct_optima": int(len(optima)),
         "best_Q": float(optima["Q"].min()) if len(optima) else None,
         "seconds_per_start": {
