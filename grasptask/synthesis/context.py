@@ -85,8 +85,8 @@ class SolverContext:
     start is solved with first.
 
     With the solver config's ``torque_axes``, a start is first solved with eq. 10 for the task's longest axes
-    only, a model half the size whose iterations cost about half as much. A grasp the verifier then rejects on its
-    torque check, which covers all six axes, is solved again from itself with the whole model."""
+    only, a smaller model whose iterations cost less. A grasp the verifier then rejects on its torque check, which
+    covers all six axes, is solved again from itself with the whole model."""
 
     def __init__(self, job: Job):
         from grasptask.grasp.settings import GraspSettings, load_grasp_settings
