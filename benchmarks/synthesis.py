@@ -7,7 +7,10 @@ and whether the optima differ between tasks as the paper's Section 7.3 describes
     python benchmarks/synthesis.py [--starts N] [--cyipopt-starts N] [--baseline-starts N] [--solver YAML]
                                    [--name NAME]     # writes benchmarks/results/NAME.json (default: synthesis)
 
-Targets: median <= 1 s per start (paper: 459 +- 186 s), >= 80% verified, whole 3 x 126 sweep < 10 minutes.
+Targets: median <= 1 s per start (paper: 459 +- 186 s), >= 80% verified, whole 3 x 126 sweep < 10 minutes; and
+issue 20's: median <= 0.3 s per task, >= 90% verified, the sweep <= 3 minutes, distinct optima >= the paper's.
+The prerequisites (the solver config, cyipopt for its comparison) are checked before anything runs; each task's
+figures are printed and the results saved (benchmarks/results/NAME.json) as soon as its sweep is done.
 """
 
 from __future__ import annotations
@@ -63,7 +66,26 @@ def median_interval(seconds: np.ndarray) -> list[float]:
     return [float(interval.low), float(interval.high)]
 
 
-def main(n_starts: int | None, cyipopt_starts: int, baseline_starts: int, solver: Path) -> dict:
+def check_prerequisites(solver: Path, cyipopt_starts: int) -> None:
+    """Fail in one line, before any sweep, on what would otherwise fail minutes into the run."""
+    from grasptask.errors import BadInputError
+    from grasptask.synthesis.config import load_solver_config
+
+    try:
+        load_solver_config(solver)
+    except (BadInputError, OSError) as exc:
+        raise SystemExit(f"solver config: {exc}") from None
+    if cyipopt_starts:
+        try:
+            import cyipopt  # noqa: F401
+        except ImportError:
+            raise SystemExit(
+                "cyipopt is not installed: run `make setup-cyipopt`, or pass --cyipopt-starts 0 to skip that comparison"
+            ) from None
+
+
+def main(n_starts: int | None, cyipopt_starts: int, baseline_starts: int, solver: Path, name: str) -> dict:
+    """The sweeps, each task's figures printed and the results saved as soon as each sweep is done."""
     results: dict = {"solver_config": str(solver), "tasks": {}}
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
@@ -78,9 +100,11 @@ def main(n_starts: int | None, cyipopt_starts: int, baseline_starts: int, solver
                 tasks=tasks, task=task, out=out, solver_config=config, starts=starts, workers=workers, backend=backend
             )
 
-        sweep_start = time.perf_counter()
+        sweeps = 0.0
         for task in TASKS:
+            began = time.perf_counter()
             run = run_synthesize(options(task, tmp / "grasps"), echo=print)
+            sweeps += time.perf_counter() - began
             optima = pd.read_parquet(tmp / "grasps" / task / "optima.parquet")
             results["tasks"][task] = {
                 "starts": run["starts"],
@@ -91,11 +115,16 @@ def main(n_starts: int | None, cyipopt_starts: int, baseline_starts: int, solver
                 "p90_s_per_start": run["seconds_per_start"]["p90"],
                 "verified_fraction": run["verified_fraction"],
                 "distinct_optima": run["distinct_optima"],
+                "best_Q": run["best_Q"],
+                "all_axes_starts": run.get("all_axes_starts", 0),
                 "status_counts": run["status_counts"],
                 "sweep_wall_s": run["sweep_wall_seconds_this_run"],
                 "best_optimum": grasp_shape(optima),
             }
-        results["whole_sweep_wall_s"] = time.perf_counter() - sweep_start
+            print(task_line(task, results["tasks"][task]))
+            save(name, results)
+        # the three tasks' sweeps one after the other, as a user runs them
+        results["whole_sweep_wall_s"] = sweeps
 
         def against_default(task: str, name: str, options_: SynthesisOptions) -> dict:
             """A variant's run on a subset of the starts, beside the default run on the same starts."""
@@ -121,6 +150,9 @@ def main(n_starts: int | None, cyipopt_starts: int, baseline_starts: int, solver
                 results["tasks"][task]["cyipopt"] = against_default(
                     task, "cyipopt", options(task, tmp / "cyipopt", "cyipopt", cyipopt_starts)
                 )
+            if baseline_starts or cyipopt_starts:
+                print(comparison_line(task, results["tasks"][task]))
+                save(name, results)
     shapes = {t: results["tasks"][t]["best_optimum"] for t in TASKS}
     if all(shapes.values()):
         results["section_7_3"] = {
@@ -143,26 +175,48 @@ def main(n_starts: int | None, cyipopt_starts: int, baseline_starts: int, solver
         "paper_seconds_per_solution": paper.seconds,
         "ratio_paper_mean_vs_our_median": paper.mean_s / float(np.median(medians)),
     }
+    # issue 20's targets; its "best Q no more than 1% above today's" needs the earlier run, so it is left to the
+    # reader of two results files
+    results["targets_issue_20"] = {
+        "median_s_per_start": 0.3,
+        "median_met": max(medians) <= 0.3,
+        "verified_fraction": 0.9,
+        "verified_met": min(verified) >= 0.9,
+        "whole_sweep_s": 180,
+        "whole_sweep_met": results["whole_sweep_wall_s"] <= 180,
+        "paper_distinct_optima": paper.optima,
+        "distinct_optima_met": all(results["tasks"][t]["distinct_optima"] >= paper.optima.get(t, 0) for t in TASKS),
+    }
     return results
 
 
+def task_line(task: str, t: dict) -> str:
+    low, high = t["median_95pct_bootstrap_s"]
+    return (
+        f"{task}: {t['starts']} starts, median {t['median_s_per_start']:.2f} s (95% bootstrap {low:.2f}-{high:.2f}, "
+        f"p90 {t['p90_s_per_start']:.2f}), {t['verified_fraction']:.0%} verified, {t['distinct_optima']} distinct "
+        f"optima, best Q {t['best_Q']:.5f}, {t['sweep_wall_s']:.0f} s"
+    )
+
+
+def comparison_line(task: str, t: dict) -> str:
+    cy, base = t.get("cyipopt", {}), t.get("baseline_without_placement", {})
+    nan = float("nan")
+    return (
+        f"{task}: cyipopt median {cy.get('median_s_per_start', nan):.2f} s on {cy.get('starts', 0)} of the starts "
+        f"(x{cy.get('ratio_median_vs_default', nan):.2f} CasADi's); without placement on {base.get('starts', 0)} "
+        f"starts: median {base.get('median_s_per_start', nan):.2f} s, {base.get('verified_fraction', nan):.0%} "
+        f"verified (placed, same starts: {base.get('default_median_same_starts_s', nan):.2f} s, "
+        f"{base.get('default_verified_fraction_same_starts', nan):.0%})"
+    )
+
+
 def report(r: dict) -> str:
-    lines = []
-    for task, t in r["tasks"].items():
-        cy, base = t.get("cyipopt", {}), t.get("baseline_without_placement", {})
-        nan = float("nan")
-        lines.append(
-            f"{task}: {t['starts']} starts, median {t['median_s_per_start']:.2f} s (95% bootstrap "
-            f"{t['median_95pct_bootstrap_s'][0]:.2f}-{t['median_95pct_bootstrap_s'][1]:.2f}, p90 "
-            f"{t['p90_s_per_start']:.2f}), "
-            f"{t['verified_fraction']:.0%} verified, {t['distinct_optima']} distinct optima; cyipopt median "
-            f"{cy.get('median_s_per_start', nan):.2f} s on {cy.get('starts', 0)} of the starts "
-            f"(x{cy.get('ratio_median_vs_default', nan):.2f} CasADi's); without placement on {base.get('starts', 0)} "
-            f"starts: median {base.get('median_s_per_start', nan):.2f} s, {base.get('verified_fraction', nan):.0%} "
-            f"verified (placed, same starts: {base.get('default_median_same_starts_s', nan):.2f} s, "
-            f"{base.get('default_verified_fraction_same_starts', nan):.0%})"
-        )
+    lines = [task_line(task, t) for task, t in r["tasks"].items()]
+    lines += [comparison_line(task, t) for task, t in r["tasks"].items()]
     lines.append(f"whole sweep on 2 workers: {r['whole_sweep_wall_s'] / 60:.1f} min (target < 10 min)")
+    if "targets_issue_20" in r:
+        lines.append(f"issue 20's targets: {r['targets_issue_20']}")
     lines.append(f"Section 7.3: {r.get('section_7_3')}")
     targets = r["targets"]
     lines.append(
@@ -180,6 +234,7 @@ if __name__ == "__main__":
     parser.add_argument("--solver", type=Path, default=CONFIGS / "solver.yaml", help="solver settings (YAML)")
     parser.add_argument("--name", default="synthesis", help="results file name, without .json")
     args = parser.parse_args()
-    results = main(args.starts, args.cyipopt_starts, args.baseline_starts, args.solver)
+    check_prerequisites(args.solver, args.cyipopt_starts)
+    results = main(args.starts, args.cyipopt_starts, args.baseline_starts, args.solver, args.name)
     print(report(results))
     print(f"saved {save(args.name, results)}")
