@@ -110,6 +110,10 @@ class SolverContext:
         # where each of the whole model's variables is in the first model's order (-1: only in the whole model)
         position = {v.name: k for k, v in enumerate(self.first.order)}
         self._carried = np.array([position.get(v.name, -1) for v in self.whole.order], dtype=int)
+        # the whole model's starting point where the first model has no variable: eq. 10's initial forces and
+        # activations for the other axes, which depend on no pose
+        self.whole.nlp.initialise_forces()
+        self._whole_initial = _values(self.whole.order)
         self.nlp = self.first.nlp
         self.size = self.nlp.size()
         self.nominal = Limits(
@@ -224,8 +228,7 @@ class SolverContext:
     def _in_whole(self, x: np.ndarray) -> np.ndarray:
         """The first model's point as a starting point of the whole model: the shared variables carried over,
         the other axes' eq. 10 forces and activations at their initial values."""
-        self.whole.nlp.initialise_forces()
-        x0 = _values(self.whole.order)
+        x0 = self._whole_initial.copy()
         carried = self._carried >= 0
         x0[carried] = x[self._carried[carried]]
         return x0
