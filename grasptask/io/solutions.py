@@ -49,12 +49,22 @@ def grasp_columns(
     return row
 
 
-def retried(solutions: Any) -> np.ndarray:
-    """Which starts of a solutions table were solved again from a retry posture (``attempts`` above 1); a table
-    without the column, or a row without a value, was solved once."""
-    if "attempts" not in solutions:
+def _counted_above(solutions: Any, column: str, floor: int) -> np.ndarray:
+    """Which rows count more than ``floor`` in ``column``; a table without the column, or a row without a value,
+    counts ``floor``."""
+    if column not in solutions:
         return np.zeros(len(solutions), dtype=bool)
-    return np.asarray(solutions["attempts"].fillna(1) > 1, dtype=bool)
+    return np.asarray(solutions[column].fillna(floor) > floor, dtype=bool)
+
+
+def retried(solutions: Any) -> np.ndarray:
+    """Which starts of a solutions table were solved again from a retry posture (``attempts`` above 1)."""
+    return _counted_above(solutions, "attempts", 1)
+
+
+def solved_with_all_axes(solutions: Any) -> np.ndarray:
+    """Which starts had an attempt solved again with eq. 10 for all six task axes (``all_axes_solves`` above 0)."""
+    return _counted_above(solutions, "all_axes_solves", 0)
 
 
 def fingers_in(columns: list[str], known: list[str]) -> list[str]:

@@ -22,7 +22,7 @@ from grasptask.io.artifacts import Provenance, StagedOutput, config_hash, path_h
 from grasptask.io.config import read_json
 from grasptask.io.locking import folder_lock
 from grasptask.io.reference import PaperSynthesis, read_paper_synthesis
-from grasptask.io.solutions import STATUSES, retried
+from grasptask.io.solutions import STATUSES, retried, solved_with_all_axes
 from grasptask.io.sweep_log import LogContents, LogWriter, read_log, rewrite_log
 from grasptask.objects.surface import Symmetry
 from grasptask.paths import DEFAULT_GRASP_CONFIG, DEFAULT_HAND, DEFAULT_OBJECT, DEFAULT_SOLVER_CONFIG
@@ -339,7 +339,7 @@ def summarise(
         "retried_starts": int(again.sum()),
         "verified_on_retry": int((again & solutions["verified"]).sum()),
         # starts with an attempt solved again with eq. 10 for all six task axes (solver config torque_axes)
-        "all_axes_starts": int((solutions.get("all_axes_solves", pd.Series(dtype=float)).fillna(0) > 0).sum()),
+        "all_axes_starts": int(solved_with_all_axes(solutions).sum()),
         "distinct_optima": int(len(optima)),
         "best_Q": float(optima["Q"].min()) if len(optima) else None,
         "seconds_per_start": {
