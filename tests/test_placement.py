@@ -121,6 +121,8 @@ def test_cylinder_contact_has_finite_second_derivatives_on_its_axis_planes():
         ("regularisation: {activation: -1.0e-6}\n", "regularisation.activation' must be a number >= 0"),
         ("retry_postures: [0.25, 1.5]\n", "field 'retry_postures' must be a list of numbers in [0, 1]"),
         ("retry_postures: 0.25\n", "field 'retry_postures' must be a list of numbers in [0, 1]"),
+        ("first_posture: 1.5\n", "field 'first_posture' must be a number in [0, 1]"),
+        ("first_posture: null\n", "field 'first_posture' must be a number in [0, 1]"),
         ("feedback_rounds: 1.5\n", "field 'feedback_rounds' must be a whole number >= 0"),
         ("feedback_rounds: -1\n", "field 'feedback_rounds' must be a whole number >= 0"),
         ("regularisation: {lam: 0.1}\n", "unknown field 'regularisation.lam'"),

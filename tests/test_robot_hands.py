@@ -335,8 +335,9 @@ def test_a_start_the_verifier_rejects_is_solved_again_from_an_opened_hand(simula
     from grasptask.synthesis.starts import make_starts
 
     tasks = str(simulated[0] / "tasks" / "task_models.json")
-    # the whole model from the start (torque_axes None), so that only the retry postures re-solve a rejected start
-    solver = replace(load_solver_config("configs/solver.yaml"), torque_axes=None)
+    # the whole model from the start (torque_axes None), so that only the retry postures re-solve a rejected start,
+    # and the first attempt from the mid-range joints these starts fail from
+    solver = replace(load_solver_config("configs/solver.yaml"), torque_axes=None, first_posture=0.5)
     assert solver.retry_postures
     context = SolverContext(Job(str(BARRETT), "configs/objects/tool.yaml", tasks, "screwdriving", solver=solver))
     starts = make_starts(context.bounds)

@@ -45,8 +45,11 @@ class SolverConfig:
     placement: bool = True
     bounds: SearchBounds = SearchBounds()
     regularisation: Regularisation = Regularisation()
-    #: a start the verifier rejects is solved again from each of these postures in turn (each joint this
-    #: fraction of its range from its lower limit), until one is verified; () solves each start once
+    #: the posture a start's first attempt is placed and solved from: each joint this fraction of its range from
+    #: its lower limit (0.5: the start's own mid-range joints)
+    first_posture: float = 0.5
+    #: a start the verifier rejects is solved again from each of these postures in turn, until one is verified;
+    #: () solves each start once
     retry_postures: tuple[float, ...] = ()
     #: a solved grasp the verifier rejects only on the torque check or the pad angle is solved again from itself
     #: with those limits tightened by what the verifier measured, up to this many times (synthesis.feedback)
@@ -96,10 +99,18 @@ def _axes(value, path: Path) -> int | None:
     return value
 
 
+def _is_fraction(value) -> bool:
+    return isinstance(value, int | float) and not isinstance(value, bool) and 0 <= value <= 1
+
+
+def _fraction(value, path: Path, name: str) -> float:
+    if not _is_fraction(value):
+        raise BadInputError(path, f"field '{name}' must be a number in [0, 1], got {value!r}")
+    return float(value)
+
+
 def _fractions(value, path: Path, name: str) -> tuple[float, ...]:
-    if not isinstance(value, list) or not all(
-        isinstance(v, int | float) and not isinstance(v, bool) and 0 <= v <= 1 for v in value
-    ):
+    if not isinstance(value, list) or not all(_is_fraction(v) for v in value):
         raise BadInputError(path, f"field '{name}' must be a list of numbers in [0, 1], got {value!r}")
     return tuple(float(v) for v in value)
 
@@ -119,6 +130,7 @@ def load_solver_config(path: str | Path) -> SolverConfig:
         "ipopt",
         "hang_grace_s",
         "placement",
+        "first_posture",
         "retry_postures",
         "feedback_rounds",
         "torque_axes",
@@ -139,6 +151,7 @@ def load_solver_config(path: str | Path) -> SolverConfig:
         ipopt=dict(ipopt),
         hang_grace_s=_positive_or_none(data.get("hang_grace_s", 30.0), path, "hang_grace_s") or 30.0,
         placement=data.get("placement", True),
+        first_posture=_fraction(data.get("first_posture", 0.5), path, "first_posture"),
         retry_postures=_fractions(data.get("retry_postures", []), path, "retry_postures"),
         feedback_rounds=_count(data.get("feedback_rounds", 0), path, "feedback_rounds"),
         torque_axes=_axes(data.get("torque_axes"), path),

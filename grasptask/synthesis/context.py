@@ -135,16 +135,16 @@ class SolverContext:
             self.physics = (physics, object_body(self.obj, physics))
 
     def solve(self, start: Start) -> dict:
-        """One start: solved from mid-range joints (Section 7.3) and, while the verifier rejects the result, again
-        from each of the solver config's retry postures. The row is the last attempt's; its seconds, iterations,
+        """One start: solved from the solver config's first posture (mid-range joints are Section 7.3's) and,
+        while the verifier rejects the result, again from each of its retry postures. The row is the last attempt's; its seconds, iterations,
         placement seconds and feedback rounds are those of every attempt together, and ``first_attempt_*`` say
         how the first did."""
         if str(start.start_id) in os.environ.get(CRASH_ENV, "").split(","):
             os._exit(13)
         if self.approach is not None:  # the start's palm normal is the hand's approach direction
             start = replace(start, palm_rotation=start.palm_rotation @ self.approach.T)
-        hand = self.nlp.hand
-        postures = [hand.mid_range()] + [hand.posture(f) for f in self.job.solver.retry_postures]
+        solver = self.job.solver
+        postures = [self.nlp.hand.posture(f) for f in (solver.first_posture, *solver.retry_postures)]
         spent = {"seconds": 0.0, "iterations": 0, "placement_seconds": 0.0, "feedback_rounds": 0, "all_axes_solves": 0}
         for attempt, joints in enumerate(postures, 1):
             row = self._attempt(start, joints)
