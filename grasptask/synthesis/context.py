@@ -136,9 +136,9 @@ class SolverContext:
 
     def solve(self, start: Start) -> dict:
         """One start: solved from the solver config's first posture (mid-range joints are Section 7.3's) and,
-        while the verifier rejects the result, again from each of its retry postures. The row is the last attempt's; its seconds, iterations,
-        placement seconds and feedback rounds are those of every attempt together, and ``first_attempt_*`` say
-        how the first did."""
+        while the verifier rejects the result, again from each of its retry postures. The row is the last
+        attempt's; its seconds, iterations, placement seconds and feedback rounds are those of every attempt
+        together, and ``first_attempt_*`` say how the first did."""
         if str(start.start_id) in os.environ.get(CRASH_ENV, "").split(","):
             os._exit(13)
         if self.approach is not None:  # the start's palm normal is the hand's approach direction
