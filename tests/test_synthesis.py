@@ -346,3 +346,28 @@ def test_a_grasp_the_left_out_axes_reject_is_solved_again_with_all_of_them(tasks
     shared = [(k, v.name) for k, v in enumerate(whole.order) if v.name in values]
     assert len(shared) == len(first.order)
     assert all(carried[k] == values[name] for k, name in shared)
+
+
+def test_attempts_start_from_the_first_posture_then_each_retry_posture(tasks, monkeypatch):
+    """Placement and the first attempt use the solver config's first posture; each rejected attempt gives way to
+    the next retry posture (one equal to the first is not repeated), and a verified one ends the start."""
+    from dataclasses import replace
+
+    from grasptask.synthesis.config import load_solver_config
+    from grasptask.synthesis.context import Job, SolverContext
+
+    solver = replace(load_solver_config(FAST), first_posture=0.25, retry_postures=(0.25, 0.5, 0.1))
+    context = SolverContext(Job(str(DEFAULT_HAND), "configs/objects/tool.yaml", str(tasks), "cutting", solver=solver))
+    tried = []
+
+    def attempt(start, joints):
+        tried.append(joints)
+        keys = ("seconds", "iterations", "placement_seconds", "feedback_rounds", "all_axes_solves")
+        return {"verified": len(tried) == 2, **dict.fromkeys(keys, 1)}
+
+    monkeypatch.setattr(context, "_attempt", attempt)
+    row = context.solve(make_starts(context.bounds)[0])
+    hand = context.nlp.hand
+    assert row["attempts"] == 2 and row["seconds"] == 2 and not row["first_attempt_verified"]
+    np.testing.assert_allclose(tried[0], hand.posture(0.25))
+    np.testing.assert_allclose(tried[1], hand.mid_range())
