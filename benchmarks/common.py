@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import Any
 
 RESULTS = Path(__file__).resolve().parent / "results"
+DEFAULT_SOLVER = Path(__file__).resolve().parents[1] / "configs" / "solver.yaml"
 
 
 def median_seconds(function: Callable[[], object], repeats: int) -> tuple[float, list[float]]:
@@ -71,6 +72,21 @@ def sweep_parser(description: str, name: str) -> Any:
     parser.add_argument("--name", default=name, help="results file benchmarks/results/NAME.json")
     parser.add_argument("--table", action="store_true", help="print the saved results NAME.json as a table, and stop")
     return parser
+
+
+def solver_option(parser: Any) -> None:
+    parser.add_argument("--solver", type=Path, default=DEFAULT_SOLVER, help="solver settings (YAML)")
+
+
+def check_solver(path: Path) -> None:
+    """One line and exit, before any sweep, when the solver config cannot be read."""
+    from grasptask.errors import BadInputError
+    from grasptask.synthesis.config import load_solver_config
+
+    try:
+        load_solver_config(path)
+    except (BadInputError, OSError) as exc:
+        raise SystemExit(f"solver config: {exc}") from None
 
 
 def print_saved(name: str, table: Callable[[dict], str]) -> None:

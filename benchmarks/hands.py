@@ -26,6 +26,7 @@ import pandas as pd
 ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT / "benchmarks"), str(ROOT)]
 from common import (  # noqa: E402
+    check_solver,
     demonstration_tasks,
     finished_sweep,
     first_attempt_cell,
@@ -34,6 +35,7 @@ from common import (  # noqa: E402
     ratios_to,
     save,
     save_and_print,
+    solver_option,
     sweep_parser,
 )
 
@@ -100,10 +102,10 @@ def compare(results: dict) -> dict:
     return results
 
 
-def main(n_starts: int | None, hands: list[str], name: str, keep: Path | None = None) -> dict:
+def main(n_starts: int | None, hands: list[str], name: str, solver: Path, keep: Path | None = None) -> dict:
     from grasptask.stages import SynthesisOptions, run_synthesize
 
-    results: dict = {"starts_per_task": n_starts or 126, "hands": {}}
+    results: dict = {"starts_per_task": n_starts or 126, "solver_config": str(solver), "hands": {}}
     with tempfile.TemporaryDirectory() as scratch:
         tmp = Path(keep or scratch)
         tasks = demonstration_tasks(tmp)
@@ -120,6 +122,7 @@ def main(n_starts: int | None, hands: list[str], name: str, keep: Path | None = 
                     fingers=fingers,
                     starts=n_starts,
                     workers=2,
+                    solver_config=solver,
                 )
                 run_synthesize(options, echo=print)
                 figures = results["hands"][hand]["tasks"][task] = figures_of(tmp / hand / task)
@@ -178,6 +181,7 @@ if __name__ == "__main__":
         "--keep", type=Path, help="run the sweeps in this folder and keep them (default: a temporary one)"
     )
     parser.add_argument("--summarise", type=Path, help="save and print the figures of sweeps kept in this folder")
+    solver_option(parser)
     args = parser.parse_args()
     if args.summarise:
         summarise(args.summarise, args.name)
@@ -187,5 +191,6 @@ if __name__ == "__main__":
         raise SystemExit(0)
     chosen = [h.strip() for h in args.hands.split(",") if h.strip()]
     check_prerequisites(chosen)
+    check_solver(args.solver)
     np.seterr(all="ignore")
-    main(args.starts, chosen, args.name, args.keep)
+    main(args.starts, chosen, args.name, args.solver, args.keep)

@@ -23,6 +23,7 @@ import pandas as pd
 ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT / "benchmarks"), str(ROOT)]
 from common import (  # noqa: E402
+    check_solver,
     demonstration_tasks,
     finished_sweep,
     first_attempt_cell,
@@ -31,6 +32,7 @@ from common import (  # noqa: E402
     ratios_to,
     save,
     save_and_print,
+    solver_option,
     sweep_parser,
 )
 
@@ -50,12 +52,14 @@ def check_prerequisites(objects: list[str]) -> None:
         load_object(OBJECTS[name])  # a missing or broken mesh fails here, before any sweep
 
 
-def build_seconds(path: Path, tasks: Path, task: str) -> float:
-    """One worker's model, built in this process, as a pool worker builds it."""
+def build_seconds(path: Path, tasks: Path, task: str, solver: Path) -> float:
+    """One worker's models, built in this process with the sweep's solver config, as a pool worker builds them."""
+    from grasptask.synthesis.config import load_solver_config
     from grasptask.synthesis.context import Job, SolverContext
 
+    job = Job(str(ROOT / "configs/hands/human.yaml"), str(path), str(tasks), task, solver=load_solver_config(solver))
     began = time.perf_counter()
-    SolverContext(Job(str(ROOT / "configs/hands/human.yaml"), str(path), str(tasks), task))
+    SolverContext(job)
     return time.perf_counter() - began
 
 
@@ -97,22 +101,23 @@ def compare(results: dict) -> dict:
     return results
 
 
-def main(n_starts: int | None, objects: list[str], name: str, keep: Path | None = None) -> dict:
+def main(n_starts: int | None, objects: list[str], name: str, solver: Path, keep: Path | None = None) -> dict:
     from grasptask.stages import SynthesisOptions, run_synthesize
 
-    results: dict = {"starts_per_task": n_starts or 126, "hand": "configs/hands/human.yaml", "objects": {}}
+    hand = "configs/hands/human.yaml"
+    results: dict = {"starts_per_task": n_starts or 126, "hand": hand, "solver_config": str(solver), "objects": {}}
     with tempfile.TemporaryDirectory() as scratch:
         tmp = Path(keep or scratch)
         tasks = demonstration_tasks(tmp)
         for obj in objects:
             path = OBJECTS[obj]
-            build = build_seconds(path, tasks, "drawing")
+            build = build_seconds(path, tasks, "drawing", solver)
             print(f"{obj}: a worker's model in {build:.1f} s", flush=True)
             entry = results["objects"][obj] = {"file": str(path.relative_to(ROOT)), "build_s": build, "tasks": {}}
             for task in TASKS:
                 began = time.perf_counter()
                 options = SynthesisOptions(
-                    tasks=tasks, task=task, out=tmp / obj, object=path, starts=n_starts, workers=2
+                    tasks=tasks, task=task, out=tmp / obj, object=path, starts=n_starts, workers=2, solver_config=solver
                 )
                 run_synthesize(options, echo=print)
                 figures = entry["tasks"][task] = sweep_figures(*finished_sweep(tmp / obj / task))
@@ -151,11 +156,13 @@ if __name__ == "__main__":
     parser.add_argument(
         "--keep", type=Path, help="run the sweeps in this folder and keep them (default: a temporary one)"
     )
+    solver_option(parser)
     args = parser.parse_args()
     if args.table:
         print_saved(args.name, markdown_table)
         raise SystemExit(0)
     chosen = [o.strip() for o in args.objects.split(",") if o.strip()]
     check_prerequisites(chosen)
+    check_solver(args.solver)
     np.seterr(all="ignore")
-    main(args.starts, chosen, args.name, args.keep)
+    main(args.starts, chosen, args.name, args.solver, args.keep)

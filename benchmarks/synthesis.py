@@ -28,7 +28,7 @@ from scipy.stats import bootstrap
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT / "benchmarks"), str(ROOT)]
-from common import save  # noqa: E402
+from common import check_solver, save, solver_option  # noqa: E402
 
 from grasptask.io.reference import read_paper_synthesis  # noqa: E402
 from grasptask.io.solutions import contacts_from_row, palm_normal_from_row  # noqa: E402
@@ -68,13 +68,7 @@ def median_interval(seconds: np.ndarray) -> list[float]:
 
 def check_prerequisites(solver: Path, cyipopt_starts: int) -> None:
     """Fail in one line, before any sweep, on what would otherwise fail minutes into the run."""
-    from grasptask.errors import BadInputError
-    from grasptask.synthesis.config import load_solver_config
-
-    try:
-        load_solver_config(solver)
-    except (BadInputError, OSError) as exc:
-        raise SystemExit(f"solver config: {exc}") from None
+    check_solver(solver)
     if cyipopt_starts:
         try:
             import cyipopt  # noqa: F401
@@ -234,7 +228,7 @@ if __name__ == "__main__":
     parser.add_argument("--starts", type=int, default=None, help="starts per task (default: all 126)")
     parser.add_argument("--cyipopt-starts", type=int, default=12, help="starts per task for the cyipopt comparison")
     parser.add_argument("--baseline-starts", type=int, default=24, help="starts per task solved without placement")
-    parser.add_argument("--solver", type=Path, default=CONFIGS / "solver.yaml", help="solver settings (YAML)")
+    solver_option(parser)
     parser.add_argument("--name", default="synthesis", help="results file name, without .json")
     args = parser.parse_args()
     check_prerequisites(args.solver, args.cyipopt_starts)
