@@ -357,6 +357,7 @@ def test_attempts_start_from_the_first_posture_then_each_retry_posture(tasks, mo
     from grasptask.synthesis.context import Job, SolverContext
 
     solver = replace(load_solver_config(FAST), first_posture=0.25, retry_postures=(0.25, 0.5, 0.1))
+    assert solver.postures == (0.25, 0.5, 0.1)
     context = SolverContext(Job(str(DEFAULT_HAND), "configs/objects/tool.yaml", str(tasks), "cutting", solver=solver))
     tried = []
 

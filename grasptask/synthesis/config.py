@@ -64,11 +64,17 @@ class SolverConfig:
         return float(self.ipopt.get("max_wall_time", 60.0))
 
     @property
+    def postures(self) -> tuple[float, ...]:
+        """The postures a start's attempts begin from, in order. A retry posture equal to an earlier one would
+        only repeat its attempt (IPOPT is deterministic), so it is left out."""
+        return tuple(dict.fromkeys((self.first_posture, *self.retry_postures)))
+
+    @property
     def start_time_limit(self) -> float:
         """The longest a start may take: every attempt, its solve with all axes and every feedback round at its
         time limit."""
         per_attempt = 1 + self.feedback_rounds + (self.torque_axes is not None)
-        return self.time_limit * (1 + len(self.retry_postures)) * per_attempt
+        return self.time_limit * len(self.postures) * per_attempt
 
 
 def _positive_or_none(value, path: Path, name: str) -> float | None:

@@ -143,10 +143,7 @@ class SolverContext:
             os._exit(13)
         if self.approach is not None:  # the start's palm normal is the hand's approach direction
             start = replace(start, palm_rotation=start.palm_rotation @ self.approach.T)
-        solver = self.job.solver
-        # a retry posture equal to the first would only repeat its attempt: IPOPT is deterministic
-        fractions = dict.fromkeys((solver.first_posture, *solver.retry_postures))
-        postures = [self.nlp.hand.posture(f) for f in fractions]
+        postures = [self.nlp.hand.posture(f) for f in self.job.solver.postures]
         spent = {"seconds": 0.0, "iterations": 0, "placement_seconds": 0.0, "feedback_rounds": 0, "all_axes_solves": 0}
         for attempt, joints in enumerate(postures, 1):
             row = self._attempt(start, joints)
