@@ -112,7 +112,7 @@ def main(n_starts: int | None, objects: list[str], name: str, solver: Path, keep
         for obj in objects:
             path = OBJECTS[obj]
             build = build_seconds(path, tasks, "drawing", solver)
-            print(f"{obj}: a worker's model in {build:.1f} s", flush=True)
+            print(f"{obj}: a worker's models in {build:.1f} s", flush=True)
             entry = results["objects"][obj] = {"file": str(path.relative_to(ROOT)), "build_s": build, "tasks": {}}
             for task in TASKS:
                 began = time.perf_counter()
