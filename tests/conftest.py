@@ -19,6 +19,12 @@ def simulated(tmp_path_factory):
     return root, result, stats
 
 
+@pytest.fixture(scope="session")
+def tasks(simulated):
+    """The task models fitted to :func:`simulated`'s recordings."""
+    return simulated[0] / "tasks" / "task_models.json"
+
+
 @pytest.fixture
 def cli():
     """Invoke ``grasptask`` in-process; returns the click Result."""

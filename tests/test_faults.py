@@ -22,11 +22,6 @@ from grasptask.io.sweep_log import read_log
 FAST = Path("tests/data/solver_fast.yaml")
 
 
-@pytest.fixture(scope="module")
-def tasks(simulated):
-    return simulated[0] / "tasks" / "task_models.json"
-
-
 def command(tasks, out, *extra):
     return [
         sys.executable, "-m", "grasptask.cli", "synthesize", "--tasks", str(tasks), "--task", "drawing",

@@ -23,11 +23,6 @@ def one_line(result) -> str:
     return lines[0]
 
 
-@pytest.fixture(scope="module")
-def tasks(simulated):
-    return simulated[0] / "tasks" / "task_models.json"
-
-
 def relabelled(simulated, root: Path, names: dict[str, str]) -> Path:
     """The simulated recordings with their tasks renamed (and the others left out); returns the manifest."""
     recordings = root / "recordings"

@@ -14,7 +14,7 @@ from pyomo.core.expr.calculus.derivatives import Modes, differentiate
 from grasptask.errors import BadInputError
 from grasptask.hand import load_hand
 from grasptask.objects import load_object
-from grasptask.synthesis.config import Regularisation, SearchBounds, load_solver_config
+from grasptask.synthesis.config import Regularisation, SearchBounds, SolverConfig, load_solver_config
 from grasptask.synthesis.model import build_model
 from grasptask.synthesis.placement import ANCHOR_DEPTH_CELLS, Anchors, anchor_point, place
 from grasptask.synthesis.starts import make_starts
@@ -129,6 +129,8 @@ def test_cylinder_contact_has_finite_second_derivatives_on_its_axis_planes():
         ("regularisation: 0\n", "field 'regularisation' must be a mapping"),
         ("torque_axes: 0\n", "field 'torque_axes' must be a whole number from 1 to 6 or null"),
         ("torque_axes: 2.5\n", "field 'torque_axes' must be a whole number from 1 to 6 or null"),
+        ("hold_axis_rotation: -0.1\n", "field 'hold_axis_rotation' must be a number >= 0 or null"),
+        ("hold_axis_rotation: yes\n", "field 'hold_axis_rotation' must be a number >= 0 or null"),
     ],
 )
 def test_bad_solver_config_is_one_clear_line(tmp_path, text, message):
@@ -147,6 +149,7 @@ def test_solver_config_defaults_and_bundled_files():
     solves = (1 + len(bundled.retry_postures)) * (1 + bundled.feedback_rounds + (bundled.torque_axes is not None))
     assert bundled.start_time_limit == bundled.time_limit * solves
     assert load_solver_config("tests/data/solver_fast.yaml").placement
+    assert bundled.hold_axis_rotation == 0.1 and SolverConfig().hold_axis_rotation is None
 
 
 def test_compiled_expressions_match_pyomo_for_every_operation():

@@ -6,6 +6,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pyomo.environ as pyo
 
 from grasptask.hand import load_hand
@@ -33,6 +34,9 @@ def test_the_report_does_not_load_the_solver_stack():
     assert out.strip() == "[]"
 
 
+AXIS = (np.array([0.0, 0.0, 1.0]), np.zeros(3))
+
+
 def test_the_equation_families_create_their_components_in_the_paper_s_order(simulated):
     """The order of creation fixes the NL writer's column order, which the solver's path depends on."""
     tasks = load_task_models(simulated[0] / "tasks" / "task_models.json")
@@ -40,6 +44,7 @@ def test_the_equation_families_create_their_components_in_the_paper_s_order(simu
     names = [c.local_name for c in model.component_objects((pyo.Var, pyo.Constraint, pyo.Objective))]
     assert [f.__name__ for f in EQUATIONS] == [
         "palm_and_joints",
+        "held_axis_rotation",
         "kinematics",
         "contacts_and_collisions",
         "cones_and_wrenches",
@@ -60,6 +65,10 @@ def test_the_equation_families_create_their_components_in_the_paper_s_order(simu
         "lam", "act", "eq10_wrench", "eq10_torque",
         "eq12_objective",
     ]  # fmt: skip
+    # the held turn (only when asked) comes right after the palm pose it holds
+    held = build_model(load_hand(), load_object("configs/objects/tool.yaml"), tasks["drawing"], held_axis=AXIS).model
+    held_names = [c.local_name for c in held.component_objects((pyo.Var, pyo.Constraint, pyo.Objective))]
+    assert held_names == names[:5] + ["held_reference", "held_axis_rotation"] + names[5:]
 
 
 def test_executor_options_that_contradict_each_other_are_refused(cli, simulated, tmp_path):

@@ -29,12 +29,6 @@ from grasptask.task.model import load_task_models
 FAST = Path("tests/data/solver_fast.yaml")
 
 
-@pytest.fixture(scope="module")
-def tasks(simulated):
-    root, _, _ = simulated
-    return root / "tasks" / "task_models.json"
-
-
 def synthesize(cli, tasks, out, *extra):
     return cli("synthesize", "--tasks", tasks, "--task", "drawing", "--out", out, "--solver-config", FAST, *extra)
 

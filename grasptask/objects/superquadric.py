@@ -62,6 +62,13 @@ class Superquadric(ImplicitObject):
         x = self.local(p)
         return np.linalg.norm(x, axis=1) * (1 - self.inside_outside(p) ** (-self.e1 / 2))
 
+    def revolution_axis(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """The axis (direction, a point on it) about which any turn leaves the surface unchanged: its own z when
+        its cross-sections are circles (``a1 = a2``, ``e2 = 1``); None otherwise."""
+        if self.a[0] != self.a[1] or self.e2 != 1.0:
+            return None
+        return self.rotation[:, 2].copy(), self.position.copy()
+
     def bounds(self) -> np.ndarray:
         corners = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)]) * self.a
         world = corners @ self.rotation.T + self.position

@@ -39,6 +39,11 @@ class ImplicitObject:
         """``(2, 3)`` axis-aligned box containing the object."""
         raise NotImplementedError
 
+    def revolution_axis(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """The axis (direction, a point on it) about which every turn leaves ``g`` exactly unchanged, or None.
+        Only shapes defined by a formula have one; a mesh's surface is sampled, never exactly symmetric."""
+        return None
+
     def normal(self, p: np.ndarray) -> np.ndarray:
         """Outward unit normal ``grad g / |grad g|`` at ``(N, 3)`` points."""
         grad = self.gradient(p)

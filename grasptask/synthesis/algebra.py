@@ -29,8 +29,18 @@ def power(x: Any, exponent: float) -> Any:
     return x**exponent
 
 
+def cross_matrix(axis: np.ndarray) -> np.ndarray:
+    """``[axis]x``, so that ``[axis]x v = axis x v``, for a constant axis."""
+    return np.array([[0.0, -axis[2], axis[1]], [axis[2], 0.0, -axis[0]], [-axis[1], axis[0], 0.0]])
+
+
+def constant_times(matrix: np.ndarray, v: Sequence[Any]) -> list[Any]:
+    """``matrix @ v`` for a constant matrix, leaving out its zero entries (no ``0 * x`` terms in the model)."""
+    return [sum(matrix[i, k] * v[k] for k in XYZ if matrix[i, k] != 0) for i in XYZ]
+
+
 def axis_rotation(axis: np.ndarray, c: Any, s: Any) -> list[list[Any]]:
     """Rodrigues' rotation about a constant unit axis, with c = cos theta and s = sin theta as expressions."""
-    k = np.array([[0.0, -axis[2], axis[1]], [axis[2], 0.0, -axis[0]], [-axis[1], axis[0], 0.0]])
+    k = cross_matrix(axis)
     kk = k @ k
     return [[(1.0 if i == j else 0.0) + s * k[i, j] + (1 - c) * kk[i, j] for j in XYZ] for i in XYZ]

@@ -57,6 +57,10 @@ class SolverConfig:
     #: eq. 10 in the NLP for the task's this many longest axes (None: all six); a grasp the verifier then rejects
     #: on its torque check is solved again from itself with all six (grasptask.synthesis.context)
     torque_axes: int | None = None
+    #: on an object of revolution, the grasp's turn about its axis is held at each start's when the task is at
+    #: most this asymmetric about it: the most Q can change along the turn, relative
+    #: (grasptask.task.symmetry.axis_asymmetry); None leaves the turn free, as the paper does
+    hold_axis_rotation: float | None = None
 
     @property
     def time_limit(self) -> float:
@@ -85,9 +89,21 @@ def _positive_or_none(value, path: Path, name: str) -> float | None:
     return float(value)
 
 
+def _is_non_negative(value) -> bool:
+    return isinstance(value, int | float) and not isinstance(value, bool) and value >= 0
+
+
 def _non_negative(value, path: Path, name: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, int | float) or value < 0:
+    if not _is_non_negative(value):
         raise BadInputError(path, f"field '{name}' must be a number >= 0, got {value!r}")
+    return float(value)
+
+
+def _non_negative_or_none(value, path: Path, name: str) -> float | None:
+    if value is None:
+        return None
+    if not _is_non_negative(value):
+        raise BadInputError(path, f"field '{name}' must be a number >= 0 or null, got {value!r}")
     return float(value)
 
 
@@ -140,6 +156,7 @@ def load_solver_config(path: str | Path) -> SolverConfig:
         "retry_postures",
         "feedback_rounds",
         "torque_axes",
+        "hold_axis_rotation",
         "search_bounds",
         "regularisation",
     }
@@ -161,6 +178,7 @@ def load_solver_config(path: str | Path) -> SolverConfig:
         retry_postures=_fractions(data.get("retry_postures", []), path, "retry_postures"),
         feedback_rounds=_count(data.get("feedback_rounds", 0), path, "feedback_rounds"),
         torque_axes=_axes(data.get("torque_axes"), path),
+        hold_axis_rotation=_non_negative_or_none(data.get("hold_axis_rotation"), path, "hold_axis_rotation"),
         bounds=SearchBounds(
             *(
                 _positive_or_none(bounds.get(name, getattr(defaults, name)), path, f"search_bounds.{name}")

@@ -48,13 +48,14 @@ class Job:
 
 @dataclass
 class Solver:
-    """One NLP and the IPOPT backend built for it, with the NL file's variable order and the positions of the
-    limits that the verifier's feedback tightens."""
+    """One NLP and the IPOPT backend built for it, with the NL file's variable order, the positions of the
+    limits that the verifier's feedback tightens and those of the held turn's reference (None: not held)."""
 
     nlp: GraspNLP
     order: list
     backend: Backend
     limit_positions: tuple[np.ndarray, np.ndarray]
+    held_positions: tuple[np.ndarray, np.ndarray] | None = None
 
     def bounds(self, limits: Limits) -> Bounds:
         """The NLP's bounds with ``limits`` in place of the activation cap and the pads' angle bounds."""
@@ -65,6 +66,19 @@ class Solver:
         lbg[rows] = np.cos(np.radians(limits.pad_angle_deg))
         return replace(base, ubx=ubx, lbg=lbg)
 
+    def solve(self, x0: np.ndarray, limits: Limits | None = None) -> SolveResult:
+        """IPOPT from ``x0`` within ``limits`` (None: the model's own). A held turn is held at ``x0``'s palm
+        pose: its reference variables are set to it and pinned there by their bounds."""
+        bounds = self.backend.nlp.bounds if limits is None else self.bounds(limits)
+        if self.held_positions is not None:
+            reference, palm = self.held_positions
+            x0 = x0.copy()
+            x0[reference] = x0[palm]
+            lbx, ubx = bounds.lbx.copy(), bounds.ubx.copy()
+            lbx[reference] = ubx[reference] = x0[palm]
+            bounds = replace(bounds, lbx=lbx, ubx=ubx)
+        return self.backend.solve(x0, bounds)
+
 
 def build_solver(
     hand: Hand, obj: ImplicitObject, task: TaskModel, settings: GraspSettings, job: Job, torque_axes: int | None = None
@@ -73,11 +87,24 @@ def build_solver(
     from grasptask.synthesis.backends import BACKENDS, write_nl_rows
     from grasptask.synthesis.model import build_model
 
-    nlp = build_model(hand, obj, task, settings, job.solver.bounds, job.solver.regularisation, torque_axes)
+    held = held_axis(obj, task, job.solver.hold_axis_rotation)
+    config = job.solver
+    nlp = build_model(hand, obj, task, settings, config.bounds, config.regularisation, torque_axes, held)
     text, order, rows = write_nl_rows(nlp.model)
     nlp.compile()  # now, so that its one-off cost is not counted in the first start's seconds
-    backend = BACKENDS[job.backend](text, job.solver.ipopt, nlp.surrogate_spec(order, rows))
-    return Solver(nlp, order, backend, nlp.limit_positions(order, rows))
+    backend = BACKENDS[job.backend](text, config.ipopt, nlp.surrogate_spec(order, rows))
+    return Solver(nlp, order, backend, nlp.limit_positions(order, rows), nlp.held_positions(order))
+
+
+def held_axis(obj: ImplicitObject, task: TaskModel, tolerance: float | None) -> tuple[np.ndarray, np.ndarray] | None:
+    """The object's axis of revolution when the grasp's turn about it is to be held: the object has one and the
+    task is at most ``tolerance`` asymmetric about it (None: never held)."""
+    from grasptask.task.symmetry import axis_asymmetry
+
+    axis = obj.revolution_axis()
+    if tolerance is None or axis is None or axis_asymmetry(task.weights, task.axes, *axis) > tolerance:
+        return None
+    return axis
 
 
 class SolverContext:
@@ -172,12 +199,12 @@ class SolverContext:
             self.nlp.initialise(start.palm_rotation, start.palm_position, joints)
         row["placement_seconds"] = placed = time.perf_counter() - began
         solver = self.first
-        result = solver.backend.solve(_values(solver.order))
+        result = solver.solve(_values(solver.order))
         seconds, iterations, rounds, whole = result.seconds + placed, result.iterations, 0, 0
         judged = self._judge(solver, result)
         if solver is not self.whole and _solved_but(result, judged, "torque_feasibility"):
             assert judged is not None
-            again = self.whole.backend.solve(self._in_whole(judged[2]))
+            again = self.whole.solve(self._in_whole(judged[2]))
             seconds, iterations, whole = seconds + again.seconds, iterations + again.iterations, 1
             retried = self._judge(self.whole, again)
             if retried is None:  # IPOPT left no point: the first model's solution stands
@@ -193,7 +220,7 @@ class SolverContext:
             if tighter is None:
                 break
             limits, rounds = tighter, rounds + 1
-            again = solver.backend.solve(_values(solver.order), solver.bounds(limits))
+            again = solver.solve(_values(solver.order), limits)
             seconds, iterations = seconds + again.seconds, iterations + again.iterations
             retried = self._judge(solver, again)
             if retried is None:  # IPOPT left no point: the last solution stands

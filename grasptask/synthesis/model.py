@@ -4,6 +4,8 @@ One model per (task, hand, object). :data:`EQUATIONS` is the paper's equation ma
 family of variables and constraints, in this order, and the component names carry the equation numbers:
 
     palm_and_joints          eq. 16-23  palm rotation orthonormal; joint limits as bounds (eq. 20-21); DIP = k PIP
+    held_axis_rotation       (none)     when asked, the grasp's turn about a solid of revolution's axis held at
+                                        the start's (:func:`held_axis_rotation`; not in the paper)
     kinematics               eq. 2      link frames, joint positions, pad contact points
     contacts_and_collisions  eq. 3, 14  contacts on the surface; hand spheres outside it; inward unit normals,
                                         the cone tangent along the pad's own tangent (App. 10.3); pads facing it
@@ -35,7 +37,7 @@ import pyomo.environ as pyo
 from grasptask.grasp.settings import GraspSettings
 from grasptask.hand.model import Finger, Hand
 from grasptask.objects.surface import ImplicitObject
-from grasptask.synthesis.algebra import XYZ, axis_rotation, cross, dot
+from grasptask.synthesis.algebra import XYZ, axis_rotation, constant_times, cross, cross_matrix, dot
 from grasptask.synthesis.compiled import CompiledExpressions
 from grasptask.synthesis.config import Regularisation, SearchBounds
 from grasptask.synthesis.spline import SurrogateSpec
@@ -60,6 +62,8 @@ class NLPBuilder:
     regularisation: Regularisation
     #: the task axes whose wrenches eq. 10 holds, longest first
     torque_axes: range
+    #: the object's axis of revolution (direction, point) about which the grasp's turn is held; None: free
+    held_axis: tuple[np.ndarray, np.ndarray] | None = None
     #: ``(variable, expression)`` pairs in dependency order, for :meth:`GraspNLP.initialise`
     definitions: list[tuple[Any, Any]] = field(default_factory=list)
     palm_rotation: Matrix = field(default_factory=list)
@@ -116,6 +120,34 @@ def palm_and_joints(nlp: NLPBuilder) -> None:
         coupled = ratio * m.theta[independent]
         m.eq22_coupling.add(m.theta[dependent] == (coupled + offset if offset else coupled))
     nlp.palm_rotation = [[m.R_h[i, j] for j in XYZ] for i in XYZ]
+
+
+def held_axis_rotation(nlp: NLPBuilder) -> None:
+    """The grasp's turn about the object's axis of revolution held at its start's, to first order: one row,
+    linear in the palm pose, that keeps the palm's displacement from a reference pose orthogonal to that pose's
+    turn about the axis.
+
+    Turning a grasp about the axis leaves every constraint satisfied and changes Q only as much as the task is
+    asymmetric about the axis (:func:`grasptask.task.symmetry.axis_asymmetry`). For a nearly symmetric task that
+    direction is nearly flat and curved, and IPOPT spent most of its iterations turning the grasp along it in
+    small steps (docs/synthesis-notes.md). The reference is 12 variables (palm position, then the rotation's
+    columns) that each solve pins to its own starting pose through their bounds, so IPOPT treats them as
+    parameters (:meth:`GraspNLP.held_positions`)."""
+    if nlp.held_axis is None:
+        return
+    m = nlp.model
+    axis, point = (np.asarray(v, dtype=float) for v in nlp.held_axis)
+    m.held_reference = pyo.Var(
+        range(12), initialize=0.0, doc="the palm pose the turn is held at: d_h, then R_h's columns"
+    )
+    reference = [[m.held_reference[3 * c + i] for i in XYZ] for c in range(4)]
+    current = [[m.d_h[i] for i in XYZ]] + [[m.R_h[i, j] for i in XYZ] for j in XYZ]
+    centred = [[r[i] - point[i] for i in XYZ] for r in reference[:1]] + reference[1:]
+    moved = [[v[i] - point[i] for i in XYZ] for v in current[:1]] + current[1:]
+    turn = cross_matrix(axis)
+    turns = [constant_times(turn, r) for r in centred]
+    size = sum(dot(t, t) for t in turns) ** 0.5
+    m.held_axis_rotation = pyo.Constraint(expr=sum(dot(t, v) for t, v in zip(turns, moved, strict=True)) / size == 0)
 
 
 def _moved(start: Vector, frame: Matrix, offset: np.ndarray) -> Vector:
@@ -364,6 +396,9 @@ def objective(nlp: NLPBuilder) -> None:
 #: the paper's equation map, in the order the components are created (which fixes the NL column order)
 EQUATIONS: tuple[Callable[[NLPBuilder], None], ...] = (
     palm_and_joints,
+    # its row and reference columns first: MUMPS's METIS ordering of the KKT matrix then took 15-20% less time
+    # per iteration than with them last (docs/synthesis-notes.md)
+    held_axis_rotation,
     kinematics,
     contacts_and_collisions,
     cones_and_wrenches,
@@ -385,10 +420,15 @@ class GraspNLP:
     #: a mesh's or point cloud's surface, whose placeholder rows the backend fills (None: all Pyomo)
     surrogate: GridSurface | None = None
 
-    def size(self) -> dict[str, int]:
-        n_vars = sum(1 for v in self.model.component_data_objects(pyo.Var, active=True) if not v.fixed)
+    def size(self) -> dict[str, Any]:
+        """Variables and constraints as IPOPT sees them (the held turn's reference is pinned, so not counted),
+        and whether the turn about the object's axis is held."""
+        held = self.model.component("held_reference")
+        reference = set() if held is None else {id(v) for v in held.values()}
+        variables = self.model.component_data_objects(pyo.Var, active=True)
+        n_vars = sum(1 for v in variables if not v.fixed and id(v) not in reference)
         n_cons = sum(1 for _ in self.model.component_data_objects(pyo.Constraint, active=True))
-        return {"variables": n_vars, "constraints": n_cons}
+        return {"variables": n_vars, "constraints": n_cons, "held_axis_rotation": held is not None}
 
     def compile(self) -> CompiledExpressions:
         """The defined variables and eq. 14's margins as one CasADi function of the palm pose and joints, built
@@ -428,6 +468,19 @@ class GraspNLP:
             np.array([column[id(v)] for v in m.act.values()], dtype=int),
             np.array([row[id(m.pad_facing[j])] for j in m.pad_facing], dtype=int),
         )
+
+    def held_positions(self, variables: list) -> tuple[np.ndarray, np.ndarray] | None:
+        """Where the held turn's reference variables are in ``variables``, and where the palm pose components
+        they stand for are; None when the turn is free."""
+        held = self.model.component("held_reference")
+        if held is None:
+            return None
+        column = {id(v): k for k, v in enumerate(variables)}
+        m = self.model
+        palm = [m.d_h[i] for i in XYZ] + [m.R_h[i, j] for j in XYZ for i in XYZ]
+        # a reference component with a zero coefficient (along the axis) is not in the NL file
+        pairs = [(column[id(held[k])], column[id(v)]) for k, v in enumerate(palm) if id(held[k]) in column]
+        return np.array([r for r, _ in pairs], dtype=int), np.array([p for _, p in pairs], dtype=int)
 
     def initialise(self, palm_rotation: np.ndarray, palm_position: np.ndarray, joint_angles: np.ndarray) -> None:
         """Set the palm pose and joints, then every defined variable from its defining expression."""
@@ -485,6 +538,7 @@ def build_model(
     bounds: SearchBounds = SearchBounds(),
     regularisation: Regularisation = Regularisation(),
     torque_axes: int | None = None,
+    held_axis: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> GraspNLP:
     """The NLP for ``hand``'s grasping fingers on ``obj`` for ``task``: :data:`EQUATIONS` in order, its forces
     searched within ``bounds``, its objective eq. 12 plus the small terms of ``regularisation``.
@@ -492,7 +546,10 @@ def build_model(
     ``torque_axes``: eq. 10 for the task's that many longest axes only (None: all of them, the paper's model).
     Eq. 10's blocks are half of the model's variables, and at an optimum only a few of them bind; a grasp that
     needs the others is caught by the verifier, which checks every axis
-    (:class:`~grasptask.synthesis.context.SolverContext`)."""
+    (:class:`~grasptask.synthesis.context.SolverContext`).
+
+    ``held_axis``: the object's axis of revolution (direction, point) about which the grasp's turn is held at
+    each start's (:func:`held_axis_rotation`); None leaves it free, as the paper does."""
     grasping = hand.grasping_hand()
     n_axes = len(task.weights)
     builder = NLPBuilder(
@@ -504,6 +561,7 @@ def build_model(
         bounds,
         regularisation,
         range(n_axes if torque_axes is None else min(torque_axes, n_axes)),
+        held_axis,
     )
     builder.surface.attach(builder.model, builder.definitions)
     for equation in EQUATIONS:
