@@ -270,10 +270,11 @@ def run_synthesize(options: SynthesisOptions, echo: Callable[[str], Any] = print
         )
 
 
-def _say_model(size: dict[str, int], paper: PaperSynthesis, echo: Callable[[str], Any]) -> None:
+def _say_model(size: dict[str, Any], paper: PaperSynthesis, echo: Callable[[str], Any]) -> None:
+    held = "; the grasp's turn about the object's axis held (solver config hold_axis_rotation)"
     echo(
         f"model {size['variables']} variables x {size['constraints']} constraints"
-        f" (paper: {paper.variables} x {paper.constraints})"
+        f" (paper: {paper.variables} x {paper.constraints}){held if size.get('held_axis_rotation') else ''}"
     )
 
 
@@ -298,7 +299,7 @@ def summarise(
     options: SynthesisOptions,
     rows: list[dict],
     *,
-    model_size: dict[str, int] | None,
+    model_size: dict[str, Any] | None,
     wall_seconds: float,
     symmetry: Symmetry | None,
     fingers: list[str],
