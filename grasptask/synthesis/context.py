@@ -87,8 +87,8 @@ def build_solver(
     from grasptask.synthesis.backends import BACKENDS, write_nl_rows
     from grasptask.synthesis.model import build_model
 
-    held = held_axis(obj, task, job.solver.hold_axis_rotation)
     config = job.solver
+    held = held_axis(obj, task, config.hold_axis_rotation)
     nlp = build_model(hand, obj, task, settings, config.bounds, config.regularisation, torque_axes, held)
     text, order, rows = write_nl_rows(nlp.model)
     nlp.compile()  # now, so that its one-off cost is not counted in the first start's seconds
