@@ -21,6 +21,10 @@ from grasptask.physics.settings import PhysicsSettings
 _HAND, _OBJECT = 2, 1
 #: a mesh counts as convex when its hull adds less than this fraction to its volume
 CONVEX_VOLUME_EXCESS = 0.02
+#: triangles of a formula object's surface for MuJoCo. At 4,000 the paper's cylinder's facets were up to 11 degrees
+#: off its normals, and one drawing grasp turned about the axis (a symmetry of the object) was held at 2 of 12
+#: turns; at 40,000 (within 2.7 degrees) at all 12, for a quarter more time per grasp (docs/synthesis-notes.md)
+PICTURE_FACES = 40_000
 #: the contacts' time constant (MuJoCo's solref[0]), at least twice the timestep
 CONTACT_TIME_CONSTANT_S = 0.004
 #: every finger link's mass and inertia: a phalanx's order of magnitude, small beside the joints' armature
@@ -58,7 +62,7 @@ def object_body(obj: ImplicitObject, settings: PhysicsSettings) -> ObjectBody:
     if isinstance(obj, MeshObject):
         mesh = obj.mesh
     else:  # marching cubes cuts inside the surface by up to its spacing: its vertices moved onto g = 0
-        mesh = obj.picture(4000)
+        mesh = obj.picture(PICTURE_FACES)
         mesh = trimesh.Trimesh(obj.project(mesh.vertices), mesh.faces)
     hull = mesh.convex_hull
     if hull.volume <= (1 + CONVEX_VOLUME_EXCESS) * abs(mesh.volume):
