@@ -131,6 +131,8 @@ def test_cylinder_contact_has_finite_second_derivatives_on_its_axis_planes():
         ("torque_axes: 2.5\n", "field 'torque_axes' must be a whole number from 1 to 6 or null"),
         ("hold_axis_rotation: -0.1\n", "field 'hold_axis_rotation' must be a number >= 0 or null"),
         ("hold_axis_rotation: yes\n", "field 'hold_axis_rotation' must be a number >= 0 or null"),
+        ("geometric_iterations: -5\n", "field 'geometric_iterations' must be a whole number >= 0"),
+        ("geometric_iterations: 2.5\n", "field 'geometric_iterations' must be a whole number >= 0"),
     ],
 )
 def test_bad_solver_config_is_one_clear_line(tmp_path, text, message):
@@ -146,10 +148,12 @@ def test_solver_config_defaults_and_bundled_files():
     assert bundled.bounds == SearchBounds(100.0, 50.0)
     assert bundled.regularisation == Regularisation()
     assert bundled.time_limit == bundled.ipopt["max_wall_time"]
-    solves = (1 + len(bundled.retry_postures)) * (1 + bundled.feedback_rounds + (bundled.torque_axes is not None))
+    per_attempt = 1 + bundled.feedback_rounds + (bundled.torque_axes is not None) + (bundled.geometric_iterations > 0)
+    solves = (1 + len(bundled.retry_postures)) * per_attempt
     assert bundled.start_time_limit == bundled.time_limit * solves
     assert load_solver_config("tests/data/solver_fast.yaml").placement
     assert bundled.hold_axis_rotation == 0.1 and SolverConfig().hold_axis_rotation is None
+    assert bundled.geometric_iterations == 20 and SolverConfig().geometric_iterations == 0
 
 
 def test_compiled_expressions_match_pyomo_for_every_operation():

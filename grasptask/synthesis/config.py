@@ -61,6 +61,9 @@ class SolverConfig:
     #: most this asymmetric about it: the most Q can change along the turn, relative
     #: (grasptask.task.symmetry.axis_asymmetry); None leaves the turn free, as the paper does
     hold_axis_rotation: float | None = None
+    #: a start's first IPOPT iterations, up to this many, are made on the model without eq. 10, whose iterations
+    #: cost half as much; the first model goes on from where they stop (0: none, the paper's single model)
+    geometric_iterations: int = 0
 
     @property
     def time_limit(self) -> float:
@@ -77,7 +80,7 @@ class SolverConfig:
     def start_time_limit(self) -> float:
         """The longest a start may take: every attempt, its solve with all axes and every feedback round at its
         time limit."""
-        per_attempt = 1 + self.feedback_rounds + (self.torque_axes is not None)
+        per_attempt = 1 + self.feedback_rounds + (self.torque_axes is not None) + (self.geometric_iterations > 0)
         return self.time_limit * len(self.postures) * per_attempt
 
 
@@ -157,6 +160,7 @@ def load_solver_config(path: str | Path) -> SolverConfig:
         "feedback_rounds",
         "torque_axes",
         "hold_axis_rotation",
+        "geometric_iterations",
         "search_bounds",
         "regularisation",
     }
@@ -179,6 +183,7 @@ def load_solver_config(path: str | Path) -> SolverConfig:
         feedback_rounds=_count(data.get("feedback_rounds", 0), path, "feedback_rounds"),
         torque_axes=_axes(data.get("torque_axes"), path),
         hold_axis_rotation=_non_negative_or_none(data.get("hold_axis_rotation"), path, "hold_axis_rotation"),
+        geometric_iterations=_count(data.get("geometric_iterations", 0), path, "geometric_iterations"),
         bounds=SearchBounds(
             *(
                 _positive_or_none(bounds.get(name, getattr(defaults, name)), path, f"search_bounds.{name}")

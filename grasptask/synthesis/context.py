@@ -81,9 +81,16 @@ class Solver:
 
 
 def build_solver(
-    hand: Hand, obj: ImplicitObject, task: TaskModel, settings: GraspSettings, job: Job, torque_axes: int | None = None
+    hand: Hand,
+    obj: ImplicitObject,
+    task: TaskModel,
+    settings: GraspSettings,
+    job: Job,
+    torque_axes: int | None = None,
+    max_iter: int | None = None,
 ) -> Solver:
-    """The NLP for ``job`` written, imported into the backend and compiled for initialisation."""
+    """The NLP for ``job`` written, imported into the backend and compiled for initialisation; ``max_iter``
+    caps IPOPT's iterations below the solver config's."""
     from grasptask.synthesis.backends import BACKENDS, write_nl_rows
     from grasptask.synthesis.model import build_model
 
@@ -92,7 +99,8 @@ def build_solver(
     nlp = build_model(hand, obj, task, settings, config.bounds, config.regularisation, torque_axes, held)
     text, order, rows = write_nl_rows(nlp.model)
     nlp.compile()  # now, so that its one-off cost is not counted in the first start's seconds
-    backend = BACKENDS[job.backend](text, config.ipopt, nlp.surrogate_spec(order, rows))
+    options = config.ipopt if max_iter is None else {**config.ipopt, "max_iter": max_iter}
+    backend = BACKENDS[job.backend](text, options, nlp.surrogate_spec(order, rows))
     return Solver(nlp, order, backend, nlp.limit_positions(order, rows), nlp.held_positions(order))
 
 
@@ -113,7 +121,9 @@ class SolverContext:
 
     With the solver config's ``torque_axes``, a start is first solved with eq. 10 for the task's longest axes
     only, a smaller model whose iterations cost less. A grasp the verifier then rejects on its torque check, which
-    covers all six axes, is solved again from itself with the whole model."""
+    covers all six axes, is solved again from itself with the whole model. With ``geometric_iterations``, a
+    start's first iterations are made on the model without eq. 10 at all: they move the grasp most, and there
+    they cost half."""
 
     def __init__(self, job: Job):
         from grasptask.grasp.settings import GraspSettings, load_grasp_settings
@@ -134,9 +144,10 @@ class SolverContext:
         self.whole = build_solver(*parts)
         axes = job.solver.torque_axes
         self.first = build_solver(*parts, axes) if axes is not None and axes < len(self.task.weights) else self.whole
-        # where each of the whole model's variables is in the first model's order (-1: only in the whole model)
-        position = {v.name: k for k, v in enumerate(self.first.order)}
-        self._carried = np.array([position.get(v.name, -1) for v in self.whole.order], dtype=int)
+        self._carried = _positions(self.first, self.whole)
+        warmup = job.solver.geometric_iterations
+        self.geometric = build_solver(*parts, 0, warmup) if warmup else None
+        self._geometric = None if self.geometric is None else _positions(self.first, self.geometric)
         # the whole model's starting point where the first model has no variable: eq. 10's initial forces and
         # activations for the other axes, which depend on no pose
         self.whole.nlp.initialise_forces()
@@ -199,8 +210,15 @@ class SolverContext:
             self.nlp.initialise(start.palm_rotation, start.palm_position, joints)
         row["placement_seconds"] = placed = time.perf_counter() - began
         solver = self.first
-        result = solver.solve(_values(solver.order))
-        seconds, iterations, rounds, whole = result.seconds + placed, result.iterations, 0, 0
+        x0 = _values(solver.order)
+        seconds, iterations, rounds, whole = placed, 0, 0, 0
+        if self.geometric is not None:  # the first iterations without eq. 10, carried into the first model
+            warmup = self.geometric.solve(x0[self._geometric])
+            seconds, iterations = seconds + warmup.seconds, warmup.iterations
+            if warmup.x is not None and warmup.status in ("optimal", "acceptable", "max-iter"):
+                x0[self._geometric] = warmup.x
+        result = solver.solve(x0)
+        seconds, iterations = seconds + result.seconds, iterations + result.iterations
         judged = self._judge(solver, result)
         if solver is not self.whole and _solved_but(result, judged, "torque_feasibility"):
             assert judged is not None
@@ -288,6 +306,12 @@ def _solved_but(result: SolveResult, judged: tuple | None, failure: str | None =
     if judged is None or result.status not in ("optimal", "acceptable") or judged[1].ok:
         return False
     return failure is None or failure in judged[1].failures
+
+
+def _positions(source: Solver, target: Solver) -> np.ndarray:
+    """Where each of ``target``'s variables is in ``source``'s order (-1: ``source`` has no such variable)."""
+    position = {v.name: k for k, v in enumerate(source.order)}
+    return np.array([position.get(v.name, -1) for v in target.order], dtype=int)
 
 
 def _values(order: list) -> np.ndarray:

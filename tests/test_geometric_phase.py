@@ -1,0 +1,77 @@
+"""The geometric phase: a start's first IPOPT iterations on the model without eq. 10, carried into the first
+model (solver config ``geometric_iterations``)."""
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from grasptask.paths import DEFAULT_HAND
+from grasptask.synthesis.config import load_solver_config
+from grasptask.synthesis.starts import make_starts, subset
+
+
+@pytest.fixture(scope="module")
+def context(tasks):
+    from grasptask.synthesis.context import Job, SolverContext
+
+    solver = replace(load_solver_config("tests/data/solver_fast.yaml"), geometric_iterations=5, torque_axes=4)
+    return SolverContext(Job(str(DEFAULT_HAND), "configs/objects/tool.yaml", str(tasks), "drawing", solver=solver))
+
+
+def test_the_geometric_model_is_the_first_without_eq_10(context):
+    geometric, first = context.geometric.nlp.model, context.first.nlp.model
+    assert len(geometric.eq10_wrench) == len(geometric.eq10_torque) == 0
+    assert len(first.eq10_wrench) > 0
+    # every variable of the geometric model is one of the first model's, so its point carries over whole
+    assert (context._geometric >= 0).all()
+    names = [v.name for v in context.first.order]
+    assert [names[k] for k in context._geometric] == [v.name for v in context.geometric.order]
+    assert context.geometric.nlp.size()["variables"] < context.size["variables"]
+
+
+def test_a_start_goes_on_from_the_capped_warm_up_and_counts_its_iterations(context, monkeypatch):
+    """The warm-up stops at its cap, the first model starts where it stopped, and the row's iterations and
+    seconds are both solves'."""
+    seen: dict = {}
+    warm, first = context.geometric.solve, context.first.solve
+
+    def warm_up(x0, limits=None):
+        seen["warm"] = result = warm(x0, limits)
+        return result
+
+    def first_solve(x0, limits=None):
+        seen.setdefault("x0", x0.copy())
+        seen.setdefault("first", []).append(result := first(x0, limits))
+        return result
+
+    monkeypatch.setattr(context.geometric, "solve", warm_up)
+    monkeypatch.setattr(context.first, "solve", first_solve)
+    start = subset(make_starts(context.bounds), 12)[0]
+    row = context.solve(start)
+    assert seen["warm"].status == "max-iter" and seen["warm"].iterations == 5
+    np.testing.assert_array_equal(seen["x0"][context._geometric], seen["warm"].x)
+    if row["attempts"] == 1 and not row["all_axes_solves"]:
+        assert row["iterations"] == 5 + sum(r.iterations for r in seen["first"])
+    assert row["verified"], (row["status"], row.get("verify_failures"))
+
+
+def test_a_failed_warm_up_leaves_the_placed_point(context, monkeypatch):
+    from grasptask.synthesis.backends import SolveResult
+    from grasptask.synthesis.context import _values
+
+    placed: dict = {}
+    first = context.first.solve
+
+    def broken(x0, limits=None):
+        placed["x"] = _values(context.first.order)  # placement has run; nothing has been carried yet
+        return SolveResult("error", 3, 0.01, None, "test")
+
+    def first_solve(x0, limits=None):
+        placed.setdefault("x0", x0.copy())
+        return first(x0, limits)
+
+    monkeypatch.setattr(context.geometric, "solve", broken)
+    monkeypatch.setattr(context.first, "solve", first_solve)
+    context.solve(subset(make_starts(context.bounds), 12)[1])
+    np.testing.assert_array_equal(placed["x0"], placed["x"])
