@@ -210,7 +210,11 @@ def comparison_line(task: str, t: dict) -> str:
 
 def report(r: dict) -> str:
     lines = [task_line(task, t) for task, t in r["tasks"].items()]
-    lines += [comparison_line(task, t) for task, t in r["tasks"].items()]
+    lines += [
+        comparison_line(task, t)
+        for task, t in r["tasks"].items()
+        if "cyipopt" in t or "baseline_without_placement" in t
+    ]
     lines.append(f"whole sweep on 2 workers: {r['whole_sweep_wall_s'] / 60:.1f} min (target < 10 min)")
     if "targets_issue_20" in r:
         lines.append(f"issue 20's targets: {r['targets_issue_20']}")

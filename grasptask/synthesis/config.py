@@ -62,7 +62,8 @@ class SolverConfig:
     #: (grasptask.task.symmetry.axis_asymmetry); None leaves the turn free, as the paper does
     hold_axis_rotation: float | None = None
     #: a start's first IPOPT iterations, up to this many, are made on the model without eq. 10, whose iterations
-    #: cost half as much; the first model goes on from where they stop (0: none, the paper's single model)
+    #: cost half as much; the first model goes on from where they stop (0: none, the paper's single model).
+    #: Formula objects only: meshes and point clouds skip it (grasptask.synthesis.context)
     geometric_iterations: int = 0
 
     @property

@@ -123,7 +123,8 @@ class SolverContext:
     only, a smaller model whose iterations cost less. A grasp the verifier then rejects on its torque check, which
     covers all six axes, is solved again from itself with the whole model. With ``geometric_iterations``, a
     start's first iterations are made on the model without eq. 10 at all: they move the grasp most, and there
-    they cost half."""
+    they cost half. Objects whose surface the NLP sees through a surrogate (meshes, point clouds) skip that
+    phase (docs/synthesis-notes.md, "A geometric phase first")."""
 
     def __init__(self, job: Job):
         from grasptask.grasp.settings import GraspSettings, load_grasp_settings
@@ -145,7 +146,8 @@ class SolverContext:
         axes = job.solver.torque_axes
         self.first = build_solver(*parts, axes) if axes is not None and axes < len(self.task.weights) else self.whole
         self._carried = _positions(self.first, self.whole)
-        warmup = job.solver.geometric_iterations
+        # formula objects only: on meshes the phase lost verified starts and added a third surrogate-laden build
+        warmup = job.solver.geometric_iterations if self.first.nlp.surrogate is None else 0
         self.geometric = build_solver(*parts, 0, warmup) if warmup else None
         self._geometric = None if self.geometric is None else _positions(self.first, self.geometric)
         # the whole model's starting point where the first model has no variable: eq. 10's initial forces and
@@ -153,7 +155,7 @@ class SolverContext:
         self.whole.nlp.initialise_forces()
         self._whole_initial = _values(self.whole.order)
         self.nlp = self.first.nlp
-        self.size = self.nlp.size()
+        self.size = {**self.nlp.size(), "geometric_iterations": warmup}
         self.nominal = Limits(
             1.0 - self.settings.activation_margin, np.full(len(self.nlp.hand.fingers), self.settings.pad_angle_max_deg)
         )
