@@ -215,10 +215,10 @@ class SolverContext:
         x0 = _values(solver.order)
         seconds, iterations, rounds, whole = placed, 0, 0, 0
         if self.geometric is not None:  # the first iterations without eq. 10, carried into the first model
-            warmup = self.geometric.solve(x0[self._geometric])
-            seconds, iterations = seconds + warmup.seconds, warmup.iterations
-            if warmup.x is not None and warmup.status in ("optimal", "acceptable", "max-iter"):
-                x0[self._geometric] = warmup.x
+            phase = self.geometric.solve(x0[self._geometric])
+            seconds, iterations = seconds + phase.seconds, phase.iterations
+            if phase.x is not None and phase.status in ("optimal", "acceptable", "max-iter"):
+                x0[self._geometric] = phase.x
         result = solver.solve(x0)
         seconds, iterations = seconds + result.seconds, iterations + result.iterations
         judged = self._judge(solver, result)
