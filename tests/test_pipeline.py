@@ -84,3 +84,10 @@ def test_bundled_pipelines_parse_and_end_with_the_report(name, cli):
     for stage in spec.stages:  # every stage's arguments are ones its command accepts
         result = cli(*stage.run, *stage.args, "--help")
         assert result.exit_code == 0, result.output
+    # the default configs a synthesis or physics stage reads are in its key, so that editing one re-runs it
+    read = {"synthesize": ["solver.yaml"], "physics": ["physics.yaml"]}
+    for stage in spec.stages:
+        if stage.run[0] in read:
+            names = {str(p) for p in stage.input_paths()}
+            for config in [*read[stage.run[0]], "grasp.yaml", "hands/human.yaml", "objects/tool.yaml"]:
+                assert f"configs/{config}" in names, (stage.name, config)

@@ -14,9 +14,10 @@ A pipeline file (YAML) lists stages; each runs one ``grasptask`` command with th
 
 A stage is skipped when its outputs exist, are as it left them, and the hash of its command, arguments and
 inputs (every file under an input folder included) matches the last successful run. Arguments that name
-existing files count as inputs too. A stage whose outputs exist but were made or changed by someone else is
-not run (its files would be overwritten) unless ``--force``. Paths are relative to the folder the runner is
-started from.
+existing files count as inputs too; a command's default config files are not arguments, so a stage that relies
+on them lists them under ``inputs``, or an edit to them goes unseen. A stage whose outputs exist but were made
+or changed by someone else is not run (its files would be overwritten) unless ``--force``. Paths are relative
+to the folder the runner is started from.
 """
 
 from __future__ import annotations
