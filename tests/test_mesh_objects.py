@@ -184,7 +184,7 @@ def test_the_surrogate_zero_set_lies_within_a_millimetre_of_the_mesh(name):
     from grasptask.synthesis.spline import distance_function, evaluate
 
     obj = load_object(f"configs/objects/{name}.yaml")
-    surrogate = distance_function(obj.distance_grid())
+    surrogate = distance_function(obj.distance_grid)
     points, faces = trimesh.sample.sample_surface(obj.mesh, 3000, seed=123)
     assert np.abs(evaluate(surrogate, points)).max() < 1e-3
     outward = obj.mesh.face_normals[faces]
@@ -337,3 +337,18 @@ def test_the_surrogate_interpolates_its_smoothed_grid():
     inner = np.stack(np.meshgrid(*[a[3:-3] for a in grid.axes], indexing="ij"), axis=-1).reshape(-1, 3)
     smoothed = ndimage.gaussian_filter(grid.values, SMOOTHING_CELLS, mode="nearest")
     np.testing.assert_allclose(evaluate(distance_function(grid), inner), smoothed[3:-3, 3:-3, 3:-3].ravel(), atol=1e-9)
+
+
+def test_a_workers_models_share_one_distance_grid(tasks, tmp_path):
+    """The grid is made once per object: a worker's two or three models of a mesh are built on the same one, so
+    its distances and its spline's coefficients are computed once (a third of the knife's build before)."""
+    from grasptask.hand import load_hand
+    from grasptask.synthesis.model import build_model
+    from grasptask.task.model import load_task_models
+
+    path = tmp_path / "handle.stl"
+    handle().export(path)
+    obj, hand, task = load_object(path), load_hand(), load_task_models(tasks)["drawing"]
+    first, whole = build_model(hand, obj, task, torque_axes=2), build_model(hand, obj, task)
+    assert first.surrogate is not None and first.surrogate.grid is whole.surrogate.grid is obj.distance_grid
+    assert load_object(path).distance_grid is not obj.distance_grid  # another object, its own grid

@@ -194,7 +194,7 @@ def test_anchors_on_a_mesh_lie_on_parts_its_surrogate_resolves():
     the diagonal fall on it. On the mesh they move to the nearest point at least 1.5 grid cells inside, on the
     handle (z below 6 cm). Superquadrics keep the box's anchors."""
     knife = load_object("configs/objects/kitchen_knife.yaml")
-    grid = knife.distance_grid()
+    grid = knife.distance_grid
     anchors = Anchors(knife.bounds(), grid)
     depth = ANCHOR_DEPTH_CELLS * grid.spacing
     for start in make_starts(knife.bounds(), seed=0)[::7]:

@@ -76,13 +76,18 @@ class MeshObject(ImplicitObject):
         points, faces = trimesh.sample.sample_surface_even(self.mesh, count, seed=0)
         return np.asarray(points), np.asarray(self.mesh.face_normals[faces])
 
-    def distance_grid(self, spacing: float | None = None) -> DistanceGrid:
-        """The synthesis surrogate's data: samples every 0.5 mm, signs from the mesh's inside test."""
-        spacing = spacing or self.grid_spacing
+    @cached_property
+    def distance_grid(self) -> DistanceGrid:
+        """The synthesis surrogate's data: samples every 0.5 mm, signs from the mesh's inside test. Made once per
+        object: a worker builds two or three models on it, and the spline's coefficients are made once per grid."""
         count = int(min(400_000, max(20_000, self.mesh.area / 5e-4**2)))
         points, faces = trimesh.sample.sample_surface(self.mesh, count, seed=0)
         return distance_grid(
-            np.asarray(points), self.mesh.face_normals[faces], self.bounds(), spacing, inside=self.mesh.contains
+            np.asarray(points),
+            self.mesh.face_normals[faces],
+            self.bounds(),
+            self.grid_spacing,
+            inside=self.mesh.contains,
         )
 
 
@@ -142,9 +147,10 @@ class PointCloudObject(ImplicitObject):
     def surface(self) -> SurfaceIndex:
         return SurfaceIndex(self.points, self.normals, self.picture(), self.spacing, self.tree)
 
-    def distance_grid(self, spacing: float | None = None) -> DistanceGrid:
-        """The synthesis surrogate's data, signs from the nearest point's normal."""
-        return distance_grid(self.points, self.normals, self.bounds(), spacing or self.grid_spacing)
+    @cached_property
+    def distance_grid(self) -> DistanceGrid:
+        """The synthesis surrogate's data, signs from the nearest point's normal; made once per object."""
+        return distance_grid(self.points, self.normals, self.bounds(), self.grid_spacing)
 
     def picture(self, faces: int = 5000) -> trimesh.Trimesh:
         """A closed surface for drawing: marching cubes of the cloud's signed distance."""

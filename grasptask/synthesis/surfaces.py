@@ -180,5 +180,5 @@ def surface_for(obj: ImplicitObject) -> NLPSurface:
     if isinstance(obj, GPImplicitSurface):
         return GPSurface(obj)
     if isinstance(obj, MeshObject | PointCloudObject):
-        return GridSurface(obj.distance_grid())
+        return GridSurface(obj.distance_grid)
     raise TypeError(f"no NLP surface for {type(obj).__name__}")
