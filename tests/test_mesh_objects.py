@@ -341,7 +341,7 @@ def test_the_surrogate_interpolates_its_smoothed_grid():
 
 def test_a_workers_models_share_one_distance_grid(tasks, tmp_path):
     """The grid is made once per object: a worker's two or three models of a mesh are built on the same one, so
-    its distances and its spline's coefficients are computed once (a third of the knife's build before)."""
+    its distances and its spline's coefficients are computed once."""
     from grasptask.hand import load_hand
     from grasptask.synthesis.model import build_model
     from grasptask.task.model import load_task_models
