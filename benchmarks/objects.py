@@ -3,7 +3,7 @@ driving, on 2 workers. Per object and task: a worker's build seconds, ms per IPO
 seconds per start, the verified fraction and distinct optima; ratios of each median over the cylinder's for the
 same task, in the same run. ``mug_gp`` is today's route for a mesh (a GP implicit surface), for comparison;
 ``kitchen_knife_handle``, ``screwdriver_handle`` and ``spray_bottle_body`` are the part of a mesh the hand holds,
-alone, as an exact superquadric (``benchmarks/proxies/``): what any surface representation could at best approach.
+alone, as an exact superquadric (``benchmarks/proxies/``): its shape without a surrogate's cost.
 
     python benchmarks/objects.py [--starts N] [--objects tool,mug,...] [--name NAME] [--keep DIR]
     python benchmarks/objects.py --name NAME --table     # the saved results as the README's table
@@ -43,8 +43,8 @@ OBJECTS = {
     name: ROOT / "configs" / "objects" / f"{name}.yaml"
     for name in ("tool", "mug", "spray_bottle", "kitchen_knife", "screwdriver", "mug_gp")
 }
-# the grasped part of three meshes alone as an exact superquadric: what any surface representation of the mesh
-# could at best approach (docs/synthesis-notes.md, "Superquadrics")
+# the grasped part of three meshes alone as an exact superquadric: its shape without a surrogate's cost
+# (docs/synthesis-notes.md, "Superquadrics")
 OBJECTS.update(
     {
         name: ROOT / "benchmarks" / "proxies" / f"{name}.yaml"
