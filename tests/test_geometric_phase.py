@@ -80,3 +80,18 @@ def test_a_failed_warm_up_leaves_the_placed_point(context, monkeypatch):
     monkeypatch.setattr(context.first, "solve", first_solve)
     context.solve(subset(make_starts(context.bounds), 12)[1])
     np.testing.assert_array_equal(placed["x0"], placed["x"])
+
+
+def test_the_phase_runs_longer_where_the_turn_is_held(tasks):
+    """Drawing on the tool holds the grasp's turn about its axis and gets the held cap; cutting, too asymmetric
+    about it, keeps the free one."""
+    from grasptask.synthesis.context import Job, SolverContext
+
+    fast = load_solver_config("tests/data/solver_fast.yaml")
+    solver = replace(fast, geometric_iterations=5, held_geometric_iterations=7, hold_axis_rotation=0.1)
+    caps = {}
+    for task in ("drawing", "cutting"):
+        job = Job(str(DEFAULT_HAND), "configs/objects/tool.yaml", str(tasks), task, solver=solver)
+        context = SolverContext(job)
+        caps[task] = (context.first.held_positions is not None, context.size["geometric_iterations"])
+    assert caps == {"drawing": (True, 7), "cutting": (False, 5)}

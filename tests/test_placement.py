@@ -133,6 +133,7 @@ def test_cylinder_contact_has_finite_second_derivatives_on_its_axis_planes():
         ("hold_axis_rotation: yes\n", "field 'hold_axis_rotation' must be a number >= 0 or null"),
         ("geometric_iterations: -5\n", "field 'geometric_iterations' must be a whole number >= 0"),
         ("geometric_iterations: 2.5\n", "field 'geometric_iterations' must be a whole number >= 0"),
+        ("held_geometric_iterations: -1\n", "field 'held_geometric_iterations' must be a whole number >= 0 or null"),
     ],
 )
 def test_bad_solver_config_is_one_clear_line(tmp_path, text, message):
@@ -148,12 +149,16 @@ def test_solver_config_defaults_and_bundled_files():
     assert bundled.bounds == SearchBounds(100.0, 50.0)
     assert bundled.regularisation == Regularisation()
     assert bundled.time_limit == bundled.ipopt["max_wall_time"]
-    per_attempt = 1 + bundled.feedback_rounds + (bundled.torque_axes is not None) + (bundled.geometric_iterations > 0)
+    per_attempt = 1 + bundled.feedback_rounds + (bundled.torque_axes is not None) + 1  # the geometric phase
     solves = (1 + len(bundled.retry_postures)) * per_attempt
     assert bundled.start_time_limit == bundled.time_limit * solves
     assert load_solver_config("tests/data/solver_fast.yaml").placement
     assert bundled.hold_axis_rotation == 0.1 and SolverConfig().hold_axis_rotation is None
     assert bundled.geometric_iterations == 20 and SolverConfig().geometric_iterations == 0
+    assert bundled.phase_iterations(held=False) == 20 and bundled.phase_iterations(held=True) == 30
+    assert SolverConfig(geometric_iterations=20).phase_iterations(held=True) == 20  # no held cap: the same one
+    # a held cap alone still makes the phase one of an attempt's solves
+    assert SolverConfig(held_geometric_iterations=30).start_time_limit == SolverConfig().start_time_limit * 2
 
 
 def test_compiled_expressions_match_pyomo_for_every_operation():

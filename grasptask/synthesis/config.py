@@ -65,6 +65,10 @@ class SolverConfig:
     #: cost half as much; the first model goes on from where they stop (0: none, the paper's single model).
     #: Formula objects only: meshes and point clouds skip it (grasptask.synthesis.context)
     geometric_iterations: int = 0
+    #: the phase's cap instead when the grasp's turn about the object's axis is held (None: the same cap). The
+    #: cap keeps the phase from creeping along that turn; held, it can run on, and more starts reach the lower
+    #: optima (docs/synthesis-notes.md, "A longer phase where the turn is held")
+    held_geometric_iterations: int | None = None
 
     @property
     def time_limit(self) -> float:
@@ -77,11 +81,18 @@ class SolverConfig:
         only repeat its attempt (IPOPT is deterministic), so it is left out."""
         return tuple(dict.fromkeys((self.first_posture, *self.retry_postures)))
 
+    def phase_iterations(self, held: bool) -> int:
+        """The geometric phase's cap for a start whose turn about the object's axis is ``held`` or free."""
+        if held and self.held_geometric_iterations is not None:
+            return self.held_geometric_iterations
+        return self.geometric_iterations
+
     @property
     def start_time_limit(self) -> float:
         """The longest a start may take: every attempt, its solve with all axes and every feedback round at its
         time limit."""
-        per_attempt = 1 + self.feedback_rounds + (self.torque_axes is not None) + (self.geometric_iterations > 0)
+        phase = max(self.phase_iterations(held=False), self.phase_iterations(held=True)) > 0
+        per_attempt = 1 + self.feedback_rounds + (self.torque_axes is not None) + phase
         return self.time_limit * len(self.postures) * per_attempt
 
 
@@ -114,6 +125,14 @@ def _non_negative_or_none(value, path: Path, name: str) -> float | None:
 def _count(value, path: Path, name: str) -> int:
     if isinstance(value, bool) or not isinstance(value, int) or value < 0:
         raise BadInputError(path, f"field '{name}' must be a whole number >= 0, got {value!r}")
+    return value
+
+
+def _count_or_none(value, path: Path, name: str) -> int | None:
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+        raise BadInputError(path, f"field '{name}' must be a whole number >= 0 or null, got {value!r}")
     return value
 
 
@@ -162,6 +181,7 @@ def load_solver_config(path: str | Path) -> SolverConfig:
         "torque_axes",
         "hold_axis_rotation",
         "geometric_iterations",
+        "held_geometric_iterations",
         "search_bounds",
         "regularisation",
     }
@@ -185,6 +205,9 @@ def load_solver_config(path: str | Path) -> SolverConfig:
         torque_axes=_axes(data.get("torque_axes"), path),
         hold_axis_rotation=_non_negative_or_none(data.get("hold_axis_rotation"), path, "hold_axis_rotation"),
         geometric_iterations=_count(data.get("geometric_iterations", 0), path, "geometric_iterations"),
+        held_geometric_iterations=_count_or_none(
+            data.get("held_geometric_iterations"), path, "held_geometric_iterations"
+        ),
         bounds=SearchBounds(
             *(
                 _positive_or_none(bounds.get(name, getattr(defaults, name)), path, f"search_bounds.{name}")

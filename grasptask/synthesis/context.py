@@ -121,10 +121,11 @@ class SolverContext:
 
     With the solver config's ``torque_axes``, a start is first solved with eq. 10 for the task's longest axes
     only, a smaller model whose iterations cost less. A grasp the verifier then rejects on its torque check, which
-    covers all six axes, is solved again from itself with the whole model. With ``geometric_iterations``, a
-    start's first iterations are made on the model without eq. 10 at all: they move the grasp most, and there
-    they cost half. Objects whose surface the NLP sees through a surrogate (meshes, point clouds) skip that
-    phase (docs/synthesis-notes.md, "A geometric phase first")."""
+    covers all six axes, is solved again from itself with the whole model. With ``geometric_iterations``
+    (``held_geometric_iterations`` where the turn about the object's axis is held), a start's first iterations
+    are made on the model without eq. 10 at all: they move the grasp most, and there they cost half. Objects
+    whose surface the NLP sees through a surrogate (meshes, point clouds) skip that phase (docs/synthesis-notes.md,
+    "A geometric phase first")."""
 
     def __init__(self, job: Job):
         from grasptask.grasp.settings import GraspSettings, load_grasp_settings
@@ -147,7 +148,8 @@ class SolverContext:
         self.first = build_solver(*parts, axes) if axes is not None and axes < len(self.task.weights) else self.whole
         self._carried = _positions(self.first, self.whole)
         # formula objects only: on meshes the phase lost verified starts and added a third surrogate-laden build
-        warmup = job.solver.geometric_iterations if self.first.nlp.surrogate is None else 0
+        held = self.first.held_positions is not None
+        warmup = job.solver.phase_iterations(held) if self.first.nlp.surrogate is None else 0
         self.geometric = build_solver(*parts, 0, warmup) if warmup else None
         self._geometric = None if self.geometric is None else _positions(self.first, self.geometric)
         # the whole model's starting point where the first model has no variable: eq. 10's initial forces and
