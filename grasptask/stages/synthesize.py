@@ -272,8 +272,10 @@ def run_synthesize(options: SynthesisOptions, echo: Callable[[str], Any] = print
 
 def _say_model(size: dict[str, Any], paper: PaperSynthesis, echo: Callable[[str], Any]) -> None:
     held = "; the grasp's turn about the object's axis held (solver config hold_axis_rotation)"
-    warmup = size.get("geometric_iterations")
-    geometric = f"; each start's first {warmup} iterations without eq. 10 (geometric_iterations)" if warmup else ""
+    warmup, option = size.get("geometric_iterations"), "geometric_iterations"
+    if size.get("held_axis_rotation"):
+        option = "held_geometric_iterations, or geometric_iterations if null"
+    geometric = f"; each start's first {warmup} iterations without eq. 10 ({option})" if warmup else ""
     echo(
         f"model {size['variables']} variables x {size['constraints']} constraints"
         f" (paper: {paper.variables} x {paper.constraints}){held if size.get('held_axis_rotation') else ''}{geometric}"
