@@ -122,16 +122,18 @@ def _non_negative_or_none(value, path: Path, name: str) -> float | None:
     return float(value)
 
 
+def _is_count(value) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool) and value >= 0
+
+
 def _count(value, path: Path, name: str) -> int:
-    if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+    if not _is_count(value):
         raise BadInputError(path, f"field '{name}' must be a whole number >= 0, got {value!r}")
     return value
 
 
 def _count_or_none(value, path: Path, name: str) -> int | None:
-    if value is None:
-        return None
-    if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+    if value is not None and not _is_count(value):
         raise BadInputError(path, f"field '{name}' must be a whole number >= 0 or null, got {value!r}")
     return value
 
