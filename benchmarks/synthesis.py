@@ -13,9 +13,9 @@ its 126 starts, and other seeds tell how often a route finds it.
 Targets: median <= 1 s per start (paper: 459 +- 186 s), >= 80% verified, whole 3 x 126 sweep < 10 minutes; and
 issue 20's: median <= 0.3 s per task, >= 90% verified, the sweep <= 3 minutes, distinct optima >= the paper's.
 Those seconds depend on the machine (the same code's medians were 1.8x apart on two of this workplace's), so the
-issue's reference settings (benchmarks/routes/issue20_reference.yaml) are also run on some of the same starts:
-the speed-up over them is a ratio measured on one machine, beside the ratio the issue's 0.3 s asks of its
-reference run (0.3 s over that run's median, benchmarks/results/synthesis.json).
+code of the issue's reference run (commit 8ae7ea6, taken from git) also solves some of the same starts, each
+task's right after its sweep: the speed-up over it is a ratio measured on one machine, beside the ratio that the
+issue's 0.3 s asks of its reference run (0.3 s over that run's median, benchmarks/results/synthesis.json).
 The prerequisites (the solver config, cyipopt for its comparison) are checked before anything runs; each task's
 figures are printed and the results saved (benchmarks/results/NAME.json) as soon as its sweep is done.
 """
@@ -24,6 +24,8 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
+import subprocess
 import sys
 import tempfile
 import time
@@ -44,9 +46,9 @@ from grasptask.stages import SynthesisOptions, run_fit_task, run_simulate, run_s
 
 TASKS = ("drawing", "cutting", "screwdriving")
 CONFIGS = ROOT / "configs"
-#: issue 20's reference run and its solver settings on today's code
+#: issue 20's reference run, and the commit whose code made it
 REFERENCE_RUN = ROOT / "benchmarks" / "results" / "synthesis.json"
-REFERENCE_ROUTE = ROOT / "benchmarks" / "routes" / "issue20_reference.yaml"
+REFERENCE_COMMIT = "8ae7ea6"
 
 
 def grasp_shape(optima: pd.DataFrame) -> dict:
@@ -81,9 +83,19 @@ def check_prerequisites(solver: Path, cyipopt_starts: int, reference_starts: int
     """Fail in one line, before any sweep, on what would otherwise fail minutes into the run."""
     check_solver(solver)
     if reference_starts:
-        check_solver(REFERENCE_ROUTE)
         if not REFERENCE_RUN.is_file():
             raise SystemExit(f"{REFERENCE_RUN}: issue 20's reference run is missing; pass --reference-starts 0")
+        try:
+            found = subprocess.run(
+                ["git", "-C", str(ROOT), "cat-file", "-e", f"{REFERENCE_COMMIT}^{{commit}}"]
+            ).returncode
+        except FileNotFoundError:  # no git
+            found = 1
+        if found:
+            raise SystemExit(
+                f"commit {REFERENCE_COMMIT} (issue 20's reference code) is not in this clone: fetch the history, "
+                "or pass --reference-starts 0"
+            )
     if cyipopt_starts:
         try:
             import cyipopt  # noqa: F401
@@ -91,6 +103,33 @@ def check_prerequisites(solver: Path, cyipopt_starts: int, reference_starts: int
             raise SystemExit(
                 "cyipopt is not installed: run `make setup-cyipopt`, or pass --cyipopt-starts 0 to skip that comparison"
             ) from None
+
+
+class ReferenceCode:
+    """Issue 20's reference code, taken out of git into ``folder``, with the task models its own simulator and
+    fit made (as its benchmark did); :meth:`sweep` solves a subset of one task's starts in a subprocess."""
+
+    def __init__(self, folder: Path):
+        self.code = folder / "code"
+        self.code.mkdir(parents=True)
+        archive = subprocess.run(["git", "-C", str(ROOT), "archive", REFERENCE_COMMIT], capture_output=True, check=True)
+        subprocess.run(["tar", "-x", "-C", str(self.code)], input=archive.stdout, check=True)
+        self.env = {**os.environ, "PYTHONPATH": str(self.code), "OPENBLAS_NUM_THREADS": "1"}
+        self.cli("simulate", "--out", str(folder / "rec"), "--format", "parquet")
+        self.cli("fit-task", str(folder / "rec" / "manifest.csv"), "--out", str(folder / "tasks"))
+        self.tasks, self.out = folder / "tasks" / "task_models.json", folder / "grasps"
+
+    def cli(self, *args: str) -> None:
+        command = [sys.executable, "-m", "grasptask.cli", *args]
+        subprocess.run(command, cwd=self.code, env=self.env, check=True, stdout=subprocess.DEVNULL)
+
+    def sweep(self, task: str, starts: int, seed: int) -> pd.DataFrame:
+        print(f"{task}: issue 20's reference code ({REFERENCE_COMMIT}) on {starts} starts")
+        self.cli(
+            "synthesize", "--tasks", str(self.tasks), "--task", task, "--out", str(self.out),
+            "--starts", str(starts), "--seed", str(seed), "--workers", "2",
+        )  # fmt: skip
+        return pd.read_parquet(self.out / task / "solutions.parquet")
 
 
 def main(
@@ -124,6 +163,7 @@ def main(
                 seed=seed,
             )
 
+        reference = ReferenceCode(tmp / "reference") if reference_starts else None
         sweeps = 0.0
         for task in TASKS:
             began = time.perf_counter()
@@ -146,24 +186,18 @@ def main(
                 "best_optimum": grasp_shape(optima),
             }
             print(task_line(task, results["tasks"][task]))
+            if reference is not None:  # right after the sweep, so that both see the machine as it is now
+                results["tasks"][task]["issue_20_reference"] = beside_default(
+                    reference.sweep(task, reference_starts, seed), solutions(tmp / "grasps", task)
+                )
             save(name, results)
         # the three tasks' sweeps one after the other, as a user runs them
         results["whole_sweep_wall_s"] = sweeps
 
         def against_default(task: str, name: str, options_: SynthesisOptions) -> dict:
             """A variant's run on a subset of the starts, beside the default run on the same starts."""
-            run = run_synthesize(options_, echo=print)
-            variant = pd.read_parquet(tmp / name / task / "solutions.parquet")
-            default = pd.read_parquet(tmp / "grasps" / task / "solutions.parquet")
-            same = default[default["start_id"].isin(variant["start_id"])]
-            return {
-                "starts": run["starts"],
-                "median_s_per_start": run["seconds_per_start"]["median"],
-                "verified_fraction": run["verified_fraction"],
-                "default_median_same_starts_s": float(same["seconds"].median()),
-                "default_verified_fraction_same_starts": float(same["verified"].mean()),
-                "ratio_median_vs_default": run["seconds_per_start"]["median"] / float(same["seconds"].median()),
-            }
+            run_synthesize(options_, echo=print)
+            return beside_default(solutions(tmp / name, task), solutions(tmp / "grasps", task))
 
         for task in TASKS:
             if baseline_starts:
@@ -173,10 +207,6 @@ def main(
             if cyipopt_starts:
                 results["tasks"][task]["cyipopt"] = against_default(
                     task, "cyipopt", options(task, tmp / "cyipopt", "cyipopt", cyipopt_starts)
-                )
-            if reference_starts:
-                results["tasks"][task]["issue_20_reference"] = against_default(
-                    task, "reference", options(task, tmp / "reference", starts=reference_starts, config=REFERENCE_ROUTE)
                 )
             if baseline_starts or cyipopt_starts or reference_starts:
                 print(comparison_line(task, results["tasks"][task]))
@@ -211,9 +241,27 @@ def main(
     return results
 
 
+def solutions(folder: Path, task: str) -> pd.DataFrame:
+    return pd.read_parquet(folder / task / "solutions.parquet")
+
+
+def beside_default(variant: pd.DataFrame, default: pd.DataFrame) -> dict:
+    """A variant's sweep of a subset of the starts, beside the default sweep's rows for the same starts."""
+    same = default[default["start_id"].isin(variant["start_id"])]
+    median = float(variant["seconds"].median())
+    return {
+        "starts": len(variant),
+        "median_s_per_start": median,
+        "verified_fraction": float(variant["verified"].mean()),
+        "default_median_same_starts_s": float(same["seconds"].median()),
+        "default_verified_fraction_same_starts": float(same["verified"].mean()),
+        "ratio_median_vs_default": median / float(same["seconds"].median()),
+    }
+
+
 def ratio_targets(tasks: dict) -> dict:
     """Issue 20's 0.3 s as the ratio it asks of its reference run's median per task, beside the ratio measured
-    in this run (the shipped settings' median over the reference settings' on the same starts)."""
+    in this run (the shipped route's median over the reference code's, on the same starts)."""
     issue = json.loads(REFERENCE_RUN.read_text())["tasks"]
     ratios = {}
     for task, figures in tasks.items():
@@ -248,7 +296,7 @@ def comparison_line(task: str, t: dict) -> str:
     cy, base, ref = t.get("cyipopt", {}), t.get("baseline_without_placement", {}), t.get("issue_20_reference", {})
     nan = float("nan")
     reference = (
-        f"; issue 20's reference settings on {ref['starts']} starts: median {ref['median_s_per_start']:.2f} s, "
+        f"; issue 20's reference code on {ref['starts']} starts: median {ref['median_s_per_start']:.2f} s, "
         f"{ref['verified_fraction']:.0%} verified (shipped, same starts: {ref['default_median_same_starts_s']:.2f} "
         f"s, x{1 / ref['ratio_median_vs_default']:.2f})"
         if ref
@@ -288,7 +336,7 @@ if __name__ == "__main__":
     parser.add_argument("--cyipopt-starts", type=int, default=12, help="starts per task for the cyipopt comparison")
     parser.add_argument("--baseline-starts", type=int, default=24, help="starts per task solved without placement")
     parser.add_argument(
-        "--reference-starts", type=int, default=42, help="starts per task solved with issue 20's reference settings"
+        "--reference-starts", type=int, default=42, help="starts per task solved by issue 20's reference code"
     )
     solver_option(parser)
     parser.add_argument("--seed", type=int, default=0, help="seed of the starts' jitter (default: 0, as shipped)")
