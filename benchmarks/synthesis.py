@@ -256,6 +256,8 @@ def beside_default(variant: pd.DataFrame, default: pd.DataFrame) -> dict:
         "default_median_same_starts_s": float(same["seconds"].median()),
         "default_verified_fraction_same_starts": float(same["verified"].mean()),
         "ratio_median_vs_default": median / float(same["seconds"].median()),
+        # the starts' seconds in all, which on the same workers is what a sweep's wall time follows
+        "ratio_total_vs_default": float(variant["seconds"].sum() / same["seconds"].sum()),
     }
 
 
