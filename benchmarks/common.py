@@ -27,7 +27,7 @@ def median_seconds(function: Callable[[], object], repeats: int) -> tuple[float,
 
 def cpu() -> dict:
     """The processor's name and widest vector extension, from /proc/cpuinfo (None where there is none): the
-    same code's medians differed 1.8x between two machines of this workplace, so a results file says which."""
+    same code's medians differed up to 2x between two machines of this workplace, so a results file says which."""
     try:
         lines = Path("/proc/cpuinfo").read_text().splitlines()
     except OSError:
