@@ -1,9 +1,11 @@
 """Grasps for tests: a precision grasp of a ball found by a small least-squares fit (for the verifier and
-mechanics), robot grippers on a ball, and a finished sweep folder made from the ball grasp."""
+mechanics), robot grippers on a ball, a finished sweep folder made from the ball grasp, and the solver settings
+of tests whose solves must converge."""
 
 from __future__ import annotations
 
 import shutil
+from dataclasses import replace
 from functools import lru_cache
 
 import numpy as np
@@ -15,10 +17,18 @@ from grasptask.io.reference import read_paper_synthesis
 from grasptask.io.solutions import grasp_columns
 from grasptask.objects import Superquadric
 from grasptask.stages import SynthesisOptions, summarise
+from grasptask.synthesis.config import SolverConfig, load_solver_config
 from grasptask.task.ellipsoid import Ellipsoid
 from grasptask.task.model import TaskModel
 
 BALL_RADIUS = 0.03
+
+
+def unhurried_solver() -> SolverConfig:
+    """The suite's fast solver settings with the shipped 12 s per solve, for tests that need a start to converge:
+    starts that took 2-3 s on one machine ran past the fast settings' 4 s on one half as fast."""
+    fast = load_solver_config("tests/data/solver_fast.yaml")
+    return replace(fast, ipopt={**fast.ipopt, "max_wall_time": 12.0})
 
 
 def drawing_like_task(scale: float = 0.2) -> TaskModel:

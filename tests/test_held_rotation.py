@@ -17,6 +17,7 @@ from grasptask.synthesis.backends import Bounds
 from grasptask.synthesis.context import Solver, held_axis
 from grasptask.task.frames import wrench_transform
 from grasptask.task.symmetry import axis_asymmetry
+from tests.grasp_fixtures import unhurried_solver
 
 Z = np.array([0.0, 0.0, 1.0])
 
@@ -118,11 +119,10 @@ def test_a_held_start_solves_verifies_and_keeps_its_turn(tasks):
     from dataclasses import replace
 
     from grasptask.paths import DEFAULT_HAND
-    from grasptask.synthesis.config import load_solver_config
     from grasptask.synthesis.context import Job, SolverContext
     from grasptask.synthesis.starts import make_starts, subset
 
-    solver = replace(load_solver_config("tests/data/solver_fast.yaml"), hold_axis_rotation=0.1)
+    solver = replace(unhurried_solver(), hold_axis_rotation=0.1)
     context = SolverContext(Job(str(DEFAULT_HAND), "configs/objects/tool.yaml", str(tasks), "drawing", solver=solver))
     assert context.size["held_axis_rotation"]
     rows = [context.solve(start) for start in subset(make_starts(context.bounds), 12)[:3]]

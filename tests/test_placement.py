@@ -134,6 +134,8 @@ def test_cylinder_contact_has_finite_second_derivatives_on_its_axis_planes():
         ("geometric_iterations: -5\n", "field 'geometric_iterations' must be a whole number >= 0"),
         ("geometric_iterations: 2.5\n", "field 'geometric_iterations' must be a whole number >= 0"),
         ("held_geometric_iterations: -1\n", "field 'held_geometric_iterations' must be a whole number >= 0 or null"),
+        ("retry_after_iterations: 0\n", "field 'retry_after_iterations' must be a whole number >= 1 or null"),
+        ("retry_after_iterations: 1.5e2\n", "field 'retry_after_iterations' must be a whole number >= 1 or null"),
     ],
 )
 def test_bad_solver_config_is_one_clear_line(tmp_path, text, message):

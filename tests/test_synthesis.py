@@ -355,7 +355,7 @@ def test_attempts_start_from_the_first_posture_then_each_retry_posture(tasks, mo
     context = SolverContext(Job(str(DEFAULT_HAND), "configs/objects/tool.yaml", str(tasks), "cutting", solver=solver))
     tried = []
 
-    def attempt(start, joints):
+    def attempt(start, joints, last):
         tried.append(joints)
         keys = ("seconds", "iterations", "placement_seconds", "feedback_rounds", "all_axes_solves")
         return {"verified": len(tried) == 2, **dict.fromkeys(keys, 1)}

@@ -69,6 +69,10 @@ class SolverConfig:
     #: cap keeps the phase from creeping along that turn; held, it can run on, and more starts reach the lower
     #: optima (docs/synthesis-notes.md, "A longer phase where the turn is held")
     held_geometric_iterations: int | None = None
+    #: on every attempt but the last, IPOPT's iteration cap for the first model: an attempt not converged by then
+    #: goes on to the next posture instead of running on to max_iter. Cutting's first attempts that end locally
+    #: infeasible take 150-360 iterations, most verified ones under 100 (None: every attempt runs to max_iter)
+    retry_after_iterations: int | None = None
 
     @property
     def time_limit(self) -> float:
@@ -122,8 +126,8 @@ def _non_negative_or_none(value, path: Path, name: str) -> float | None:
     return float(value)
 
 
-def _is_count(value) -> bool:
-    return isinstance(value, int) and not isinstance(value, bool) and value >= 0
+def _is_count(value, least: int = 0) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool) and value >= least
 
 
 def _count(value, path: Path, name: str) -> int:
@@ -132,9 +136,9 @@ def _count(value, path: Path, name: str) -> int:
     return value
 
 
-def _count_or_none(value, path: Path, name: str) -> int | None:
-    if value is not None and not _is_count(value):
-        raise BadInputError(path, f"field '{name}' must be a whole number >= 0 or null, got {value!r}")
+def _count_or_none(value, path: Path, name: str, least: int = 0) -> int | None:
+    if value is not None and not _is_count(value, least):
+        raise BadInputError(path, f"field '{name}' must be a whole number >= {least} or null, got {value!r}")
     return value
 
 
@@ -184,6 +188,7 @@ def load_solver_config(path: str | Path) -> SolverConfig:
         "hold_axis_rotation",
         "geometric_iterations",
         "held_geometric_iterations",
+        "retry_after_iterations",
         "search_bounds",
         "regularisation",
     }
@@ -209,6 +214,9 @@ def load_solver_config(path: str | Path) -> SolverConfig:
         geometric_iterations=_count(data.get("geometric_iterations", 0), path, "geometric_iterations"),
         held_geometric_iterations=_count_or_none(
             data.get("held_geometric_iterations"), path, "held_geometric_iterations"
+        ),
+        retry_after_iterations=_count_or_none(
+            data.get("retry_after_iterations"), path, "retry_after_iterations", least=1
         ),
         bounds=SearchBounds(
             *(

@@ -79,6 +79,10 @@ class Solver:
             bounds = replace(bounds, lbx=lbx, ubx=ubx)
         return self.backend.solve(x0, bounds)
 
+    def capped(self, max_iter: int) -> Solver:
+        """The same NLP, variables and limits, with IPOPT stopping after ``max_iter`` iterations."""
+        return replace(self, backend=self.backend.with_max_iter(max_iter))
+
 
 def build_solver(
     hand: Hand,
@@ -125,7 +129,8 @@ class SolverContext:
     (``held_geometric_iterations`` where the turn about the object's axis is held), a start's first iterations
     are made on the model without eq. 10 at all: they move the grasp most, and there they cost half. Objects
     whose surface the NLP sees through a surrogate (meshes, point clouds) skip that phase (docs/synthesis-notes.md,
-    "A geometric phase first")."""
+    "A geometric phase first"). With ``retry_after_iterations``, every attempt but the last stops the first
+    model there and goes on to the next posture."""
 
     def __init__(self, job: Job):
         from grasptask.grasp.settings import GraspSettings, load_grasp_settings
@@ -147,6 +152,9 @@ class SolverContext:
         axes = job.solver.torque_axes
         self.first = build_solver(*parts, axes) if axes is not None and axes < len(self.task.weights) else self.whole
         self._carried = _positions(self.first, self.whole)
+        cap = job.solver.retry_after_iterations
+        # the first model of every attempt but the last (None: the first model itself)
+        self.retried = self.first.capped(cap) if cap is not None and len(job.solver.postures) > 1 else None
         # formula objects only: on meshes the phase lost verified starts and added a third surrogate-laden build
         held = self.first.held_positions is not None
         warmup = job.solver.phase_iterations(held) if self.first.nlp.surrogate is None else 0
@@ -157,7 +165,11 @@ class SolverContext:
         self.whole.nlp.initialise_forces()
         self._whole_initial = _values(self.whole.order)
         self.nlp = self.first.nlp
-        self.size = {**self.nlp.size(), "geometric_iterations": warmup}
+        self.size = {
+            **self.nlp.size(),
+            "geometric_iterations": warmup,
+            "retry_after_iterations": cap if self.retried is not None else None,
+        }
         self.nominal = Limits(
             1.0 - self.settings.activation_margin, np.full(len(self.nlp.hand.fingers), self.settings.pad_angle_max_deg)
         )
@@ -188,7 +200,7 @@ class SolverContext:
         postures = [self.nlp.hand.posture(f) for f in self.job.solver.postures]
         spent = {"seconds": 0.0, "iterations": 0, "placement_seconds": 0.0, "feedback_rounds": 0, "all_axes_solves": 0}
         for attempt, joints in enumerate(postures, 1):
-            row = self._attempt(start, joints)
+            row = self._attempt(start, joints, last=attempt == len(postures))
             if attempt == 1:
                 first = {"first_attempt_seconds": row["seconds"], "first_attempt_verified": row["verified"]}
             for key in spent:
@@ -197,9 +209,10 @@ class SolverContext:
                 break
         return {**row, **spent, **first, "attempts": attempt}
 
-    def _attempt(self, start: Start, joints: np.ndarray) -> dict:
+    def _attempt(self, start: Start, joints: np.ndarray, last: bool = True) -> dict:
         """Placement, IPOPT and the verifier from one posture; the whole model's solve when the first model left
-        out an axis the grasp cannot hold; the verifier's feedback rounds."""
+        out an axis the grasp cannot hold; the verifier's feedback rounds. Only the ``last`` attempt's first
+        model runs to IPOPT's max_iter."""
         from grasptask.synthesis.placement import place
 
         row: dict[str, Any] = {
@@ -213,7 +226,7 @@ class SolverContext:
         else:
             self.nlp.initialise(start.palm_rotation, start.palm_position, joints)
         row["placement_seconds"] = placed = time.perf_counter() - began
-        solver = self.first
+        solver = self.first if last or self.retried is None else self.retried
         x0 = _values(solver.order)
         seconds, iterations, rounds, whole = placed, 0, 0, 0
         if self.geometric is not None:  # the first iterations without eq. 10, carried into the first model
@@ -224,7 +237,7 @@ class SolverContext:
         result = solver.solve(x0)
         seconds, iterations = seconds + result.seconds, iterations + result.iterations
         judged = self._judge(solver, result)
-        if solver is not self.whole and _solved_but(result, judged, "torque_feasibility"):
+        if solver.nlp is not self.whole.nlp and _solved_but(result, judged, "torque_feasibility"):
             assert judged is not None
             again = self.whole.solve(self._in_whole(judged[2]))
             seconds, iterations, whole = seconds + again.seconds, iterations + again.iterations, 1
