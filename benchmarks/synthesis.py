@@ -12,12 +12,13 @@ its 126 starts, and other seeds tell how often a route finds it.
 
 Targets: median <= 1 s per start (paper: 459 +- 186 s), >= 80% verified, whole 3 x 126 sweep < 10 minutes; and
 issue 20's: median <= 0.3 s per task, >= 90% verified, the sweep <= 3 minutes, distinct optima >= the paper's.
-Those seconds depend on the machine (the same code's medians were 1.8x apart on two of this workplace's), so the
-code of the issue's reference run (commit 8ae7ea6, taken from git) also solves some of the same starts, each
-task's right after its sweep: the speed-up over it is a ratio measured on one machine, beside the ratio that the
-issue's 0.3 s asks of its reference run (0.3 s over that run's median, benchmarks/results/synthesis.json).
-The prerequisites (the solver config, cyipopt for its comparison) are checked before anything runs; each task's
-figures are printed and the results saved (benchmarks/results/NAME.json) as soon as its sweep is done.
+Those seconds depend on the machine (the same code's medians were up to 2x apart on two of this workplace's),
+so the code of the issue's reference run (commit 8ae7ea6, taken from git) also solves some of the same starts,
+each task's right after its sweep: the speed-up over it is a ratio measured on one machine, beside the ratio
+that the issue's 0.3 s asks of its reference run (0.3 s over that run's median, benchmarks/results/synthesis.json).
+The prerequisites (the solver config, cyipopt for its comparison, git and the reference commit) are checked
+before anything runs; each task's figures are printed and the results saved (benchmarks/results/NAME.json) as
+soon as its sweep is done.
 """
 
 from __future__ import annotations

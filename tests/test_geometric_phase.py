@@ -108,7 +108,7 @@ def test_every_attempt_but_the_last_stops_at_the_retry_cap(tasks, monkeypatch):
     context = SolverContext(Job(str(DEFAULT_HAND), "configs/objects/tool.yaml", str(tasks), "cutting", solver=solver))
     assert context.size["retry_after_iterations"] == 3
     # the capped solver shares the first model's NLP and variables: only its IPOPT instance differs
-    assert context.retried.nlp is context.first.nlp and context.retried.backend is not context.first.backend
+    assert context.capped.nlp is context.first.nlp and context.capped.backend is not context.first.backend
     solves = []
 
     def recorded(name, solve):
@@ -118,9 +118,9 @@ def test_every_attempt_but_the_last_stops_at_the_retry_cap(tasks, monkeypatch):
 
         return wrapper
 
-    for name in ("retried", "first"):
+    for name in ("capped", "first"):
         monkeypatch.setattr(getattr(context, name), "solve", recorded(name, getattr(context, name).solve))
     row = context.solve(subset(make_starts(context.bounds), 12)[1])
-    assert [name for name, _ in solves] == ["retried", "first"] and row["attempts"] == 2
+    assert [name for name, _ in solves] == ["capped", "first"] and row["attempts"] == 2
     assert solves[0][1].status == "max-iter" and solves[0][1].iterations == 3
     assert solves[1][1].iterations > 3

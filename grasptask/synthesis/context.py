@@ -153,8 +153,8 @@ class SolverContext:
         self.first = build_solver(*parts, axes) if axes is not None and axes < len(self.task.weights) else self.whole
         self._carried = _positions(self.first, self.whole)
         cap = job.solver.retry_after_iterations
-        # the first model of every attempt but the last (None: the first model itself)
-        self.retried = self.first.capped(cap) if cap is not None and len(job.solver.postures) > 1 else None
+        # the first model as every attempt but the last solves it (None: they all solve self.first)
+        self.capped = self.first.capped(cap) if cap is not None and len(job.solver.postures) > 1 else None
         # formula objects only: on meshes the phase lost verified starts and added a third surrogate-laden build
         held = self.first.held_positions is not None
         warmup = job.solver.phase_iterations(held) if self.first.nlp.surrogate is None else 0
@@ -168,7 +168,7 @@ class SolverContext:
         self.size = {
             **self.nlp.size(),
             "geometric_iterations": warmup,
-            "retry_after_iterations": cap if self.retried is not None else None,
+            "retry_after_iterations": cap if self.capped is not None else None,
         }
         self.nominal = Limits(
             1.0 - self.settings.activation_margin, np.full(len(self.nlp.hand.fingers), self.settings.pad_angle_max_deg)
@@ -226,7 +226,7 @@ class SolverContext:
         else:
             self.nlp.initialise(start.palm_rotation, start.palm_position, joints)
         row["placement_seconds"] = placed = time.perf_counter() - began
-        solver = self.first if last or self.retried is None else self.retried
+        solver = self.first if last or self.capped is None else self.capped
         x0 = _values(solver.order)
         seconds, iterations, rounds, whole = placed, 0, 0, 0
         if self.geometric is not None:  # the first iterations without eq. 10, carried into the first model
