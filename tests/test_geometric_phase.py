@@ -21,6 +21,22 @@ def context(tasks):
     return SolverContext(Job(str(DEFAULT_HAND), "configs/objects/tool.yaml", str(tasks), "drawing", solver=solver))
 
 
+def record_solves(monkeypatch, solvers: dict) -> list:
+    """Each named solver's solves, in order, as (name, starting point, result)."""
+    solves: list = []
+
+    def recorded(name, solve):
+        def wrapper(x0, limits=None):
+            solves.append((name, x0.copy(), result := solve(x0, limits)))
+            return result
+
+        return wrapper
+
+    for name, solver in solvers.items():
+        monkeypatch.setattr(solver, "solve", recorded(name, solver.solve))
+    return solves
+
+
 def test_the_geometric_model_is_the_first_without_eq_10(context):
     geometric, first = context.geometric.nlp.model, context.first.nlp.model
     assert len(geometric.eq10_wrench) == len(geometric.eq10_torque) == 0
@@ -35,33 +51,20 @@ def test_the_geometric_model_is_the_first_without_eq_10(context):
 def test_a_start_goes_on_from_the_capped_warm_up_and_counts_its_iterations(context, monkeypatch):
     """The warm-up stops at its cap, the first model starts where it stopped, and the row's iterations and
     seconds are both solves'."""
-    seen: dict = {"later": []}
-    warm, first, whole = context.geometric.solve, context.first.solve, context.whole.solve
-
-    def warm_up(x0, limits=None):
-        seen["warm"] = result = warm(x0, limits)
-        return result
-
-    def first_solve(x0, limits=None):
-        seen.setdefault("x0", x0.copy())
-        seen["later"].append(result := first(x0, limits))
-        return result
-
-    def whole_solve(x0, limits=None):  # an all-axes re-solve or a feedback round, counted in the row too
-        seen["later"].append(result := whole(x0, limits))
-        return result
-
-    monkeypatch.setattr(context.geometric, "solve", warm_up)
-    monkeypatch.setattr(context.first, "solve", first_solve)
-    monkeypatch.setattr(context.whole, "solve", whole_solve)
+    # the whole model's solves (an all-axes re-solve or a feedback round) are counted in the row too
+    solvers = {"warm": context.geometric, "first": context.first, "whole": context.whole}
+    solves = record_solves(monkeypatch, solvers)
     start = subset(make_starts(context.bounds), 12)[0]
     row = context.solve(start)
+    assert solves[0][0] == "warm" and solves[1][0] == "first"
+    later = [result for name, _, result in solves if name != "warm"]
+    seen = {"warm": solves[0][2], "x0": solves[1][1], "later": later}
     assert row["attempts"] == 1  # the fast solver config has no retry postures: one phase, then the first model
     assert seen["warm"].status == "max-iter" and seen["warm"].iterations == 5
     np.testing.assert_array_equal(seen["x0"][context._geometric], seen["warm"].x)
     assert row["iterations"] == 5 + sum(r.iterations for r in seen["later"])
-    solves = seen["warm"].seconds + sum(r.seconds for r in seen["later"])
-    assert solves <= row["seconds"] <= solves + row["placement_seconds"] + 1e-9
+    solve_seconds = seen["warm"].seconds + sum(r.seconds for r in seen["later"])
+    assert solve_seconds <= row["seconds"] <= solve_seconds + row["placement_seconds"] + 1e-9
     assert row["verified"], (row["status"], row.get("verify_failures"))
 
 
@@ -112,18 +115,8 @@ def test_every_attempt_but_the_last_stops_at_the_retry_cap(tasks, monkeypatch):
     assert context.size["retry_after_iterations"] == 3
     # the capped solver shares the first model's NLP and variables: only its IPOPT instance differs
     assert context.capped.nlp is context.first.nlp and context.capped.backend is not context.first.backend
-    solves = []
-
-    def recorded(name, solve):
-        def wrapper(x0, limits=None):
-            solves.append((name, result := solve(x0, limits)))
-            return result
-
-        return wrapper
-
-    for name in ("capped", "first"):
-        monkeypatch.setattr(getattr(context, name), "solve", recorded(name, getattr(context, name).solve))
+    solves = record_solves(monkeypatch, {"capped": context.capped, "first": context.first})
     row = context.solve(subset(make_starts(context.bounds), 12)[1])
-    assert [name for name, _ in solves] == ["capped", "first"] and row["attempts"] == 2
-    assert solves[0][1].status == "max-iter" and solves[0][1].iterations == 3
-    assert solves[1][1].iterations > 3
+    assert [name for name, _, _ in solves] == ["capped", "first"] and row["attempts"] == 2
+    assert solves[0][2].status == "max-iter" and solves[0][2].iterations == 3
+    assert solves[1][2].iterations > 3
