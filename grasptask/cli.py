@@ -389,13 +389,52 @@ def verify_command(solutions, tasks_path, task, out, hand, object_path, grasp_co
 @_physics_config_option("Scene, controller, protocol and pass thresholds (YAML).")
 @click.option("--workers", type=click.IntRange(min=1), default=1, show_default=True, help="Simulation processes.")
 @_fingers_option("the sweep's")
-def physics(solutions, tasks_path, task, out, hand, object_path, grasp_config, physics_config, workers, fingers):
+@click.option(
+    "--controller",
+    type=click.Choice(["grip", "spring"]),
+    default=None,
+    help="grip: contact forces from a QP over MuJoCo's own contacts; spring: a spring on each synthesized pad "
+    "(default: the physics config's, grip).",
+)
+@click.option(
+    "--strength",
+    type=click.FloatRange(min=0, min_open=True),
+    default=1.0,
+    show_default=True,
+    help="The hand's actuators this many times as strong as its model (10: the judge's strong-hand check).",
+)
+@click.option(
+    "--friction-scale",
+    type=click.FloatRange(min=0, min_open=True),
+    default=1.0,
+    show_default=True,
+    help="The friction coefficient this many times the grasp config's.",
+)
+def physics(
+    solutions,
+    tasks_path,
+    task,
+    out,
+    hand,
+    object_path,
+    grasp_config,
+    physics_config,
+    workers,
+    fingers,
+    controller,
+    strength,
+    friction_scale,
+):
     """Hold every solved grasp of SOLUTIONS (solutions.parquet) in MuJoCo against its task's own wrenches, and
-    against DexGraspBench's six forces; writes OUT/physics.parquet (one row per start: pass flags, the
-    object's worst translation and rotation, the wrench that failed) and OUT/physics_summary.json (pass rates
-    and the 2x2 agreement with the analytic verifier)."""
+    against DexGraspBench's six forces. A URDF or MJCF hand is simulated from its own file. Writes
+    OUT/physics.parquet (one row per start: pass flags, the object's worst translation and rotation, the wrench
+    that failed, the peak activation, the friction used and the hand's penetration) and
+    OUT/physics_summary.json (pass rates and the 2x2 agreement with the analytic verifier)."""
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-    inputs = stages.PhysicsInputs(solutions, tasks_path, task, hand, object_path, grasp_config, physics_config, fingers)
+    inputs = stages.PhysicsInputs(
+        solutions, tasks_path, task, hand, object_path, grasp_config, physics_config, fingers, controller, strength,
+        friction_scale,
+    )  # fmt: skip
     stages.run_physics(inputs, out, workers, echo=click.echo)
     click.echo(f"wrote {out}/physics.parquet, physics_summary.json")
 

@@ -30,8 +30,8 @@ def _frame(position: np.ndarray, quaternion: np.ndarray | None = None) -> np.nda
     return frame
 
 
-def _compile(source: Path):
-    """The compiled model, without the visual-only geoms and the assets only they need."""
+def visual_free_spec(source: Path):
+    """The file's ``MjSpec`` without the visual-only geoms and the assets only they need."""
     import mujoco
 
     try:
@@ -51,8 +51,13 @@ def _compile(source: Path):
         spec.delete(texture)
     for material in list(spec.materials):
         material.textures = [""] * len(material.textures)
+    return spec
+
+
+def _compile(source: Path):
+    """The compiled model, without the visual-only geoms and the assets only they need."""
     try:
-        return spec.compile()
+        return visual_free_spec(source).compile()
     except ValueError as exc:
         raise BadInputError(source, f"MuJoCo cannot compile it: {str(exc).strip()}") from exc
 

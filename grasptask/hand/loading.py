@@ -11,6 +11,7 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -112,15 +113,7 @@ def _with_model(data: dict, source: Path) -> Hand:
     sources = data.get("sources") or {}
     if not isinstance(sources, dict):
         raise BadInputError(source, "field 'sources' must map what to where it came from")
-    return Hand(
-        hand.name,
-        hand.fingers,
-        hand.palm,
-        hand.grasping,
-        hand.capability,
-        {str(k): str(v) for k, v in sources.items()},
-        hand.approach,
-    )
+    return replace(hand, sources={str(k): str(v) for k, v in sources.items()})
 
 
 def load_hand(path: str | Path = DEFAULT_HAND) -> Hand:

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 from dataclasses import dataclass, field, replace
+from pathlib import Path
 
 import numpy as np
 
@@ -147,6 +148,10 @@ class Hand:
     sources: dict[str, str] = field(default_factory=dict)
     #: the approach frame in the palm frame (z towards the object, as the starts' palm normal); None: the palm's
     approach: np.ndarray | None = None
+    #: the URDF or MJCF file the hand was read from, and its palm link: the physics check simulates that file's
+    #: own geometry (None: the project's own model, as for the human hand)
+    model_file: Path | None = None
+    palm_link: str | None = None
 
     @property
     def joint_names(self) -> list[str]:
@@ -174,7 +179,7 @@ class Hand:
         columns = [c for n in names for c in range(slices[n].start, slices[n].stop)]
         fingers = {n: self.fingers[n] for n in names}
         capability = self.capability.subset(columns)
-        return Hand(self.name, fingers, self.palm, tuple(names), capability, self.sources, self.approach)
+        return replace(self, fingers=fingers, grasping=tuple(names), capability=capability)
 
     def with_grasping(self, names: Iterable[str]) -> Hand:
         """The same hand grasping with the fingers ``names`` (``KeyError`` naming one it does not have)."""

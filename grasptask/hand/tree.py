@@ -371,4 +371,13 @@ def hand_from_tree(tree: Tree, source: Path, options: HandOptions = HandOptions(
             known = ", ".join(fingers)
             raise BadInputError(source, f"grasping finger '{finger}' is not a finger of this hand ({known})")
     approach = _approach(fingers, options)
-    return Hand(options.name or source.stem, fingers, palm_model, grasping, capability, approach=approach)
+    return Hand(
+        options.name or source.stem,
+        fingers,
+        palm_model,
+        grasping,
+        capability,
+        approach=approach,
+        model_file=source.resolve(),
+        palm_link=palm,
+    )

@@ -1,4 +1,4 @@
-"""The physics check (issue 18): a second judge, separate from the analytic verifier, that holds each grasp in
+"""The physics check: a second judge, separate from the analytic verifier, that holds each grasp in
 MuJoCo against its own task's wrenches."""
 
 from grasptask.physics.protocol import PhysicsResult, check_grasp, hold_grasp

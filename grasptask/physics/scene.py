@@ -1,6 +1,11 @@
-"""The MuJoCo scene of one grasp: the hand welded to the world at its palm pose, built with ``MjSpec`` from the
-project's own kinematic chains and collision spheres, its tendons or motors as MuJoCo actuators, and the object
-a free body of convex parts in the object (task) frame, which is the world frame at the start."""
+"""The MuJoCo scene of one grasp: the hand welded to the world at its palm pose, its tendons or motors as MuJoCo
+actuators, and the object a free body of convex parts in the object (task) frame, which is the world frame at
+the start.
+
+A hand read from a URDF or MJCF file is simulated from that file, with its own collision geometry, joint limits
+and couplings (:mod:`grasptask.physics.hand_file`). The human hand, which has no file, is built from the
+project's kinematic chains and collision spheres, with a pad sphere on each fingertip touching the synthesized
+contact: the soft pulp the grasp presses with."""
 
 from __future__ import annotations
 
@@ -15,10 +20,11 @@ from grasptask.hand.kinematics import forward
 from grasptask.hand.model import Hand
 from grasptask.objects.mesh_object import MeshObject
 from grasptask.objects.surface import ImplicitObject
+from grasptask.physics.hand_file import file_hand_spec
 from grasptask.physics.settings import PhysicsSettings
 
 #: contype / conaffinity bits: hand geoms touch the object only, never each other
-_HAND, _OBJECT = 2, 1
+HAND_BIT, OBJECT_BIT = 2, 1
 #: a mesh counts as convex when its hull adds less than this fraction to its volume
 CONVEX_VOLUME_EXCESS = 0.02
 #: triangles of a formula object's surface for MuJoCo. At 4,000 the paper's cylinder's facets were up to 11 degrees
@@ -27,8 +33,11 @@ CONVEX_VOLUME_EXCESS = 0.02
 PICTURE_FACES = 40_000
 #: the contacts' time constant (MuJoCo's solref[0]), at least twice the timestep
 CONTACT_TIME_CONSTANT_S = 0.004
-#: every finger link's mass and inertia: a phalanx's order of magnitude, small beside the joints' armature
+#: every finger link's mass and inertia in the project's model: a phalanx's order of magnitude, small beside the
+#: joints' armature
 LINK_MASS_KG, LINK_INERTIA_KG_M2 = 0.01, 1e-6
+#: the project's model names its joints ``hand/<joint>``; a hand file's keep the file's names
+PROJECT_PREFIX = "hand/"
 
 
 @dataclass(frozen=True)
@@ -41,43 +50,59 @@ class ObjectBody:
 
 @dataclass(frozen=True)
 class Scene:
-    """A compiled scene and where its pieces are: the hand's joint addresses in ``hand.joint_names`` order,
-    the object's free joint, and the joint torques each actuator gives at full activation (``T^T A``)."""
+    """A compiled scene and where its pieces are: the hand's joint addresses in ``hand.joint_names`` order, the
+    object's free joint, the force capability (``T tau = A a``, times the scene's strength) and ``T^T A``, the
+    joint torques each actuator gives at full activation; each grasping finger's pad (a point fixed in the body
+    of its last joint) and the synthesized contact it was placed at."""
 
     model: mujoco.MjModel
     hand_qpos: np.ndarray
     hand_dof: np.ndarray
     object_body: int
     object_qpos: int
-    actuation: np.ndarray  # (joints, actuators)
+    transmission: np.ndarray  # T (rows x joints)
+    torque_map: np.ndarray  # A (rows x actuators)
+    actuation: np.ndarray  # T^T A (joints x actuators)
+    motors: bool  # each actuator a motor pushing both ways, as [E, -E]
     posture: np.ndarray  # the synthesized joint angles
-    pad_sites: np.ndarray  # a site at each pad's contact point
+    pad_bodies: np.ndarray  # (b,) body ids
+    pad_points: np.ndarray  # (b, 3) in those bodies' frames
     contacts: np.ndarray  # (b, 3) the synthesized contacts, object frame
     normals: np.ndarray  # (b, 3) the object's outward normals there
     friction: float
+    hand_geoms: np.ndarray  # (ngeom,) bool: a geom of the hand that touches the object
+    finger_of_body: np.ndarray  # (nbody,) the grasping finger whose joints move the body, -1 for none
+    from_file: bool  # the hand's own file, not the project's model
+
+    @property
+    def finger_count(self) -> int:
+        return len(self.pad_bodies)
+
+
+def convex_parts(mesh: trimesh.Trimesh) -> tuple[trimesh.Trimesh, ...]:
+    """``mesh``'s hull when it is convex, else a CoACD decomposition's hulls."""
+    hull = mesh.convex_hull
+    if hull.volume <= (1 + CONVEX_VOLUME_EXCESS) * abs(mesh.volume):
+        return (hull,)
+    import coacd  # heavy, and needed for non-convex objects only
+
+    coacd.set_log_level("error")
+    pieces = coacd.run_coacd(coacd.Mesh(mesh.vertices, mesh.faces), threshold=0.05, seed=0)
+    return tuple(trimesh.Trimesh(v, f).convex_hull for v, f in pieces)
 
 
 def object_body(obj: ImplicitObject, settings: PhysicsSettings) -> ObjectBody:
-    """``obj``'s convex parts: its hull when it is convex, else a CoACD decomposition of its mesh."""
+    """``obj``'s convex parts and mass."""
     if isinstance(obj, MeshObject):
         mesh = obj.mesh
     else:  # marching cubes cuts inside the surface by up to its spacing: its vertices moved onto g = 0
         mesh = obj.picture(PICTURE_FACES)
         mesh = trimesh.Trimesh(obj.project(mesh.vertices), mesh.faces)
-    hull = mesh.convex_hull
-    if hull.volume <= (1 + CONVEX_VOLUME_EXCESS) * abs(mesh.volume):
-        parts: tuple[trimesh.Trimesh, ...] = (hull,)
-    else:
-        import coacd
-
-        coacd.set_log_level("error")
-        pieces = coacd.run_coacd(coacd.Mesh(mesh.vertices, mesh.faces), threshold=0.05, seed=0)
-        parts = tuple(trimesh.Trimesh(v, f).convex_hull for v, f in pieces)
     mass = getattr(obj, "mass_kg", None) or settings.object_mass_kg
-    return ObjectBody(parts, float(mass))
+    return ObjectBody(convex_parts(mesh), float(mass))
 
 
-def _quaternion(rotation: np.ndarray) -> np.ndarray:
+def quaternion(rotation: np.ndarray) -> np.ndarray:
     quat = np.zeros(4)
     mujoco.mju_mat2Quat(quat, np.ascontiguousarray(rotation, dtype=float).reshape(9))
     return quat
@@ -86,97 +111,81 @@ def _quaternion(rotation: np.ndarray) -> np.ndarray:
 def _collider(body, size: float, pos: np.ndarray, friction: list[float]) -> None:
     """A hand sphere, which touches the object only."""
     body.add_geom(
-        type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[size, 0, 0], pos=pos, contype=_HAND, conaffinity=_OBJECT,
+        type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[size, 0, 0], pos=pos, contype=HAND_BIT, conaffinity=OBJECT_BIT,
         condim=4, friction=friction,
     )  # fmt: skip
 
 
-@dataclass(frozen=True)
-class Pad:
-    """A fingertip pad at the synthesized grasp: a sphere of the finger's radius touching the object at the
-    contact, its centre on the object's outward normal there, and the contact point, both in the last link's
-    frame; and the contact and outward normal in the object frame. The hand's collision spheres sample the
-    links' inside and stop millimetres short of the pad, which is the skin the grasp presses with."""
-
-    centre: np.ndarray
-    point: np.ndarray
-    contact: np.ndarray
-    normal: np.ndarray
-
-
-def pads(hand: Hand, obj: ImplicitObject, grasp: Grasp) -> dict[str, Pad]:
-    """Each grasping finger's :class:`Pad`, from the hand's kinematics and the object's own normals (not the
-    NLP's)."""
+def pad_contacts(hand: Hand, obj: ImplicitObject, grasp: Grasp) -> tuple[np.ndarray, np.ndarray]:
+    """Each grasping finger's synthesized contact and the object's own outward normal there (not the NLP's)."""
     pose = forward(hand, grasp.joint_angles, grasp.palm_rotation, grasp.palm_position)
-    out = {}
-    for (name, finger), placed in zip(hand.fingers.items(), pose.fingers.values(), strict=True):
-        contact = placed.contact[0]
-        _, normal = obj.closest_point(contact)
-        rotation, origin = placed.link_rotations[0, -1], placed.joint_positions[0, finger.n_joints - 1]
-        centre = rotation.T @ (contact + finger.radius * normal[0] - origin)
-        out[name] = Pad(centre, rotation.T @ (contact - origin), contact, normal[0])
-    return out
+    contacts = np.array([placed.contact[0] for placed in pose.fingers.values()])
+    _, normals = obj.closest_point(contacts)
+    return contacts, np.asarray(normals, dtype=float)
 
 
-def _add_hand(
-    spec: mujoco.MjSpec, hand: Hand, grasp: Grasp, pads: dict[str, Pad], settings: PhysicsSettings, friction: list
+def _add_project_hand(
+    spec: mujoco.MjSpec, hand: Hand, grasp: Grasp, contacts: np.ndarray, normals: np.ndarray, settings, friction
 ) -> None:
     """The palm welded to the world at ``(R_h, d_h)``; each finger a chain of hinge bodies, as in
     :func:`grasptask.hand.kinematics.finger_forward` (a joint's body sits at its offset, turned by its fixed
-    rotation, and turns about its axis), its last link carrying the pad."""
-    palm = spec.worldbody.add_body(name="palm", pos=grasp.palm_position, quat=_quaternion(grasp.palm_rotation))
+    rotation, and turns about its axis), its last link carrying a pad sphere of the finger's radius touching the
+    object at the contact, its centre on the object's outward normal there. The collision spheres sample the
+    links' inside and stop millimetres short of the pad, which is the skin the grasp presses with."""
+    pose = forward(hand, grasp.joint_angles, grasp.palm_rotation, grasp.palm_position)
+    palm = spec.worldbody.add_body(name="palm", pos=grasp.palm_position, quat=quaternion(grasp.palm_rotation))
     for point, radius in zip(hand.palm.points, hand.palm.radii, strict=True):
         _collider(palm, float(radius), point, friction)
-    for name, finger in hand.fingers.items():
+    for f, (finger, placed) in enumerate(zip(hand.fingers.values(), pose.fingers.values(), strict=True)):
         parent = palm
         for k, joint in enumerate(finger.joints):
-            quat = [1.0, 0, 0, 0] if joint.rotation is None else _quaternion(joint.rotation)
+            quat = [1.0, 0, 0, 0] if joint.rotation is None else quaternion(joint.rotation)
             body = parent.add_body(name=f"link/{joint.name}", pos=joint.offset, quat=quat)
             # a phalanx's own inertia, stated rather than taken from the spheres (a link may carry none)
             body.explicitinertial, body.mass, body.inertia = True, LINK_MASS_KG, [LINK_INERTIA_KG_M2] * 3
             body.add_joint(
-                name=f"hand/{joint.name}", type=mujoco.mjtJoint.mjJNT_HINGE, axis=joint.axis,
+                name=f"{PROJECT_PREFIX}{joint.name}", type=mujoco.mjtJoint.mjJNT_HINGE, axis=joint.axis,
                 range=[joint.lower, joint.upper], armature=settings.armature_kg_m2,
             )  # fmt: skip
             for sphere in finger.spheres:
                 if sphere.link == k:
                     _collider(body, sphere.radius, sphere.center, friction)
             parent = body
-        _collider(parent, finger.radius, pads[name].centre, friction)
-        parent.add_site(name=f"pad/{name}", pos=pads[name].point)
+        rotation, origin = placed.link_rotations[0, -1], placed.joint_positions[0, finger.n_joints - 1]
+        _collider(parent, finger.radius, rotation.T @ (contacts[f] + finger.radius * normals[f] - origin), friction)
     names = hand.joint_names
     for dependent, independent, ratio, offset in hand.couplings():
         spec.add_equality(
-            type=mujoco.mjtEq.mjEQ_JOINT, name1=f"hand/{names[dependent]}", name2=f"hand/{names[independent]}",
-            data=[offset, ratio] + [0.0] * 10,
+            type=mujoco.mjtEq.mjEQ_JOINT, name1=f"{PROJECT_PREFIX}{names[dependent]}",
+            name2=f"{PROJECT_PREFIX}{names[independent]}", data=[offset, ratio] + [0.0] * 10,
         )  # fmt: skip
 
 
-def actuation_matrix(hand: Hand) -> np.ndarray:
-    """The joint torques of each actuator at full activation, ``T^T A`` of :class:`Capability` (``T tau = A a``):
-    a tendon's moment arms times its maximal force, a motor's effort on the joints its transmission drives."""
-    capability = hand.capability
-    return capability.transmission.T @ capability.torque_map
-
-
-def _add_actuators(spec: mujoco.MjSpec, hand: Hand, actuation: np.ndarray) -> None:
+def _add_actuators(spec: mujoco.MjSpec, joints: list[str], actuation: np.ndarray) -> None:
     """One fixed tendon per actuator, its coefficients a column of ``actuation``, driven with a control in
     [0, 1] at unit gain: MuJoCo then applies exactly ``actuation @ ctrl`` to the joints."""
-    names = hand.joint_names
     for q in range(actuation.shape[1]):
         tendon = spec.add_tendon(name=f"actuator/{q}")
         for k in np.flatnonzero(actuation[:, q]):
-            tendon.wrap_joint(f"hand/{names[k]}", float(actuation[k, q]))
+            tendon.wrap_joint(joints[k], float(actuation[k, q]))
         spec.add_actuator(
             name=f"actuator/{q}", trntype=mujoco.mjtTrn.mjTRN_TENDON, target=f"actuator/{q}", ctrlrange=[0, 1]
         )
 
 
-def build_scene(
-    hand: Hand, obj: ImplicitObject, body: ObjectBody, grasp: Grasp, friction: float, settings: PhysicsSettings
-) -> Scene:
-    """The scene of ``grasp`` by ``hand`` (its grasping fingers only, as the NLP sees it) on ``obj``."""
-    spec = mujoco.MjSpec()
+def _add_object(spec: mujoco.MjSpec, body: ObjectBody, friction: list[float]) -> None:
+    target = spec.worldbody.add_body(name="object")
+    target.add_freejoint(name="object")
+    volumes = np.array([part.volume for part in body.parts])
+    for k, part in enumerate(body.parts):
+        spec.add_mesh(name=f"object/part/{k}", uservert=part.vertices.ravel(), userface=part.faces.ravel())
+        target.add_geom(
+            type=mujoco.mjtGeom.mjGEOM_MESH, meshname=f"object/part/{k}", contype=OBJECT_BIT, conaffinity=HAND_BIT,
+            condim=4, friction=friction, mass=body.mass_kg * volumes[k] / volumes.sum(),
+        )  # fmt: skip
+
+
+def _configure(spec: mujoco.MjSpec, settings: PhysicsSettings) -> mujoco.MjSpec:
     spec.modelname = "grasp"
     spec.compiler.degree = False  # joint ranges in radians, as the hand model has them
     spec.option.timestep = settings.timestep_s
@@ -187,33 +196,79 @@ def build_scene(
     # contacts stiffer than MuJoCo's default (20 ms, about 1 mm of penetration per newton here): a fingertip
     # pad yields a fraction of a millimetre, and the grip the controller adds must reach the contact
     spec.default.geom.solref = [CONTACT_TIME_CONSTANT_S, 1.0]
+    return spec
+
+
+def _fingers_of_bodies(model: mujoco.MjModel, first_joints: list[int]) -> np.ndarray:
+    """Each body's grasping finger: the one whose first joint's body it hangs from (-1: the palm, the object)."""
+    owner = np.full(model.nbody, -1)
+    roots = {int(model.jnt_bodyid[j]): f for f, j in enumerate(first_joints)}
+    for b in range(1, model.nbody):  # parents come before their children
+        owner[b] = roots.get(b, owner[model.body_parentid[b]])
+    return owner
+
+
+def build_scene(
+    hand: Hand,
+    obj: ImplicitObject,
+    body: ObjectBody,
+    grasp: Grasp,
+    friction: float,
+    settings: PhysicsSettings,
+    strength: float = 1.0,
+) -> Scene:
+    """The scene of ``grasp`` by ``hand`` (its grasping fingers only, as the NLP sees it) on ``obj``, the hand's
+    actuators ``strength`` times as strong as the hand model's."""
     contact = [friction, settings.torsional_friction_m, 0.0]
-    target = spec.worldbody.add_body(name="object")
-    target.add_freejoint(name="object")
-    volumes = np.array([part.volume for part in body.parts])
-    for k, part in enumerate(body.parts):
-        spec.add_mesh(name=f"part/{k}", uservert=part.vertices.ravel(), userface=part.faces.ravel())
-        target.add_geom(
-            type=mujoco.mjtGeom.mjGEOM_MESH, meshname=f"part/{k}", contype=_OBJECT, conaffinity=_HAND, condim=4,
-            friction=contact, mass=body.mass_kg * volumes[k] / volumes.sum(),
-        )  # fmt: skip
-    placed = pads(hand, obj, grasp)
-    _add_hand(spec, hand, grasp, placed, settings, contact)
-    actuation = actuation_matrix(hand)
-    _add_actuators(spec, hand, actuation)
-    model = spec.compile()
-    joints = [model.joint(f"hand/{name}").id for name in hand.joint_names]
-    free = model.joint("object").id
+    contacts, normals = pad_contacts(hand, obj, grasp)
+    if hand.model_file is not None:
+        solref = [CONTACT_TIME_CONSTANT_S, 1.0]
+        spec = _configure(file_hand_spec(hand, grasp, settings, contact, solref, (HAND_BIT, OBJECT_BIT)), settings)
+        source, prefix = hand.model_file, ""
+    else:
+        spec = _configure(mujoco.MjSpec(), settings)
+        _add_project_hand(spec, hand, grasp, contacts, normals, settings, contact)
+        source, prefix = None, PROJECT_PREFIX
+    _add_object(spec, body, contact)
+    capability = hand.capability
+    transmission, torque_map = capability.transmission, strength * capability.torque_map
+    actuation = transmission.T @ torque_map
+    joints = [prefix + name for name in hand.joint_names]
+    _add_actuators(spec, joints, actuation)
+    try:
+        model = spec.compile()
+    except ValueError as exc:
+        from grasptask.errors import BadInputError
+
+        raise BadInputError(source or "physics scene", f"MuJoCo cannot compile it: {str(exc).strip()}") from exc
+    ids = [model.joint(name).id for name in joints]
+    posture = np.asarray(grasp.joint_angles, dtype=float)
+    data = mujoco.MjData(model)
+    data.qpos[model.jnt_qposadr[ids]] = posture
+    mujoco.mj_kinematics(model, data)
+    last = [model.joint(prefix + f.joints[-1].name).id for f in hand.fingers.values()]
+    first = [model.joint(prefix + f.joints[0].name).id for f in hand.fingers.values()]
+    pad_bodies = model.jnt_bodyid[last].copy()
+    pad_points = np.einsum("bji,bj->bi", data.xmat[pad_bodies].reshape(-1, 3, 3), contacts - data.xpos[pad_bodies])
+    object_id = model.body("object").id
+    hand_geoms = (model.geom_bodyid != object_id) & ((model.geom_contype | model.geom_conaffinity) != 0)
     return Scene(
         model=model,
-        hand_qpos=model.jnt_qposadr[joints].copy(),
-        hand_dof=model.jnt_dofadr[joints].copy(),
-        object_body=model.body("object").id,
-        object_qpos=int(model.jnt_qposadr[free]),
+        hand_qpos=model.jnt_qposadr[ids].copy(),
+        hand_dof=model.jnt_dofadr[ids].copy(),
+        object_body=object_id,
+        object_qpos=int(model.jnt_qposadr[model.joint("object").id]),
+        transmission=transmission,
+        torque_map=torque_map,
         actuation=actuation,
-        posture=np.asarray(grasp.joint_angles, dtype=float),
-        pad_sites=np.array([model.site(f"pad/{name}").id for name in hand.fingers]),
-        contacts=np.array([p.contact for p in placed.values()]),
-        normals=np.array([p.normal for p in placed.values()]),
+        motors=capability.kind == "motors",
+        posture=posture,
+        pad_bodies=pad_bodies,
+        pad_points=pad_points,
+        contacts=contacts,
+        normals=normals,
         friction=friction,
+        hand_geoms=hand_geoms,
+        finger_of_body=_fingers_of_bodies(model, first),
+        from_file=hand.model_file is not None,
     )

@@ -42,6 +42,11 @@ class PhysicsInputs:
     grasp_config: Path | None = None
     physics_config: Path = DEFAULT_PHYSICS_CONFIG
     fingers: tuple[str, ...] | None = None
+    #: None: the physics config's controller
+    controller: str | None = None
+    #: the hand's actuators and the friction coefficient this many times the models' (the judge's own checks)
+    strength: float = 1.0
+    friction_scale: float = 1.0
 
     def resolved(self) -> PhysicsInputs:
         from grasptask.stages.verify import SweepFiles
@@ -70,6 +75,8 @@ class Judge:
     friction: float
     settings: PhysicsSettings
     body: ObjectBody
+    #: the hand's actuators this many times as strong as its model (the judge's validity protocol)
+    strength: float = 1.0
 
     @classmethod
     def of(cls, solved: SolvedGrasps, task: TaskModel, object_path: Path, grasp_config: Path, physics: Path) -> Judge:
@@ -91,13 +98,29 @@ class Judge:
         model = load_task_model(inputs.tasks, inputs.task)
         assert inputs.hand is not None and inputs.object is not None and inputs.grasp_config is not None
         solved = read_grasps(inputs.solutions, inputs.hand, inputs.fingers)
-        return cls.of(solved, model, inputs.object, inputs.grasp_config, inputs.physics_config)
+        judge = cls.of(solved, model, inputs.object, inputs.grasp_config, inputs.physics_config)
+        controller = inputs.controller or judge.settings.controller
+        settings = replace(judge.settings, controller=controller)
+        judge = replace(
+            judge, settings=settings, strength=inputs.strength, friction=judge.friction * inputs.friction_scale
+        )
+        judge.check_scene()
+        return judge
+
+    def check_scene(self) -> None:
+        """Build the first solved grasp's scene, so that a hand file MuJoCo cannot compile is one line here,
+        before any worker starts."""
+        from grasptask.physics.scene import build_scene
+
+        grasp = next((grasp for _, grasp in self.solved.rows if grasp is not None), None)
+        if grasp is not None:
+            build_scene(self.solved.hand, self.obj, self.body, grasp, self.friction, self.settings, self.strength)
 
     def hold(self, grasp: Grasp, trace: bool = False) -> PhysicsResult:
         from grasptask.physics.protocol import hold_grasp
 
         hand, obj, body = self.solved.hand, self.obj, self.body
-        return hold_grasp(hand, obj, body, grasp, self.friction, self.task, self.settings, trace)
+        return hold_grasp(hand, obj, body, grasp, self.friction, self.task, self.settings, trace, self.strength)
 
     def check(self, index: int) -> dict[str, Any]:
         row, grasp = self.solved.rows[index]
@@ -225,6 +248,8 @@ def run_physics(
     inputs = inputs.resolved()
     if workers < 1:
         raise BadInputError("physics", "--workers must be at least 1")
+    if inputs.strength <= 0 or inputs.friction_scale <= 0:
+        raise BadInputError("physics", "--strength and --friction-scale must be positive")
     judge = Judge.for_inputs(inputs)  # every input checked here, before any work
     indices = list(range(len(judge.solved.rows)))
     counts = {"held": 0, "dropped": 0}
@@ -243,7 +268,13 @@ def run_physics(
     table = pd.DataFrame(records)
     trace = best_grasp_trace(judge)
     files = [inputs.solutions, inputs.tasks, inputs.hand, inputs.object, inputs.grasp_config, inputs.physics_config]
-    provenance = Provenance.of("physics", {"task": inputs.task}, [f for f in files if f is not None])
+    parameters = {
+        "task": inputs.task,
+        "controller": judge.settings.controller,
+        "strength": inputs.strength,
+        "friction_scale": inputs.friction_scale,
+    }
+    provenance = Provenance.of("physics", parameters, [f for f in files if f is not None])
     with StagedOutput(out, provenance) as staged:
         result = write_physics_results(staged, table, inputs.task, judge.settings, trace)
     echo(physics_line(result))
