@@ -28,6 +28,14 @@ from grasptask.physics.settings import PhysicsSettings
 BOUND_MASS_KG, BOUND_INERTIA_KG_M2 = 1e-3, 1e-7
 
 
+def compile_spec(spec: mujoco.MjSpec, source: Path | str) -> mujoco.MjModel:
+    """``spec`` compiled; MuJoCo's refusal is one line naming ``source``."""
+    try:
+        return spec.compile()
+    except ValueError as exc:
+        raise BadInputError(source, f"MuJoCo cannot compile it: {' '.join(str(exc).split())}") from exc
+
+
 def _urdf_spec(source: Path) -> mujoco.MjSpec:
     """A URDF through MuJoCo's parser: visuals dropped, fixed links kept as bodies (the palm link must stay
     one), collision meshes found where the hand loader finds them."""
@@ -45,7 +53,7 @@ def _urdf_spec(source: Path) -> mujoco.MjSpec:
     try:
         return mujoco.MjSpec.from_string(etree.tostring(root, encoding="unicode"))
     except ValueError as exc:
-        raise BadInputError(source, f"MuJoCo cannot read it: {str(exc).strip()}") from exc
+        raise BadInputError(source, f"MuJoCo cannot read it: {' '.join(str(exc).split())}") from exc
 
 
 def _convex_meshes(spec: mujoco.MjSpec, source: Path) -> None:
@@ -123,7 +131,7 @@ def _palm_in_root(source: Path, stamp: float, palm: str) -> tuple[np.ndarray, np
     """The palm's rotation and position in the frame of the world's child that holds it, at the joints' zero."""
     spec = _prepared(source, stamp).copy()
     _place(_root_of(spec, palm, source), np.eye(3), np.zeros(3))
-    model = spec.compile()
+    model = compile_spec(spec, source)
     data = mujoco.MjData(model)
     mujoco.mj_kinematics(model, data)
     b = model.body(palm).id

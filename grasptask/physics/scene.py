@@ -20,7 +20,7 @@ from grasptask.hand.kinematics import forward
 from grasptask.hand.model import Hand
 from grasptask.objects.mesh_object import MeshObject
 from grasptask.objects.surface import ImplicitObject
-from grasptask.physics.hand_file import file_hand_spec
+from grasptask.physics.hand_file import compile_spec, file_hand_spec
 from grasptask.physics.settings import PhysicsSettings
 
 #: contype / conaffinity bits: hand geoms touch the object only, never each other
@@ -235,12 +235,7 @@ def build_scene(
     actuation = transmission.T @ torque_map
     joints = [prefix + name for name in hand.joint_names]
     _add_actuators(spec, joints, actuation)
-    try:
-        model = spec.compile()
-    except ValueError as exc:
-        from grasptask.errors import BadInputError
-
-        raise BadInputError(source or "physics scene", f"MuJoCo cannot compile it: {str(exc).strip()}") from exc
+    model = compile_spec(spec, source or "physics scene")
     ids = [model.joint(name).id for name in joints]
     posture = np.asarray(grasp.joint_angles, dtype=float)
     data = mujoco.MjData(model)

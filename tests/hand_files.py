@@ -1,0 +1,70 @@
+"""Hand files laid out as people publish them, built in the tests: a URDF whose links are STL meshes found
+through ``package://`` paths, with joints named by number."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import trimesh
+
+#: the ball the gripper's three tips touch at its zero posture, centred above the palm
+GRIPPER_BALL_RADIUS_M = 0.02
+TIP_RADIUS_M = 0.01
+LINKS_M = (0.07, 0.04)
+
+
+def ball_centre() -> np.ndarray:
+    return np.array([0.0, 0.0, sum(LINKS_M)])
+
+
+def write_mesh_gripper(root: Path, effort_nm: float = 2.0, inertia: str | None = None) -> Path:
+    """A three-finger gripper as a ROS package under ``root``: ``gripper/urdf/gripper.urdf`` and its meshes in
+    ``gripper/meshes``. Each finger rises from the palm 3 cm off its axis, two links (STL boxes) and a sphere
+    tip; at zero posture the tips touch a 2 cm ball centred :func:`ball_centre` above the palm, and the joints
+    (named "0" to "5") close them towards it. ``inertia`` replaces the first link's inertial element."""
+    package = root / "gripper"
+    (package / "meshes").mkdir(parents=True, exist_ok=True)
+    (package / "urdf").mkdir(parents=True, exist_ok=True)
+    trimesh.creation.cylinder(radius=0.025, height=0.01).export(package / "meshes" / "palm.stl")
+    for k, length in enumerate(LINKS_M):
+        box = trimesh.creation.box([0.012, 0.012, length])
+        box.apply_translation([0.0, 0.0, length / 2])
+        box.export(package / "meshes" / f"link{k}.stl")
+    links = ['<link name="palm"><collision><geometry><mesh filename="package://gripper/meshes/palm.stl"/>'
+             "</geometry></collision></link>"]  # fmt: skip
+    joints = []
+    for f in range(3):
+        angle = 2 * np.pi * f / 3
+        radial = np.array([np.cos(angle), np.sin(angle), 0.0])
+        parent = "palm"
+        for k in range(len(LINKS_M)):
+            name = f"finger{f}_link{k}"
+            inertial = inertia if (inertia is not None and f == 0 and k == 0) else ""
+            links.append(
+                f'<link name="{name}">{inertial}<collision><geometry>'
+                f'<mesh filename="package://gripper/meshes/link{k}.stl"/></geometry></collision></link>'
+            )
+            origin = (
+                f'xyz="{0.03 * radial[0]:.6f} {0.03 * radial[1]:.6f} 0" rpy="0 0 {angle:.6f}"'
+                if k == 0
+                else f'xyz="0 0 {LINKS_M[0]}"'
+            )
+            # about the finger's own y axis: a positive angle tips the finger's top towards -x (the axis)
+            joints.append(
+                f'<joint name="{2 * f + k}" type="revolute"><parent link="{parent}"/><child link="{name}"/>'
+                f'<origin {origin}/><axis xyz="0 -1 0"/>'
+                f'<limit lower="-0.4" upper="0.4" effort="{effort_nm}" velocity="2"/></joint>'
+            )
+            parent = name
+        links.append(
+            f'<link name="finger{f}_tip"><collision><geometry><sphere radius="{TIP_RADIUS_M}"/></geometry>'
+            "</collision></link>"
+        )
+        joints.append(
+            f'<joint name="finger{f}_tip_joint" type="fixed"><parent link="{parent}"/>'
+            f'<child link="finger{f}_tip"/><origin xyz="0 0 {LINKS_M[1]}"/></joint>'
+        )
+    path = package / "urdf" / "gripper.urdf"
+    path.write_text('<?xml version="1.0"?>\n<robot name="gripper">\n' + "\n".join(links + joints) + "\n</robot>\n")
+    return path
