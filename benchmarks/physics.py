@@ -1,29 +1,50 @@
-"""The physics check (issue 18) over full sweeps: for each hand and task of a folder of kept sweeps (from
-``benchmarks/hands.py --keep DIR``), every solved grasp held in MuJoCo. Per sweep: simulation seconds per grasp
-(median; each worker process is one core), the physics pass rate of the verified grasps beside DexGraspBench's
-test, the 2x2 agreement with the analytic verifier, and which wrenches the dropped verified grasps failed.
+"""The physics judge over full sweeps: for each hand and task of a folder of kept sweeps (from
+``benchmarks/hands.py --keep DIR``), every solved grasp held in MuJoCo four ways, in one run:
 
-    python benchmarks/hands.py --keep DIR [--hands human3,...]      # the sweeps, kept
-    python benchmarks/physics.py --sweeps DIR [--hands human3,...] [--workers 2] [--name NAME]
-    python benchmarks/physics.py --name NAME --table                 # the saved results as a table
+- ``grip``: the grip controller at the hand's real strength and friction (the judge as shipped);
+- ``spring``: the spring controller, the same grasps and scene (the controller the grip one replaced);
+- ``strong``: grip, every actuator 10 times stronger and friction doubled. A grasp with room to spare must hold,
+  so this is the judge's validity figure: at least 95% of the verified grasps. For a robot hand only the grasps
+  whose own geometry sinks at most 1 mm into the object count; the deeper ones are reported apart;
+- ``weak``: grip at 1% of the strength, which must hold none.
 
-Target: at most 1 s of simulation per grasp on one core for the whole protocol. Results are saved after every
-sweep (benchmarks/results/NAME.json), so an interrupted run keeps what it did.
+Per protocol: the pass rate of the verified grasps and the seconds per grasp (median; each worker process is one
+core); for ``grip`` also the 2x2 agreement with the analytic verifier, and the grasps' penetration, peak
+activation and friction use.
+
+    python benchmarks/hands.py --keep DIR --hands human3,allegro,barrett     # the sweeps, kept
+    python benchmarks/physics.py --sweeps DIR [--hands human3,...] [--workers 2]
+    python benchmarks/physics.py --table                                      # the saved results as a table
+
+Targets: strong >= 95% per hand x task, weak 0%, grip's median at most 1.5 s per grasp. Results are saved after
+every sweep (benchmarks/results/physics.json), so an interrupted run keeps what it did.
 """
 
 from __future__ import annotations
 
-import json
 import sys
 import tempfile
 import time
 from pathlib import Path
+
+import numpy as np
+import pandas as pd
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT / "benchmarks"), str(ROOT)]
 from common import print_saved, save, save_and_print, sweep_parser  # noqa: E402
 
 TASKS = ("drawing", "cutting", "screwdriving")
+#: (controller, strength, friction scale) of each protocol
+PROTOCOLS = {
+    "grip": ("grip", 1.0, 1.0),
+    "spring": ("spring", 1.0, 1.0),
+    "strong": ("grip", 10.0, 2.0),
+    "weak": ("grip", 0.01, 1.0),
+}
+#: a robot grasp whose own geometry sinks deeper than this (mm) is reported apart from the strong-hand figure
+PENETRATION_MM = 1.0
+ROBOT_HANDS = ("allegro", "barrett")
 
 
 def sweeps_in(folder: Path, hands: list[str] | None) -> list[tuple[str, str, Path]]:
@@ -40,6 +61,7 @@ def sweeps_in(folder: Path, hands: list[str] | None) -> list[tuple[str, str, Pat
 
 def check_prerequisites(folder: Path | None, hands: list[str] | None) -> list[tuple[str, str, Path]]:
     import mujoco  # noqa: F401
+    import quadprog  # noqa: F401
 
     if folder is None or not folder.is_dir():
         raise SystemExit("--sweeps DIR: a folder of sweeps kept by `python benchmarks/hands.py --keep DIR`")
@@ -51,43 +73,99 @@ def check_prerequisites(folder: Path | None, hands: list[str] | None) -> list[tu
     return found
 
 
+def rate(flags: pd.Series) -> float | None:
+    return float(flags.astype(bool).mean()) if len(flags) else None
+
+
+def figures(table: pd.DataFrame, hand: str, protocol: str, wall_s: float) -> dict:
+    """One protocol's figures over one sweep's verified grasps."""
+    solved = table[table["physics_passed"].notna()]
+    verified = solved[solved["verified"].astype(bool)]
+    out: dict = {
+        "verified": int(len(verified)),
+        "held_of_verified": rate(verified["physics_passed"]),
+        "seconds_per_grasp_median": float(np.median(solved["physics_seconds"])) if len(solved) else None,
+        "wall_s": wall_s,
+    }
+    if protocol == "grip":
+        from grasptask.stages.physics import agreement
+
+        out["agreement"] = agreement(table)
+        out["dexgraspbench_held_of_verified"] = rate(verified["dexgraspbench_passed"])
+        for column in ("physics_initial_penetration_mm", "physics_peak_activation", "physics_friction_use"):
+            values = verified[column].to_numpy(dtype=float)
+            out[f"{column}_median"] = float(np.median(values)) if len(values) else None
+        out["saturated_of_verified"] = rate(verified["physics_saturated"])
+    if protocol == "strong":
+        shallow = verified["physics_initial_penetration_mm"] <= PENETRATION_MM
+        if hand in ROBOT_HANDS:
+            deep = verified[~shallow]
+            out["counted"] = int(shallow.sum())
+            out["held_of_counted"] = rate(verified.loc[shallow, "physics_passed"])
+            out["deeper"] = {
+                "grasps": int(len(deep)),
+                "held": rate(deep["physics_passed"]),
+                "penetration_mm_median": float(deep["physics_initial_penetration_mm"].median()) if len(deep) else None,
+                "penetration_mm_max": float(deep["physics_initial_penetration_mm"].max()) if len(deep) else None,
+            }
+        else:
+            out["counted"], out["held_of_counted"] = int(len(verified)), out["held_of_verified"]
+    return out
+
+
 def main(folder: Path, found: list[tuple[str, str, Path]], workers: int, name: str) -> dict:
     from grasptask.stages import PhysicsInputs, run_physics
 
-    results: dict = {"sweeps": str(folder), "workers": workers, "hands": {}}
+    results: dict = {"sweeps": str(folder), "workers": workers, "protocols": PROTOCOLS, "hands": {}}
+    tasks_file = folder / "tasks" / "task_models.json"
     with tempfile.TemporaryDirectory() as scratch:
         for hand, task, sweep in found:
-            began = time.perf_counter()
-            inputs = PhysicsInputs(sweep / "solutions.parquet", folder / "tasks" / "task_models.json", task)
-            run_physics(inputs, Path(scratch) / hand / task, workers, echo=print)
-            summary = json.loads((Path(scratch) / hand / task / "physics_summary.json").read_text())
-            summary.pop("provenance", None)
-            summary["wall_s"] = time.perf_counter() - began
-            results["hands"].setdefault(hand, {})[task] = summary
-            print(f"{hand} {task}: {summary['seconds_per_grasp_median']:.2f} s per grasp ({summary['wall_s']:.0f} s)")
-            save(name, results)  # partial results survive an interruption
+            entry = results["hands"].setdefault(hand, {}).setdefault(task, {})
+            for protocol, (controller, strength, friction) in PROTOCOLS.items():
+                began = time.perf_counter()
+                out = Path(scratch) / hand / task / protocol
+                inputs = PhysicsInputs(
+                    sweep / "solutions.parquet", tasks_file, task, controller=controller, strength=strength,
+                    friction_scale=friction,
+                )  # fmt: skip
+                table = run_physics(inputs, out, workers, echo=lambda _: None)
+                entry[protocol] = figures(table, hand, protocol, time.perf_counter() - began)
+                shown = entry[protocol]
+                held = "-" if shown["held_of_verified"] is None else f"{shown['held_of_verified']:.0%}"
+                print(
+                    f"{hand} {task} {protocol}: {held} of {shown['verified']} verified held, "
+                    f"{shown['seconds_per_grasp_median']:.2f} s per grasp ({shown['wall_s']:.0f} s)",
+                    flush=True,
+                )
+                save(name, results)  # partial results survive an interruption
     save_and_print(name, results, markdown_table)
     return results
 
 
+def _pct(value: float | None) -> str:
+    return "-" if value is None else f"{value:.0%}"
+
+
 def markdown_table(results: dict) -> str:
     lines = [
-        "| hand | task | verified | held by physics | DexGraspBench's test | verifier x physics (both / only "
-        "verifier / only physics / neither) | s per grasp |",
-        "|---|---|---|---|---|---|---|",
+        "| hand | task | verified | grip | spring | strong (counted) | deeper, strong | weak | s per grasp (grip) |",
+        "|---|---|---|---|---|---|---|---|---|",
     ]
     for hand, tasks in results["hands"].items():
-        for task, s in tasks.items():
-            pair = s["agreement"]
-
-            def pct(value):
-                return "-" if value is None else f"{value:.0%}"
-
+        for task, p in tasks.items():
+            if not all(k in p for k in PROTOCOLS):
+                continue
+            strong = p["strong"]
+            deeper = strong.get("deeper")
+            deep = "-" if not deeper else (
+                f"{_pct(deeper['held'])} of {deeper['grasps']} ({deeper['penetration_mm_median']:.1f} mm)"
+                if deeper["grasps"] else "none"
+            )  # fmt: skip
             lines.append(
-                f"| {hand} | {task} | {s['verified']}/{s['solved']} | {pct(s['physics_pass_rate_of_verified'])} | "
-                f"{pct(s['dexgraspbench_pass_rate_of_verified'])} | {pair['verified_and_held']} / "
-                f"{pair['verified_and_dropped']} / {pair['rejected_and_held']} / {pair['rejected_and_dropped']} | "
-                f"{s['seconds_per_grasp_median']:.2f} |"
+                f"| {hand} | {task} | {p['grip']['verified']} | {_pct(p['grip']['held_of_verified'])} | "
+                f"{_pct(p['spring']['held_of_verified'])} | {_pct(strong['held_of_counted'])} "
+                f"({strong['counted']}) | {deep} | {_pct(p['weak']['held_of_verified'])} | "
+                f"{p['grip']['seconds_per_grasp_median']:.2f} |"
             )
     return "\n".join(lines)
 
