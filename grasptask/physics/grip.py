@@ -96,7 +96,7 @@ class GripController:
 
     def torques(self, data: mujoco.MjData, contacts: Contacts, test: Test | None, ramp: float) -> np.ndarray:
         scene, s = self.scene, self.settings
-        q, qdot = data.qpos[scene.hand_qpos], data.qvel[scene.hand_dof]
+        q = data.qpos[scene.hand_qpos]
         driven = scene.finger_of_body[contacts.bodies] >= 0  # a palm contact is passive: nothing commands it
         jacobians = [
             point_jacobian(scene, data, p, int(b))
@@ -124,7 +124,7 @@ class GripController:
             stacked = np.vstack(rows)
             gram = stacked @ stacked.T + _NULL_SPACE_DAMPING * np.eye(len(stacked))
             posture -= stacked.T @ np.linalg.solve(gram, stacked @ posture)
-        return torque + posture - s.posture_damping_nms_per_rad * qdot
+        return torque + posture
 
     def contact_forces(
         self, data: mujoco.MjData, contacts: Contacts, jacobians: np.ndarray, test: Test | None, ramp: float

@@ -162,4 +162,5 @@ def file_hand_spec(
             geom.solref = solref
     for joint in spec.joints:
         joint.armature = max(float(joint.armature), settings.armature_kg_m2)
+        joint.damping = np.maximum(np.asarray(joint.damping, dtype=float), settings.joint_damping_nms_per_rad)
     return spec

@@ -146,6 +146,7 @@ def _add_project_hand(
             body.add_joint(
                 name=f"{PROJECT_PREFIX}{joint.name}", type=mujoco.mjtJoint.mjJNT_HINGE, axis=joint.axis,
                 range=[joint.lower, joint.upper], armature=settings.armature_kg_m2,
+                damping=settings.joint_damping_nms_per_rad,
             )  # fmt: skip
             for sphere in finger.spheres:
                 if sphere.link == k:

@@ -41,7 +41,9 @@ class PhysicsSettings:
     grip_safety: float = 1.5
     #: ... and a weak pull towards the synthesized posture
     posture_stiffness_nm_per_rad: float = 0.2
-    posture_damping_nms_per_rad: float = 0.05
+    #: viscous damping of every hand joint, in the scene itself (MuJoCo integrates it implicitly, so a finger
+    #: that loses its contact between two control steps cannot run away)
+    joint_damping_nms_per_rad: float = 0.05
     #: reflected actuator inertia on every hand joint (kg m^2): keeps the stiff controller stable at the timestep
     armature_kg_m2: float = 1e-3
     control_period_s: float = 0.01

@@ -46,11 +46,7 @@ class SpringController:
             + s.tip_stiffness_n_per_m * (self.rest - tips)
             - s.tip_damping_ns_per_m * (jacobians @ qdot)
         )
-        return (
-            np.einsum("bij,bi->j", jacobians, forces)
-            + s.posture_stiffness_nm_per_rad * (scene.posture - q)
-            - s.posture_damping_nms_per_rad * qdot
-        )
+        return np.einsum("bij,bi->j", jacobians, forces) + s.posture_stiffness_nm_per_rad * (scene.posture - q)
 
     def hold(self, data: mujoco.MjData) -> None:
         """Hold the pads where they are with the forces the springs give there."""
