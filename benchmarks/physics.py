@@ -119,7 +119,7 @@ def figures(table: pd.DataFrame, hand: str, protocol: str, wall_s: float) -> dic
 
 
 #: the depth a seated grasp may keep (m), and the Gauss-Newton steps it may take
-SEATED_DEPTH_M, SEATING_STEPS = 3e-4, 60
+SEATED_DEPTH_M, SEATING_STEPS = 5e-5, 60
 
 
 def seat(judge, grasp):
@@ -148,8 +148,8 @@ def seat(judge, grasp):
             [frame[0] @ point_jacobian(scene, data, p, int(b))
              for frame, p, b in zip(contacts.frames[deep], contacts.points[deep], contacts.bodies[deep], strict=True)]
         )  # fmt: skip
-        # move each deep point back out along its normal (into the object is +normal) to 0.2 mm deep
-        wanted = -(contacts.depths[deep] - 0.2e-3)
+        # move each deep point back out along its normal (into the object is +normal), to a fifth of the depth
+        wanted = -(contacts.depths[deep] - 0.2 * SEATED_DEPTH_M)
         step = np.linalg.lstsq(rows, wanted, rcond=1e-6)[0]
         q = hand.apply_coupling(np.clip(q + step, hand.lower, hand.upper))
     return None

@@ -17,6 +17,11 @@ class GraspSettings:
     pad_angle_max_deg: float = 45.0
     force_closure_min_weight: float = 1e-3
     activation_margin: float = 0.02
+    #: the margin every task wrench is held with, by synthesis and the verifier alike: activations at most
+    #: activation_max, forces inside cones of friction_scale mu, and at least min_normal_force_n at each contact
+    activation_max: float = 1.0
+    friction_scale: float = 1.0
+    min_normal_force_n: float = 0.0
 
 
 def load_grasp_settings(path: str | Path = DEFAULT_GRASP_CONFIG) -> GraspSettings:
@@ -32,4 +37,9 @@ def load_grasp_settings(path: str | Path = DEFAULT_GRASP_CONFIG) -> GraspSetting
     settings = GraspSettings(**values)  # type: ignore[arg-type]
     if settings.friction_coefficient <= 0 or settings.cone_edges < 3 or not 0 < settings.pad_angle_max_deg <= 90:
         raise BadInputError(path, "need friction_coefficient > 0, cone_edges >= 3 and 0 < pad_angle_max_deg <= 90")
+    for key in ("activation_max", "friction_scale"):
+        if not 0 < getattr(settings, key) <= 1:
+            raise BadInputError(path, f"field '{key}': must be in (0, 1], got {getattr(settings, key)}")
+    if settings.activation_margin >= settings.activation_max:
+        raise BadInputError(path, "field 'activation_margin': must be below activation_max")
     return settings

@@ -13,11 +13,11 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass, field
 
 import numpy as np
-import scipy.sparse as sp
-from scipy.optimize import linprog
 
 from grasptask.grasp.epsilon import ferrari_canny
 from grasptask.grasp.grasp import Grasp
+from grasptask.grasp.loads_lp import load_block, normal_rows, solve_loads
+from grasptask.grasp.margins import friction_margin, strength_margin
 from grasptask.grasp.mechanics import (
     friction_cone_edges,
     grasp_matrix,
@@ -45,7 +45,7 @@ class Tolerances:
     pad_angle_slack_deg: float = 1.0  # on top of the configured bound
     epsilon_min: float = 1e-6  # Ferrari-Canny epsilon (torques divided by the characteristic length)
     rank_rtol: float = 1e-8  # relative singular value threshold for the rank condition of eq. 9
-    effort_max: float = 1.0 + 1e-6  # largest muscle activation needed for the task wrenches
+    effort_slack: float = 1e-6  # how far the activations the task wrenches need may exceed activation_max
 
 
 @dataclass(frozen=True)
@@ -73,6 +73,10 @@ class Verification:
     internal_force_dim: int
     torque_effort: float
     Q: float
+    #: the largest scale of the task's wrenches held at the hand's real strength and mu (1: at the edge)
+    strength_margin: float
+    #: the smallest mu that holds every task wrench at the real strength
+    friction_margin: float
     contacts: np.ndarray = field(repr=False)
     normals: np.ndarray = field(repr=False)
     failures: list[str] = field(default_factory=list)
@@ -97,56 +101,33 @@ class Verification:
         return out
 
 
-def _torque_effort(edges, points, jacobians, hand: Hand, task: TaskModel) -> tuple[float, list[WrenchLoad]]:
+def task_targets(task: TaskModel) -> list[np.ndarray]:
+    """The task's wrenches ``+-gamma_i u_i`` (eq. 10's 12 blocks)."""
+    return [s * g * u for g, u in zip(task.lengths, task.axes, strict=True) for s in (1.0, -1.0)]
+
+
+def _torque_effort(
+    edges, points, jacobians, hand: Hand, task: TaskModel, inward=None, minimum_normal: float = 0.0
+) -> tuple[float, list[WrenchLoad]]:
     """Smallest ``t`` such that, for every task axis and both signs, contact forces inside the friction cones
     apply ``+-gamma_i u_i`` to the object with joint torques ``T J^T f = A a``, ``0 <= a <= t`` (eq. 1, 10;
-    ``T`` and ``A`` are the hand's :class:`~grasptask.hand.model.Capability`: tendons or motors).
+    ``T`` and ``A`` are the hand's :class:`~grasptask.hand.model.Capability`: tendons or motors), and each
+    contact at least ``minimum_normal`` of normal force.
 
     One LP over all twelve wrenches (each with its own forces and activations, sharing ``t``); infinite, with
     no loads, when some wrench cannot be applied at all."""
-    b, m, _ = edges.shape
-    capability = hand.capability
-    n_act = capability.torque_map.shape[1]
-    n_force = b * m
-    # one block: [wrench of the cone edges, 0; T J^T L, -A], J^T L the joint torques of each unit edge force
-    edge_torques = np.zeros((sum(j.shape[1] for j in jacobians), n_force))
-    row = 0
-    for j, jac in enumerate(jacobians):
-        edge_torques[row : row + jac.shape[1], j * m : (j + 1) * m] = jac.T @ edges[j].T
-        row += jac.shape[1]
-    rows_q = capability.transmission.shape[0]
-    block = np.zeros((6 + rows_q, n_force + n_act))
-    block[:6, :n_force] = primitive_wrenches(points, edges).reshape(n_force, 6).T
-    block[6:, :n_force] = capability.transmission @ edge_torques
-    block[6:, n_force:] = -capability.torque_map
-    targets = [s * g * u for g, u in zip(task.lengths, task.axes, strict=True) for s in (1.0, -1.0)]
-    k, width = len(targets), n_force + n_act
-    a_eq = sp.hstack([sp.kron(sp.identity(k), sp.csr_matrix(block)), sp.csr_matrix((k * block.shape[0], 1))])
-    b_eq = np.zeros(k * block.shape[0])
-    for i, w in enumerate(targets):
-        b_eq[i * block.shape[0] : i * block.shape[0] + 6] = w
-    pick = np.hstack([np.zeros((n_act, n_force)), np.eye(n_act)])
-    a_ub = sp.hstack([sp.kron(sp.identity(k), sp.csr_matrix(pick)), -sp.csr_matrix(np.ones((k * n_act, 1)))])
-    cost = np.zeros(k * width + 1)
-    cost[-1] = 1.0
-    # presolve costs more than it saves on an LP this small and this well structured
-    result = linprog(
-        cost,
-        A_ub=a_ub,
-        b_ub=np.zeros(k * n_act),
-        A_eq=a_eq,
-        b_eq=b_eq,
-        bounds=(0, None),
-        method="highs",
-        options={"presolve": False},
-    )
+    block = load_block(edges, points, jacobians, hand)
+    targets = task_targets(task)
+    floor = (normal_rows(edges, inward, block), minimum_normal) if minimum_normal > 0 and inward is not None else None
+    result = solve_loads(block, targets, scale_wrenches=False, activation_max=None, minimum_normal=floor)
     if result.status != 0:
         return float("inf"), []
+    b, m, _ = edges.shape
     loads = []
     for i, w in enumerate(targets):
-        x = result.x[i * width : (i + 1) * width]
-        forces = np.einsum("jm,jmk->jk", x[:n_force].reshape(b, m), edges)
-        loads.append(WrenchLoad(w, forces, edge_torques @ x[:n_force], x[n_force:].copy()))
+        x = result.x[i * block.width : (i + 1) * block.width]
+        forces = np.einsum("jm,jmk->jk", x[: block.forces].reshape(b, m), edges)
+        loads.append(WrenchLoad(w, forces, block.edge_torques @ x[: block.forces], x[block.forces :].copy()))
     return float(result.x[-1]), loads
 
 
@@ -183,12 +164,15 @@ def verify(
     rank = int((singular > tol.rank_rtol * max(1.0, singular.max(initial=0.0))).sum())
     # cones oriented by each pad's own tangent (the distal phalanx's axis for a human finger), as eq. 24
     # attaches them to the finger frame
-    edges = friction_cone_edges(inward, settings.friction_coefficient, settings.cone_edges, pose.pad_tangents()[0])
+    mu, tangents = settings.friction_coefficient, pose.pad_tangents()[0]
+    edges = friction_cone_edges(inward, mu, settings.cone_edges, tangents)
     scale = obj.characteristic_length
     epsilon = ferrari_canny(primitive_wrenches(surface_points, edges, obj.centre, scale))
     Q, _ = task_quality(G, J, task.axes, task.weights)
-    effort, loads = _torque_effort(edges, surface_points, jacobians, hand, task)
-
+    # the margin: every task wrench held in cones of k mu, with activations at most a_max and each contact
+    # pressing with at least the minimum normal force
+    held = friction_cone_edges(inward, settings.friction_scale * mu, settings.cone_edges, tangents)
+    effort, loads = _torque_effort(held, surface_points, jacobians, hand, task, inward, settings.min_normal_force_n)
     checks = {
         "contact_distance": np.abs(distance).max() <= tol.contact_distance_m,
         "joint_limits": margin >= -tol.joint_limit_rad,
@@ -198,9 +182,18 @@ def verify(
         "pad_angle": pad_angle.max() <= settings.pad_angle_max_deg + tol.pad_angle_slack_deg,
         "force_closure": epsilon > tol.epsilon_min,
         "rank_condition": A.size > 0 and rank == A.shape[1],
-        "torque_feasibility": effort <= tol.effort_max,
+        "torque_feasibility": effort <= settings.activation_max + tol.effort_slack,
         "quality": bool(np.isfinite(Q)),
     }
+    strength = friction = float("nan")
+    if all(checks.values()):  # the margins of a grasp that holds; each costs LPs, so of those only
+        targets = task_targets(task)
+        strength = strength_margin(load_block(edges, surface_points, jacobians, hand), targets)
+        known = settings.friction_scale * mu if effort <= 1.0 else None  # held at full strength in k mu cones
+        friction = friction_margin(
+            inward, tangents, surface_points, jacobians, hand, mu, settings.cone_edges, targets, known
+        )
+
     return Verification(
         contact_distance_m=distance,
         joint_limit_margin_deg=float(np.degrees(margin)),
@@ -213,6 +206,8 @@ def verify(
         internal_force_dim=int(A.shape[1]),
         torque_effort=effort,
         Q=float(Q),
+        strength_margin=strength,
+        friction_margin=friction,
         contacts=surface_points,
         normals=outward,
         failures=[name for name, passed in checks.items() if not passed],

@@ -23,6 +23,7 @@ contact, with the minimum normal force. The torques are mapped onto the actuator
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import mujoco
 import numpy as np
@@ -36,12 +37,14 @@ from grasptask.physics.settings import PhysicsSettings
 #: the friction pyramid's faces: an octagon inscribed in the cone
 _ANGLES = np.arange(8) * np.pi / 4
 _FACES = np.column_stack([np.cos(_ANGLES), np.sin(_ANGLES)])
-#: torque errors weigh as force errors at this lever (m) in the balance
-_LEVER_M = 0.05
 #: the balance's weight against the effort (1 N of unbalanced force costs as much as 1e4 full activations)
 _BALANCE_WEIGHT = 1e4
 #: the damping of the null-space projection (m^2): keeps it defined where contacts' Jacobians are dependent
 _NULL_SPACE_DAMPING = 1e-8
+#: how far (m) a finger out of contact looks for the object's nearest point to close on
+CLOSING_RANGE_M = 0.01
+#: the weight of a link's squeeze shortfall (per N^2): far below the balance's, so an unbalanced squeeze yields
+_SQUEEZE_WEIGHT = 1e2
 #: a small weight on the forces, so that quadprog's Hessian is positive definite
 _FORCE_WEIGHT = 1e-6
 
@@ -67,6 +70,7 @@ class GripController:
     settings: PhysicsSettings
     reference_position: np.ndarray
     reference_quat: np.ndarray
+    elapsed_s: float = 0.0
 
     @classmethod
     def of(cls, scene: Scene, settings: PhysicsSettings) -> GripController:
@@ -96,28 +100,36 @@ class GripController:
 
     def torques(self, data: mujoco.MjData, contacts: Contacts, test: Test | None, ramp: float) -> np.ndarray:
         scene, s = self.scene, self.settings
+        self.elapsed_s += s.control_period_s
         q = data.qpos[scene.hand_qpos]
-        driven = scene.finger_of_body[contacts.bodies] >= 0  # a palm contact is passive: nothing commands it
-        jacobians = [
-            point_jacobian(scene, data, p, int(b))
-            for p, b in zip(contacts.points[driven], contacts.bodies[driven], strict=True)
-        ]
+        fingers = scene.finger_of_body[contacts.bodies]
+        chosen = _select(contacts, fingers >= 0)  # a palm contact is passive: nothing commands it
+        touching = set(fingers[fingers >= 0].tolist())
+        # a grasping finger out of contact closes on the object's nearest point. While the hand closes, that is
+        # planned as a frictionless contact, so that the fingers still closing push no harder than the others
+        # can balance; under a test it is pushed there with the squeeze, since a plan on a finger that has
+        # lost its contact would carry load it cannot
+        closing = [self.nearest(data, k) for k in range(scene.finger_count) if k not in touching]
+        if closing and test is None:
+            frames = np.array([_frame(inward) for _, _, inward in closing])
+            chosen = Contacts(
+                np.concatenate([chosen.index, np.full(len(closing), -1)]),
+                np.vstack([chosen.points.reshape(-1, 3), [p for p, _, _ in closing]]),
+                np.concatenate([chosen.frames.reshape(-1, 3, 3), frames]),
+                np.concatenate([chosen.bodies, [b for _, b, _ in closing]]).astype(int),
+                np.concatenate([chosen.depths, np.zeros(len(closing))]),
+            )
+            closing = []
+        jacobians = [point_jacobian(scene, data, p, int(b)) for p, b in zip(chosen.points, chosen.bodies, strict=True)]
         torque = np.zeros(len(q))
-        rows = []
+        rows = list(jacobians)
         if jacobians:
-            chosen = _select(contacts, driven)
             forces = self.contact_forces(data, chosen, np.array(jacobians), test, ramp)
             for jacobian, frame, f in zip(jacobians, chosen.frames, forces, strict=True):
                 torque += jacobian.T @ (frame.T @ f)
-            rows.extend(jacobians)
-        touching = set(scene.finger_of_body[contacts.bodies[driven]].tolist())
-        pads = pad_positions(scene, data)
-        rotation = data.xmat[scene.object_body].reshape(3, 3)
-        for k in range(scene.finger_count):
-            if k in touching:
-                continue  # closing: the pad pushed along the object's inward normal at its synthesized contact
-            jacobian = point_jacobian(scene, data, pads[k], int(scene.pad_bodies[k]))
-            torque += jacobian.T @ (-s.min_normal_force_n * (rotation @ scene.normals[k]))
+        for point, body, inward in closing:
+            jacobian = point_jacobian(scene, data, point, body)
+            torque += jacobian.T @ (self.squeeze_n * inward)
             rows.append(jacobian)
         posture = s.posture_stiffness_nm_per_rad * (scene.posture - q)
         if rows:  # held in the null space of the contacts and closing pads (damped least squares)
@@ -126,63 +138,121 @@ class GripController:
             posture -= stacked.T @ np.linalg.solve(gram, stacked @ posture)
         return torque + posture
 
+    def nearest(self, data: mujoco.MjData, finger: int) -> tuple[np.ndarray, int, np.ndarray]:
+        """The point of ``finger`` nearest the object (MuJoCo's own geom distance), its body and the unit direction
+        to the object; the pad and the object's inward normal at the synthesized contact when nothing of the
+        finger is within ``CLOSING_RANGE_M``."""
+        scene = self.scene
+        best, found = CLOSING_RANGE_M, None
+        span = np.zeros(6)
+        for g in self._finger_geoms[finger]:
+            for o in scene.object_geoms:
+                gap = mujoco.mj_geomDistance(scene.model, data, int(g), int(o), CLOSING_RANGE_M, span)
+                if gap < best and np.linalg.norm(span[3:] - span[:3]) > 0:
+                    best, found = gap, (span[:3].copy(), int(scene.model.geom_bodyid[g]), span[3:] - span[:3])
+        if found is not None:
+            return found[0], found[1], found[2] / np.linalg.norm(found[2])
+        rotation = data.xmat[scene.object_body].reshape(3, 3)
+        pad = pad_positions(scene, data)[finger]
+        return pad, int(scene.pad_bodies[finger]), -(rotation @ scene.normals[finger])
+
+    @cached_property
+    def _finger_geoms(self) -> list[np.ndarray]:
+        scene = self.scene
+        owner = scene.finger_of_body[scene.model.geom_bodyid]
+        return [np.flatnonzero(scene.hand_geoms & (owner == k)) for k in range(scene.finger_count)]
+
     def contact_forces(
         self, data: mujoco.MjData, contacts: Contacts, jacobians: np.ndarray, test: Test | None, ramp: float
     ) -> np.ndarray:
-        """``(m, 3)``: each contact's force in its frame (normal into the object, two tangents)."""
-        scene, s = self.scene, self.settings
+        """``(m, 3)``: each contact's force in its frame (normal into the object, two tangents).
+
+        The variables are the forces, one squeeze shortfall per link in contact, and for tendons their
+        activations. The squeeze is soft: contacts that cannot oppose each other (all on one side, while the
+        others have not touched yet) must not push the object away to meet it."""
+        scene = self.scene
         m = len(contacts)
         origin = data.xpos[scene.object_body]
         bases = contacts.frames.transpose(0, 2, 1)  # (m, 3, 3): columns normal, tangents
         levers = np.cross((contacts.points - origin)[:, None, :], contacts.frames)  # (m, 3 columns, 3)
         grasp = np.vstack(
-            [bases.transpose(1, 0, 2).reshape(3, 3 * m), levers.transpose(2, 0, 1).reshape(3, 3 * m) / _LEVER_M]
+            [bases.transpose(1, 0, 2).reshape(3, 3 * m), levers.transpose(2, 0, 1).reshape(3, 3 * m) / self.lever]
         )
         joint_map = scene.transmission @ np.einsum("mjn,mjk->nmk", jacobians, bases).reshape(-1, 3 * m)
         wanted = self.wanted_wrench(data, test, ramp)
-        wanted[3:] /= _LEVER_M
-        hessian = _BALANCE_WEIGHT * grasp.T @ grasp + _FORCE_WEIGHT * np.eye(3 * m)
-        linear = _BALANCE_WEIGHT * grasp.T @ wanted
-        cone = self._cone(m)
+        wanted[3:] /= self.lever
         links = np.unique(contacts.bodies)
-        minimum = (contacts.bodies[None, :] == links[:, None]).astype(float)
-        minimum = np.column_stack([minimum, np.zeros((len(links), m)), np.zeros((len(links), m))])
-        minimum = minimum.reshape(len(links), 3, m).transpose(0, 2, 1).reshape(len(links), 3 * m)
+        n_f, n_s = 3 * m, len(links)
+        actuators = 0 if scene.motors else scene.torque_map.shape[1]
+        size = n_f + n_s + actuators
+        hessian = np.zeros((size, size))
+        hessian[:n_f, :n_f] = _BALANCE_WEIGHT * grasp.T @ grasp + _FORCE_WEIGHT * np.eye(n_f)
+        hessian[n_f : n_f + n_s, n_f : n_f + n_s] = _SQUEEZE_WEIGHT * np.eye(n_s)
+        linear = np.zeros(size)
+        linear[:n_f] = _BALANCE_WEIGHT * grasp.T @ wanted
+        # each link's normal force plus its shortfall at least the squeeze; shortfalls non-negative
+        squeeze = np.zeros((2 * n_s, size))
+        normal_of = np.zeros((n_s, n_f))
+        normal_of[:, 0::3] = contacts.bodies[None, :] == links[:, None]
+        squeeze[:n_s, :n_f], squeeze[:n_s, n_f : n_f + n_s] = normal_of, np.eye(n_s)
+        squeeze[n_s:, n_f : n_f + n_s] = np.eye(n_s)
+        floors = np.concatenate([np.full(n_s, self.squeeze_n), np.zeros(n_s)])
+        cone = np.zeros((9 * m, size))
+        cone[:, :n_f] = self._cone(contacts.index >= 0)
         if scene.motors:
             used = np.flatnonzero(np.abs(joint_map).sum(axis=1) > 0)
             scaled = joint_map[used] / self._efforts[used, None]
-            hessian += scaled.T @ scaled
-            constraints = np.vstack([cone, -scaled, scaled])
-            bounds = np.concatenate([np.zeros(len(cone)), -np.ones(2 * len(used))])
-            return _solve(hessian, linear, 0, constraints, bounds, minimum, s.min_normal_force_n).reshape(m, 3)
-        actuators = scene.torque_map.shape[1]
-        full = np.zeros((3 * m + actuators, 3 * m + actuators))
-        full[: 3 * m, : 3 * m] = hessian
-        full[3 * m :, 3 * m :] = np.eye(actuators)
-        constraints = np.zeros((len(joint_map) + len(cone) + 2 * actuators, 3 * m + actuators))
-        constraints[: len(joint_map), : 3 * m] = joint_map
-        constraints[: len(joint_map), 3 * m :] = -scene.torque_map
-        constraints[len(joint_map) : len(joint_map) + len(cone), : 3 * m] = cone
-        constraints[len(joint_map) + len(cone) :, 3 * m :] = np.vstack([np.eye(actuators), -np.eye(actuators)])
-        bounds = np.concatenate([np.zeros(len(joint_map) + len(cone) + actuators), -np.ones(actuators)])
-        minimum = np.hstack([minimum, np.zeros((len(links), actuators))])
-        padded = np.concatenate([linear, np.zeros(actuators)])
-        solution = _solve(full, padded, len(joint_map), constraints, bounds, minimum, s.min_normal_force_n)
-        return solution[: 3 * m].reshape(m, 3)
+            hessian[:n_f, :n_f] += scaled.T @ scaled
+            reach = np.zeros((2 * len(used), size))
+            reach[: len(used), :n_f], reach[len(used) :, :n_f] = -scaled, scaled
+            rows = np.vstack([cone, squeeze, reach])
+            limits = np.concatenate([np.zeros(len(cone)), floors, -np.ones(2 * len(used))])
+            return _solve(hessian, linear, rows, limits, 0)[:n_f].reshape(m, 3)
+        hessian[n_f + n_s :, n_f + n_s :] = np.eye(actuators)
+        carried = np.zeros((len(joint_map), size))  # T J^T f = A a
+        carried[:, :n_f], carried[:, n_f + n_s :] = joint_map, -scene.torque_map
+        box = np.zeros((2 * actuators, size))
+        box[:actuators, n_f + n_s :], box[actuators:, n_f + n_s :] = np.eye(actuators), -np.eye(actuators)
+        rows = np.vstack([carried, cone, squeeze, box])
+        limits = np.concatenate([np.zeros(len(carried) + len(cone)), floors, np.zeros(actuators), -np.ones(actuators)])
+        return _solve(hessian, linear, rows, limits, len(carried))[:n_f].reshape(m, 3)
+
+    @property
+    def squeeze_n(self) -> float:
+        """The minimum normal force, raised from 0 over the first ``closing_s`` of the grasp, so that the fingers
+        close on the object together rather than knock it."""
+        return self.settings.min_normal_force_n * min(1.0, self.elapsed_s / self.settings.closing_s)
+
+    @property
+    def lever(self) -> float:
+        """Torque errors weigh as force errors at the object's smallest radius of gyration (m) in the balance: a
+        tool's twist about its own axis is as much a failure as a push along it."""
+        model, body = self.scene.model, self.scene.object_body
+        return float(np.sqrt(model.body_inertia[body].min() / model.body_mass[body]))
 
     @property
     def _efforts(self) -> np.ndarray:
         """A motor's effort per transmission row (the scene's torque map is ``[E, -E]``)."""
         return np.abs(self.scene.torque_map).max(axis=1)
 
-    def _cone(self, m: int) -> np.ndarray:
-        """The friction octagons and non-negative normal forces of ``m`` contacts, as rows ``>= 0``."""
+    def _cone(self, real: np.ndarray) -> np.ndarray:
+        """The friction octagons and non-negative normal forces of the contacts, as rows ``>= 0``; a closing
+        finger's planned contact (``real`` False) has no friction."""
         mu = self.settings.grip_friction_fraction * self.scene.friction * np.cos(np.pi / 8)
-        one = np.vstack([np.column_stack([np.full(8, mu), -_FACES]), [1.0, 0.0, 0.0]])
+        m = len(real)
         cone = np.zeros((9 * m, 3 * m))
         for i in range(m):
+            one = np.vstack([np.column_stack([np.full(8, mu if real[i] else 0.0), -_FACES]), [1.0, 0.0, 0.0]])
             cone[9 * i : 9 * i + 9, 3 * i : 3 * i + 3] = one
         return cone
+
+
+def _frame(normal: np.ndarray) -> np.ndarray:
+    """A contact frame whose first row is ``normal``."""
+    helper = np.array([1.0, 0.0, 0.0]) if abs(normal[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    first = np.cross(normal, helper)
+    first /= np.linalg.norm(first)
+    return np.array([normal, first, np.cross(normal, first)])
 
 
 def _select(contacts: Contacts, keep: np.ndarray) -> Contacts:
@@ -190,22 +260,10 @@ def _select(contacts: Contacts, keep: np.ndarray) -> Contacts:
                     contacts.depths[keep])  # fmt: skip
 
 
-def _solve(
-    hessian: np.ndarray,
-    linear: np.ndarray,
-    equalities: int,
-    constraints: np.ndarray,
-    bounds: np.ndarray,
-    minimum: np.ndarray,
-    minimum_n: float,
-) -> np.ndarray:
-    """quadprog's ``min 1/2 x^T H x - a^T x`` with ``C x >= b`` (the first ``equalities`` rows equal); without
-    the minimum normal force when the hand cannot give it (a weak hand: it still squeezes as it can)."""
-    for extra in (True, False):
-        rows = np.vstack([constraints, minimum]) if extra else constraints
-        limits = np.concatenate([bounds, np.full(len(minimum), minimum_n)]) if extra else bounds
-        try:
-            return quadprog.solve_qp(hessian, linear, rows.T, limits, equalities)[0]
-        except ValueError:  # inconsistent constraints
-            continue
-    return np.zeros(len(linear))
+def _solve(hessian: np.ndarray, linear: np.ndarray, rows: np.ndarray, limits: np.ndarray, equalities: int):
+    """quadprog's ``min 1/2 x^T H x - a^T x`` with ``rows x >= limits`` (the first ``equalities`` equal); zero
+    forces where quadprog finds the constraints inconsistent, which with a soft squeeze only round-off can make."""
+    try:
+        return quadprog.solve_qp(hessian, linear, rows.T, limits, equalities)[0]
+    except ValueError:
+        return np.zeros(len(linear))

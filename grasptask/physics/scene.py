@@ -72,6 +72,7 @@ class Scene:
     friction: float
     hand_geoms: np.ndarray  # (ngeom,) bool: a geom of the hand that touches the object
     finger_of_body: np.ndarray  # (nbody,) the grasping finger whose joints move the body, -1 for none
+    object_geoms: np.ndarray  # the object's geom ids
     from_file: bool  # the hand's own file, not the project's model
 
     @property
@@ -266,5 +267,6 @@ def build_scene(
         friction=friction,
         hand_geoms=hand_geoms,
         finger_of_body=_fingers_of_bodies(model, first),
+        object_geoms=np.flatnonzero(model.geom_bodyid == object_id),
         from_file=hand.model_file is not None,
     )

@@ -267,7 +267,8 @@ def contacts_and_collisions(nlp: NLPBuilder) -> None:
 def cones_and_wrenches(nlp: NLPBuilder) -> None:
     """Eq. 24 and 5: the linearised friction cone's edges l_i^j about the true normal, and the torque parts
     p^j x l_i^j of the primitive wrenches, each a variable."""
-    m, mu, m_edges = nlp.model, nlp.settings.friction_coefficient, nlp.settings.cone_edges
+    m, m_edges = nlp.model, nlp.settings.cone_edges
+    mu = nlp.settings.friction_scale * nlp.settings.friction_coefficient  # the margin's cones (eq. 4 and 10)
     angles = 2 * np.pi * np.arange(1, m_edges + 1) / m_edges
     scale = 1.0 / np.sqrt(1 + mu**2)
     cells = nlp.cells
@@ -359,16 +360,22 @@ def torque_feasibility(nlp: NLPBuilder) -> None:
         blocks, cells, bounds=(0, nlp.bounds.edge_force_n), doc="cone-edge force magnitudes per task wrench"
     )
     capability = nlp.hand.capability
-    cap = 1.0 - nlp.settings.activation_margin
+    cap = nlp.settings.activation_max - nlp.settings.activation_margin
     actuators = range(len(capability.actuators))
     m.act = pyo.Var(blocks, actuators, bounds=(0, cap), doc="tendon or motor activations per task wrench (eq. 1)")
     m.eq10_wrench = pyo.ConstraintList()
     m.eq10_torque = pyo.ConstraintList()
+    m.eq10_normal = pyo.ConstraintList()
+    floor = nlp.settings.min_normal_force_n
+    along_normal = 1.0 / np.sqrt(1.0 + (nlp.settings.friction_scale * nlp.settings.friction_coefficient) ** 2)
     joints = [(j, k) for j, f in enumerate(fingers) for k in range(f.n_joints)]
     for a, s in blocks:
         target = (1.0 if s == 0 else -1.0) * lengths[a] * axes[a]
         for r in range(6):
             m.eq10_wrench.add(sum(m.lam[a, s, j, e] * wrenches[j][e][r] for j, e in cells) == float(target[r]))
+        if floor > 0:  # each contact presses with at least the margin's normal force
+            for j in range(nlp.b):
+                m.eq10_normal.add(sum(m.lam[a, s, j, e] for e in range(m_edges)) * along_normal >= floor)
         taus = [sum(m.lam[a, s, j, e] * m.edge_torque[j, e, k] for e in range(m_edges)) for j, k in joints]
         for r, row in enumerate(capability.transmission):
             used = np.flatnonzero(row)

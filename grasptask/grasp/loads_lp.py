@@ -1,0 +1,113 @@
+"""The verifier's load LP: whether, and with how much effort, a hand applies a set of wrenches to the object
+with contact forces in the linearised friction cones and joint torques its tendons or motors carry (eq. 1, 10).
+
+Per wrench, the variables are the cone-edge magnitudes ``lam >= 0`` and the activations ``a >= 0``; one block
+of rows asks ``sum lam l = w`` (the wrench) and ``T J^T L lam = A a`` (the torques carried). The effort LP finds
+the least peak activation over all wrenches; the strength-margin LP the largest scale of the wrenches held at
+full strength (:mod:`grasptask.grasp.margins`)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+from scipy.optimize import linprog
+
+from grasptask.grasp.mechanics import primitive_wrenches
+from grasptask.hand.model import Hand
+
+
+@dataclass(frozen=True)
+class LoadBlock:
+    """One wrench's rows: ``[wrench of the cone edges, 0; T J^T L, -A]`` over ``(lam, a)``, the joint torques of
+    each unit edge force (``J^T L``), the edge magnitudes' count and the actuators' count."""
+
+    matrix: np.ndarray
+    edge_torques: np.ndarray
+    forces: int
+    actuators: int
+
+    @property
+    def width(self) -> int:
+        return self.forces + self.actuators
+
+
+def load_block(edges: np.ndarray, points: np.ndarray, jacobians: list[np.ndarray], hand: Hand) -> LoadBlock:
+    b, m, _ = edges.shape
+    capability = hand.capability
+    n_act = capability.torque_map.shape[1]
+    n_force = b * m
+    edge_torques = np.zeros((sum(j.shape[1] for j in jacobians), n_force))
+    row = 0
+    for j, jac in enumerate(jacobians):
+        edge_torques[row : row + jac.shape[1], j * m : (j + 1) * m] = jac.T @ edges[j].T
+        row += jac.shape[1]
+    rows_q = capability.transmission.shape[0]
+    block = np.zeros((6 + rows_q, n_force + n_act))
+    block[:6, :n_force] = primitive_wrenches(points, edges).reshape(n_force, 6).T
+    block[6:, :n_force] = capability.transmission @ edge_torques
+    block[6:, n_force:] = -capability.torque_map
+    return LoadBlock(block, edge_torques, n_force, n_act)
+
+
+def normal_rows(edges: np.ndarray, normals: np.ndarray, block: LoadBlock) -> np.ndarray:
+    """``(b, width)``: each contact's normal force ``sum_e lam_e (l_e . n)`` as a row over one block's
+    variables."""
+    b, m, _ = edges.shape
+    rows = np.zeros((b, block.width))
+    for j in range(b):
+        rows[j, j * m : (j + 1) * m] = edges[j] @ normals[j]
+    return rows
+
+
+def solve_loads(
+    block: LoadBlock,
+    targets: list[np.ndarray],
+    scale_wrenches: bool,
+    activation_max: float | None,
+    minimum_normal: tuple[np.ndarray, float] | None = None,
+):
+    """One LP over all ``targets`` (each wrench its own forces and activations) with one extra variable ``t``:
+
+    - ``scale_wrenches=False``: every wrench applied exactly, activations ``a <= t``; minimise ``t`` (the effort);
+    - ``scale_wrenches=True``: every wrench applied as ``t w``, activations ``a <= activation_max``; maximise
+      ``t`` (the strength margin).
+
+    ``minimum_normal`` (rows, force) asks each contact for at least that normal force under every wrench.
+    Returns SciPy's result; its ``x[-1]`` is ``t``."""
+    k, width, rows = len(targets), block.width, block.matrix.shape[0]
+    wrenches = np.zeros(k * rows)
+    for i, w in enumerate(targets):
+        wrenches[i * rows : i * rows + 6] = w
+    if scale_wrenches:  # t w moves to the left-hand side as a column
+        column, b_eq = sp.csr_matrix(-wrenches.reshape(-1, 1)), np.zeros(k * rows)
+    else:
+        column, b_eq = sp.csr_matrix((k * rows, 1)), wrenches
+    a_eq = sp.hstack([sp.kron(sp.identity(k), sp.csr_matrix(block.matrix)), column])
+    pick = np.hstack([np.zeros((block.actuators, block.forces)), np.eye(block.actuators)])
+    if scale_wrenches:
+        a_ub = sp.hstack([sp.kron(sp.identity(k), sp.csr_matrix(pick)), sp.csr_matrix((k * block.actuators, 1))])
+        b_ub = np.full(k * block.actuators, float(activation_max if activation_max is not None else 1.0))
+    else:
+        a_ub = sp.hstack(
+            [sp.kron(sp.identity(k), sp.csr_matrix(pick)), -sp.csr_matrix(np.ones((k * block.actuators, 1)))]
+        )
+        b_ub = np.zeros(k * block.actuators)
+    if minimum_normal is not None:
+        normals, force = minimum_normal
+        extra = sp.hstack([sp.kron(sp.identity(k), sp.csr_matrix(-normals)), sp.csr_matrix((k * len(normals), 1))])
+        a_ub = sp.vstack([a_ub, extra])
+        b_ub = np.concatenate([b_ub, np.full(k * len(normals), -force)])
+    cost = np.zeros(k * width + 1)
+    cost[-1] = -1.0 if scale_wrenches else 1.0
+    bounds = [(0, None)] * (k * width) + [(0, MARGIN_CAP if scale_wrenches else None)]
+    # presolve costs more than it saves on an LP this small and this well structured
+    return linprog(
+        cost, A_ub=a_ub.tocsr(), b_ub=b_ub, A_eq=a_eq.tocsr(), b_eq=b_eq, bounds=bounds, method="highs",
+        options={"presolve": False},
+    )  # fmt: skip
+
+
+#: the largest strength margin reported: wrenches of zero size are held at any scale
+MARGIN_CAP = 1e3
