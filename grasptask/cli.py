@@ -232,6 +232,13 @@ def _physics_config_option(help_text: str):
     )
 
 
+def _scale_option(name: str, help_text: str):
+    """A positive multiple of a model's value, 1 by default."""
+    return click.option(
+        name, type=click.FloatRange(min=0, min_open=True), default=1.0, show_default=True, help=help_text
+    )
+
+
 def _model_option_set(sweep: bool):
     """--hand, --object and --grasp-config: the package's defaults (synthesize, verify), or with ``sweep`` what
     the sweep of SOLUTIONS used, from its run.json (physics, export)."""
@@ -396,20 +403,8 @@ def verify_command(solutions, tasks_path, task, out, hand, object_path, grasp_co
     help="grip: contact forces from a QP over MuJoCo's own contacts; spring: a spring on each synthesized pad "
     "(default: the physics config's, grip).",
 )
-@click.option(
-    "--strength",
-    type=click.FloatRange(min=0, min_open=True),
-    default=1.0,
-    show_default=True,
-    help="The hand's actuators this many times as strong as its model (10: the judge's strong-hand check).",
-)
-@click.option(
-    "--friction-scale",
-    type=click.FloatRange(min=0, min_open=True),
-    default=1.0,
-    show_default=True,
-    help="The friction coefficient this many times the grasp config's.",
-)
+@_scale_option("--strength", "The hand's actuators this many times as strong as its model (10: the strong-hand check).")
+@_scale_option("--friction-scale", "The friction coefficient this many times the grasp config's.")
 def physics(
     solutions,
     tasks_path,

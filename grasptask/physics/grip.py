@@ -4,21 +4,23 @@ current contacts, commanded as joint torques ``tau = J^T f``.
 The QP, with three variables per contact (normal and two tangential components in the contact's frame), and
 for tendons their activations:
 
-    min   w |W (G f - w_d)|^2 + effort + e |f|^2
+    min   w |W (G f - w_d)|^2 + effort + w_s |s|^2 + e |f|^2
     s.t.  f inside each friction cone (an inscribed octagonal pyramid of ``grip_friction_fraction`` mu)
-          at least ``min_normal_force_n`` of normal force on each hand link in contact
+          each hand link in contact pressing with at least ``min_normal_force_n`` less its shortfall s >= 0
           the torques ``T J^T f`` within the actuators' reach (``= A a``, 0 <= a <= 1; for motors ``|.| <= E``)
 
 ``G`` is the grasp matrix about the object frame's origin, and ``w_d`` the wrench the hand must apply: minus
 the wrench now applied to the object (a person anticipates the task's forces, and so does this controller), plus
-an impedance on the object's pose error from where the grasp settled (a spring and a damper). The balance is a
-heavily weighted least squares rather than an equality, so that a hand too weak for the load still does its
-best. Effort is the squared activations: for motors ``(T J^T f / E)^2``.
+an impedance on the object's pose error from where the grasp settled (a spring and a damper). ``W`` weighs
+torques at the object's smallest radius of gyration. The balance is a heavily weighted least squares rather than
+an equality, so that a hand too weak for the load still does its best, and the squeeze is soft, far below the
+balance, so that contacts that cannot oppose each other never push the object away to meet it. Effort is the
+squared activations: for motors ``(T J^T f / E)^2``.
 
-Joints with no contact below them hold the synthesized posture; the others hold it in the contacts' null
-space. A grasping finger with no contact yet is closed along the object's inward normal at its synthesized
-contact, with the minimum normal force. The torques are mapped onto the actuators exactly
-(:mod:`grasptask.physics.actuation`), and a torque out of reach is reported as saturation."""
+A grasping finger out of contact closes on the object's nearest point (MuJoCo's geom distance). The squeeze
+rises from 0 over ``closing_s``. The posture is held in the null space of the contacts and closing points. The
+torques are mapped onto the actuators exactly (:mod:`grasptask.physics.actuation`), and a torque out of reach
+is reported as saturation."""
 
 from __future__ import annotations
 
@@ -47,10 +49,6 @@ CLOSING_RANGE_M = 0.01
 _SQUEEZE_WEIGHT = 1e2
 #: a small weight on the forces, so that quadprog's Hessian is positive definite
 _FORCE_WEIGHT = 1e-6
-
-
-def _skew(v: np.ndarray) -> np.ndarray:
-    return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
 
 
 def _rotation_error(reference: np.ndarray, current: np.ndarray) -> np.ndarray:

@@ -365,8 +365,9 @@ def torque_feasibility(nlp: NLPBuilder) -> None:
     m.act = pyo.Var(blocks, actuators, bounds=(0, cap), doc="tendon or motor activations per task wrench (eq. 1)")
     m.eq10_wrench = pyo.ConstraintList()
     m.eq10_torque = pyo.ConstraintList()
-    m.eq10_normal = pyo.ConstraintList()
     floor = nlp.settings.min_normal_force_n
+    if floor > 0:  # the margin's least normal force: a component only where the margin asks for one
+        m.eq10_normal = pyo.ConstraintList()
     along_normal = 1.0 / np.sqrt(1.0 + (nlp.settings.friction_scale * nlp.settings.friction_coefficient) ** 2)
     joints = [(j, k) for j, f in enumerate(fingers) for k in range(f.n_joints)]
     for a, s in blocks:
