@@ -171,7 +171,8 @@ class SolverContext:
             "retry_after_iterations": cap if self.capped is not None else None,
         }
         self.nominal = Limits(
-            self.settings.activation_max - self.settings.activation_margin, np.full(len(self.nlp.hand.fingers), self.settings.pad_angle_max_deg)
+            self.settings.activation_max - self.settings.activation_margin,
+            np.full(len(self.nlp.hand.fingers), self.settings.pad_angle_max_deg),
         )
         # what the NLP saw of a mesh's or point cloud's surface, to record its error at each contact
         self.surrogate = distance_function(self.nlp.surrogate.grid) if self.nlp.surrogate is not None else None
