@@ -348,3 +348,21 @@ def test_a_formula_objects_body_follows_its_normals_closely():
     side = np.abs(centres[:, 2]) < 0.08
     cosines = (hull.face_normals[side] * tool.normal(centres[side])).sum(axis=1)
     assert np.degrees(np.arccos(np.clip(cosines, -1, 1))).max() < 3.0
+
+
+def test_fingers_the_grasp_leaves_out_are_left_out_of_the_files_scene(tmp_path):
+    """As the NLP leaves them out: the gripper's middle finger, and the BarrettHand's second finger with the
+    spread coupling that tied it to the first."""
+    path = write_mesh_gripper(tmp_path)
+    subset = path.parent / "two.yaml"
+    subset.write_text("model: gripper.urdf\ngrasping_fingers: [finger0_tip, finger2_tip]\n")
+    hand = load_hand(subset).grasping_hand()
+    ball = Superquadric(np.full(3, GRIPPER_BALL_RADIUS_M), 1.0, 1.0, name="ball")
+    body = object_body(ball, SETTINGS)
+    scene = build_scene(hand, ball, body, Grasp(np.eye(3), -ball_centre(), np.zeros(4)), 0.5, SETTINGS)
+    assert scene.model.njnt == 5 and int(scene.hand_geoms.sum()) == 7  # four joints and the object's; palm + 2 x 3
+    barrett = load_hand("configs/hands/barrett_bh8_282.urdf").with_grasping(["tip_3", "tip_1"]).grasping_hand()
+    scene = build_scene(barrett, ball, body, _random_grasp(barrett), 0.5, SETTINGS)
+    names = {scene.model.joint(j).name for j in range(scene.model.njnt)}
+    assert "j21" not in names and "j22" not in names and {"j32", "j33", "j11", "j12", "j13"} <= names
+    assert scene.model.neq == 2  # the two remaining fingers' distal couplings
