@@ -88,11 +88,15 @@ def _prepared(source: Path, stamp: float) -> mujoco.MjSpec:
     return spec
 
 
-def _remove_unused_fingers(spec: mujoco.MjSpec, keep: set[str]) -> None:
-    """Delete the subtree of every body whose joint the grasp does not use (after removing free joints, a
-    mounted hand's)."""
+def _remove_unused_fingers(spec: mujoco.MjSpec, keep: set[str], palm: str) -> None:
+    """Delete the subtree of every body whose joint the grasp does not use. The joints between the world and
+    the palm (a mounted hand's free joint, an arm's) are removed instead, which welds the palm."""
+    above, body = set(), spec.body(palm)
+    while body is not None and body.name != "world":
+        above.add(body.name)
+        body = body.parent
     for joint in list(spec.joints):
-        if joint.type == mujoco.mjtJoint.mjJNT_FREE:
+        if joint.type == mujoco.mjtJoint.mjJNT_FREE or joint.parent.name in above:
             spec.delete(joint)
     doomed = [joint.parent for joint in spec.joints if joint.name not in keep]
     removed: set[str] = set()
@@ -151,7 +155,7 @@ def file_hand_spec(
     assert hand.model_file is not None and hand.palm_link is not None
     source = Path(hand.model_file)
     spec = _prepared(source, source.stat().st_mtime).copy()
-    _remove_unused_fingers(spec, set(hand.joint_names))
+    _remove_unused_fingers(spec, set(hand.joint_names), hand.palm_link)
     rotation, position = _palm_in_root(source, source.stat().st_mtime, hand.palm_link)
     placed = grasp.palm_rotation @ rotation.T  # the root's pose that puts the palm at the grasp's
     _place(_root_of(spec, hand.palm_link, source), placed, grasp.palm_position - placed @ position)
