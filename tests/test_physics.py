@@ -61,7 +61,8 @@ def test_the_scene_puts_every_joint_where_the_hands_kinematics_does(path):
     grasp = _random_grasp(hand)
     ball = load_object("configs/objects/sphere.yaml")
     scene = build_scene(hand, ball, object_body(ball, SETTINGS), grasp, 0.5, SETTINGS)
-    assert scene.from_file == (path != HANDS[0])
+    from_file = hand.model_file is not None
+    assert from_file == (path != HANDS[0])
     data = mujoco.MjData(scene.model)
     data.qpos[scene.hand_qpos] = grasp.joint_angles
     data.ctrl[:] = np.random.default_rng(2).uniform(0, 1, scene.model.nu)
@@ -70,7 +71,7 @@ def test_the_scene_puts_every_joint_where_the_hands_kinematics_does(path):
     ours = np.concatenate([placed.joint_positions[0, :-1] for placed in pose.fingers.values()])
     np.testing.assert_allclose(data.xanchor[scene.model.dof_jntid[scene.hand_dof]], ours, atol=1e-9)
     np.testing.assert_allclose(data.qfrc_actuator[scene.hand_dof], scene.actuation @ data.ctrl, atol=1e-12)
-    if not scene.from_file:  # every collision sphere of the project's model has its geom
+    if not from_file:  # every collision sphere of the project's model has its geom
         centres, _ = forward(hand, grasp.joint_angles, grasp.palm_rotation, grasp.palm_position).collision_spheres()
         spheres = [g for g in range(scene.model.ngeom) if scene.model.geom_type[g] == mujoco.mjtGeom.mjGEOM_SPHERE]
         gaps = np.linalg.norm(data.geom_xpos[spheres][:, None, :] - centres[0][None], axis=2).min(axis=0)

@@ -107,7 +107,13 @@ def task_targets(task: TaskModel) -> list[np.ndarray]:
 
 
 def _torque_effort(
-    edges, points, jacobians, hand: Hand, task: TaskModel, inward=None, minimum_normal: float = 0.0
+    edges: np.ndarray,
+    points: np.ndarray,
+    jacobians: list[np.ndarray],
+    hand: Hand,
+    task: TaskModel,
+    inward: np.ndarray | None = None,
+    minimum_normal: float = 0.0,
 ) -> tuple[float, list[WrenchLoad]]:
     """Smallest ``t`` such that, for every task axis and both signs, contact forces inside the friction cones
     apply ``+-gamma_i u_i`` to the object with joint torques ``T J^T f = A a``, ``0 <= a <= t`` (eq. 1, 10;

@@ -221,14 +221,14 @@ class GripController:
         close on the object together rather than knock it."""
         return self.settings.min_normal_force_n * min(1.0, self.elapsed_s / self.settings.closing_s)
 
-    @property
+    @cached_property
     def lever(self) -> float:
         """Torque errors weigh as force errors at the object's smallest radius of gyration (m) in the balance: a
         tool's twist about its own axis is as much a failure as a push along it."""
         model, body = self.scene.model, self.scene.object_body
         return float(np.sqrt(model.body_inertia[body].min() / model.body_mass[body]))
 
-    @property
+    @cached_property
     def _efforts(self) -> np.ndarray:
         """A motor's effort per transmission row (the scene's torque map is ``[E, -E]``)."""
         return np.abs(self.scene.torque_map).max(axis=1)

@@ -123,11 +123,16 @@ def _root_of(spec: mujoco.MjSpec, palm: str, source: Path):
     return body
 
 
-def _place(body, rotation: np.ndarray, position: np.ndarray) -> None:
+def quaternion(rotation: np.ndarray) -> np.ndarray:
+    """MuJoCo's unit quaternion of a rotation matrix."""
     quat = np.zeros(4)
     mujoco.mju_mat2Quat(quat, np.ascontiguousarray(rotation, dtype=float).reshape(9))
+    return quat
+
+
+def _place(body, rotation: np.ndarray, position: np.ndarray) -> None:
     body.alt.type = mujoco.mjtOrientation.mjORIENTATION_QUAT
-    body.pos, body.quat = np.asarray(position, dtype=float), quat
+    body.pos, body.quat = np.asarray(position, dtype=float), quaternion(rotation)
 
 
 @lru_cache(maxsize=8)

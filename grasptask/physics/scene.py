@@ -20,7 +20,7 @@ from grasptask.hand.kinematics import forward
 from grasptask.hand.model import Hand
 from grasptask.objects.mesh_object import MeshObject
 from grasptask.objects.surface import ImplicitObject
-from grasptask.physics.hand_file import compile_spec, file_hand_spec
+from grasptask.physics.hand_file import compile_spec, file_hand_spec, quaternion
 from grasptask.physics.settings import PhysicsSettings
 
 #: contype / conaffinity bits: hand geoms touch the object only, never each other
@@ -73,14 +73,13 @@ class Scene:
     hand_geoms: np.ndarray  # (ngeom,) bool: a geom of the hand that touches the object
     finger_of_body: np.ndarray  # (nbody,) the grasping finger whose joints move the body, -1 for none
     object_geoms: np.ndarray  # the object's geom ids
-    from_file: bool  # the hand's own file, not the project's model
 
     @property
     def finger_count(self) -> int:
         return len(self.pad_bodies)
 
 
-def convex_parts(mesh: trimesh.Trimesh) -> tuple[trimesh.Trimesh, ...]:
+def _convex_parts(mesh: trimesh.Trimesh) -> tuple[trimesh.Trimesh, ...]:
     """``mesh``'s hull when it is convex, else a CoACD decomposition's hulls."""
     hull = mesh.convex_hull
     if hull.volume <= (1 + CONVEX_VOLUME_EXCESS) * abs(mesh.volume):
@@ -100,13 +99,7 @@ def object_body(obj: ImplicitObject, settings: PhysicsSettings) -> ObjectBody:
         mesh = obj.picture(PICTURE_FACES)
         mesh = trimesh.Trimesh(obj.project(mesh.vertices), mesh.faces)
     mass = getattr(obj, "mass_kg", None) or settings.object_mass_kg
-    return ObjectBody(convex_parts(mesh), float(mass))
-
-
-def quaternion(rotation: np.ndarray) -> np.ndarray:
-    quat = np.zeros(4)
-    mujoco.mju_mat2Quat(quat, np.ascontiguousarray(rotation, dtype=float).reshape(9))
-    return quat
+    return ObjectBody(_convex_parts(mesh), float(mass))
 
 
 def _collider(body, size: float, pos: np.ndarray, friction: list[float]) -> None:
@@ -268,5 +261,4 @@ def build_scene(
         hand_geoms=hand_geoms,
         finger_of_body=_fingers_of_bodies(model, first),
         object_geoms=np.flatnonzero(model.geom_bodyid == object_id),
-        from_file=hand.model_file is not None,
     )
