@@ -65,11 +65,15 @@ def test_model_initialisation_reproduces_the_hand_kinematics(tasks):
     q = nlp.hand.mid_range()
     nlp.initialise(start.palm_rotation, start.palm_position, q)
     pose = forward(hand.grasping_hand(), q, start.palm_rotation, start.palm_position)
-    np.testing.assert_allclose(nlp.read()["contacts"], pose.contacts()[0], atol=1e-12)
+    # a rolling contact starts at the pad's home point, sunk by the compliance along the pad's normal
+    offsets = hand.grasping_hand().contact_offsets()[:, None]
+    starting = pose.pad_centres()[0] + offsets * pose.pad_normals()[0]
+    np.testing.assert_allclose(nlp.read()["contacts"], starting, atol=1e-12)
     m = nlp.model
+    jacobians = pose.jacobians_at(starting[None])
     for j, finger in enumerate(pose.fingers.values()):
         model_jacobian = [[pyo.value(m.J[j, k, i]) for k in range(finger.jacobian.shape[2])] for i in range(3)]
-        np.testing.assert_allclose(model_jacobian, finger.jacobian[0], atol=1e-12)
+        np.testing.assert_allclose(model_jacobian, jacobians[j][0], atol=1e-12)
 
 
 def test_initialisation_satisfies_every_defining_equality(tasks):
@@ -83,7 +87,9 @@ def test_initialisation_satisfies_every_defining_equality(tasks):
     defining += ("eq5_wrench", "eq7_jacobian", "eq7_edge_torque")
     for name in defining:
         residuals = [abs(pyo.value(c.body) - pyo.value(c.upper)) for c in getattr(m, name).values()]
-        assert max(residuals) < 1e-12, name
+        assert max(residuals, default=0.0) < 1e-12, name
+    # rolling contacts: their equality holds at a solution, not at a start (p starts at the pad's home point)
+    assert len(m.eq2_contact_point) == 0 and len(m.eq2_rolling_contact) == 9
 
 
 def test_126_starts_from_42_orientations_and_3_positions():
@@ -114,11 +120,13 @@ def test_sweep_writes_rows_verifies_and_clusters(cli, tasks, tmp_path):
     assert run["model_size"]["variables"] > 0 and run["paper"]["variables"] == 579
     assert run["paper"]["distinct_optima"] == 7
     assert sum(run["status_counts"].values()) == 4
-    # at an optimum the NLP's Q agrees with the verifier's own least-norm recomputation; a start cut off by the
-    # time limit may still be a verified grasp, but its task forces are not yet the least-norm ones
+    # at an optimum the NLP's Q is the verifier's own least-Q recomputation, or above it where that needs task
+    # forces beyond the solver's bound (task_force_n); a start cut off by the time limit may still be a verified
+    # grasp, but its task forces are not yet the least-Q ones
     verified = solutions[solutions["verified"]]
     converged = verified[verified["status"] == "optimal"]
-    np.testing.assert_allclose(converged["Q"], converged["verify_Q"], rtol=1e-3)
+    assert (converged["Q"] >= converged["verify_Q"] * (1 - 1e-3)).all()
+    assert np.isclose(converged["Q"], converged["verify_Q"], rtol=1e-3).any()
     optima = pd.read_parquet(tmp_path / "drawing" / "optima.parquet")
     assert len(optima) <= len(verified) and optima["members"].sum() == len(verified)
 

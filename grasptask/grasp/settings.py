@@ -22,15 +22,22 @@ class GraspSettings:
     activation_max: float = 1.0
     friction_scale: float = 1.0
     min_normal_force_n: float = 0.0
+    #: contacts roll over the fingertip's sphere, sunk by the hand's compliance (False: a fixed pad point, the
+    #: paper's model)
+    rolling_contacts: bool = True
 
 
 def load_grasp_settings(path: str | Path = DEFAULT_GRASP_CONFIG) -> GraspSettings:
     data = load_yaml(path)
     names = {f.name for f in fields(GraspSettings)}
     reject_unknown(data, names, path)
-    values: dict[str, float | int] = {}
+    values: dict[str, float | int | bool] = {}
     for key, value in data.items():
-        if isinstance(getattr(GraspSettings, key), int):
+        if isinstance(getattr(GraspSettings, key), bool):
+            if not isinstance(value, bool):
+                raise BadInputError(path, f"field '{key}': must be true or false, got {value!r}")
+            values[key] = value
+        elif isinstance(getattr(GraspSettings, key), int):
             values[key] = whole(value, path, key)
         else:
             values[key] = number(value, path, key, minimum=0.0)

@@ -37,11 +37,11 @@ from grasptask.task.model import TaskModel
 class Tolerances:
     """Every acceptance threshold of the verifier, in one place."""
 
-    contact_distance_m: float = 1e-3  # |distance from a pad point to the surface|
+    contact_distance_m: float = 1e-3  # |distance from a pad point to the surface| (a sphere's centre: minus its offset)
     joint_limit_rad: float = 1e-4  # how far a joint may sit beyond a limit
     coupling_rad: float = 1e-3  # |theta_DIP - k theta_PIP|
     rotation: float = 1e-6  # |R^T R - I| and |det R - 1|
-    clearance_m: float = -1e-3  # signed distance minus radius, for every hand sample point
+    clearance_m: float = -1e-3  # signed distance minus radius (plus a rolling fingertip's compliance), every sphere
     pad_angle_slack_deg: float = 1.0  # on top of the configured bound
     epsilon_min: float = 1e-6  # Ferrari-Canny epsilon (torques divided by the characteristic length)
     rank_rtol: float = 1e-8  # relative singular value threshold for the rank condition of eq. 9
@@ -151,9 +151,13 @@ def verify(
     q = np.asarray(grasp.joint_angles, dtype=float)
     rotation, position = np.asarray(grasp.palm_rotation, float), np.asarray(grasp.palm_position, float)
     pose = forward(hand, q, rotation, position)
-    pads = pose.contacts()[0]
-    distance = obj.signed_distance(pads)
-    surface_points, outward = obj.closest_point(pads)
+    # a rolling contact is where its fingertip sphere meets the object: the surface point nearest the sphere's
+    # centre, one offset (radius minus compliance) away; a fixed one is the pad point itself
+    offsets = hand.contact_offsets(settings.rolling_contacts)
+    rolling = offsets > 0
+    reference = np.where(rolling[:, None], pose.pad_centres()[0], pose.contacts()[0])
+    surface_points, outward = obj.closest_point(reference, exact=True)
+    distance = np.sign(obj.g(reference)) * np.linalg.norm(reference - surface_points, axis=1) - offsets
     inward = -outward
     pad_normals = pose.pad_normals()[0]
     pad_angle = np.degrees(np.arccos(np.clip((pad_normals * inward).sum(axis=1), -1.0, 1.0)))
@@ -161,8 +165,16 @@ def verify(
     coupling = max((abs(q[d] - r * q[i] - o) for d, i, r, o in hand.couplings()), default=0.0)
     rotation_error = max(np.abs(rotation.T @ rotation - np.eye(3)).max(), abs(np.linalg.det(rotation) - 1.0))
     spheres, radii = pose.collision_spheres()
-    clearance = float((obj.signed_distance(spheres[0]) - radii).min())
-    jacobians = [f.jacobian[0] for f in pose.fingers.values()]
+    # a rolling fingertip sinks by the compliance, and so may the rest of its distal link's skin
+    sunk = [
+        float(rolling[j]) * hand.compliance_m * np.array([s.link == f.n_joints - 1 for s in f.spheres], dtype=float)
+        for j, f in enumerate(hand.fingers.values())
+    ]
+    allowance = np.concatenate([*sunk, np.zeros(len(hand.palm.radii))])
+    clearance = float((obj.signed_distance(spheres[0]) - radii + allowance).min())
+    # each finger's Jacobian at its contact, the point of the distal link that touches the object
+    on_finger = np.where(rolling[:, None], surface_points, pose.contacts()[0])
+    jacobians = [jacobian[0] for jacobian in pose.jacobians_at(on_finger[None])]
     G = grasp_matrix(surface_points)
     J = hand_jacobian(jacobians)
     A = internal_forces(G)

@@ -11,10 +11,12 @@ from typing import Any
 import numpy as np
 
 from grasptask.errors import BadInputError
-from grasptask.hand.model import Capability, Finger, Hand, Joint, Pad, Palm, Sphere
+from grasptask.hand.model import DEFAULT_COMPLIANCE_M, Capability, Finger, Hand, Joint, Pad, Palm, Sphere
 from grasptask.io.config import number, numbers, reject_unknown, require, whole
 
-TOP_FIELDS = {"name", "hand_length_m", "grasping_fingers", "palm", "fingers", "tendons", "coupling_source"}
+TOP_FIELDS = {
+    "name", "hand_length_m", "grasping_fingers", "palm", "fingers", "tendons", "coupling_source", "pad_compliance_m",
+}  # fmt: skip
 
 
 def _unit(vector: Any, source: Path, name: str) -> np.ndarray:
@@ -113,7 +115,8 @@ def _finger(data: dict, name: str, spec: Any, source: Path) -> Finger:
                 spheres.append(Sphere(k, np.array([f * link, 0.0, 0.0]), radius))
     distal = parsed[-1][1]
     pad_along = number(spec.get("pad_along", 0.65), source, f"{where}.pad_along", minimum=0.0)
-    pad = Pad(np.array([pad_along * distal, 0.0, radius]), np.array([0.0, 0.0, 1.0]), np.array([1.0, 0.0, 0.0]))
+    # the pad is the distal link's skin over its axis: a sphere of the finger's radius rolls on the object
+    pad = Pad(np.array([pad_along * distal, 0.0, radius]), np.array([0.0, 0.0, 1.0]), np.array([1.0, 0.0, 0.0]), radius)
     return Finger(
         name=name,
         joints=tuple(joints),
@@ -154,4 +157,11 @@ def hand_from_yaml(data: dict, path: Path) -> Hand:
     )
     tendons = data.get("tendons", {})
     sources = {name: str(t.get("source", "")) for name, t in tendons.items() if isinstance(t, dict)}
-    return Hand(str(data.get("name", path.stem)), fingers, _palm(data, path), tuple(grasping), capability, sources)
+    compliance = number(data.get("pad_compliance_m", DEFAULT_COMPLIANCE_M), path, "pad_compliance_m", minimum=0.0)
+    thinnest = min(f.pad.radius for f in fingers.values())
+    if compliance >= thinnest:
+        raise BadInputError(
+            path, f"field 'pad_compliance_m': {compliance} m is not below the fingertip radius {thinnest} m"
+        )
+    name = str(data.get("name", path.stem))
+    return Hand(name, fingers, _palm(data, path), tuple(grasping), capability, sources, compliance_m=compliance)

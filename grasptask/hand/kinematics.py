@@ -29,7 +29,8 @@ class FingerPose:
     joint_positions: np.ndarray  # (N, n+1, 3): each joint's origin, then the fingertip end
     joint_axes: np.ndarray  # (N, n, 3): each joint's axis
     link_rotations: np.ndarray  # (N, n, 3, 3): each link's frame after its joint
-    contact: np.ndarray  # (N, 3): the fingertip pad point
+    contact: np.ndarray  # (N, 3): the fingertip pad's home point
+    pad_centre: np.ndarray  # (N, 3): the centre of the fingertip sphere the contact rolls over
     pad_normal: np.ndarray  # (N, 3): outward normal of the pad
     pad_tangent: np.ndarray  # (N, 3): the direction the first friction-cone edge follows
     jacobian: np.ndarray  # (N, 3, n): d contact / d joint angles
@@ -47,6 +48,18 @@ class HandPose:
     def contacts(self) -> np.ndarray:
         """``(N, b, 3)`` pad points of the fingers, in order."""
         return np.stack([f.contact for f in self.fingers.values()], axis=1)
+
+    def pad_centres(self) -> np.ndarray:
+        """``(N, b, 3)`` centres of the fingertip spheres."""
+        return np.stack([f.pad_centre for f in self.fingers.values()], axis=1)
+
+    def jacobians_at(self, points: np.ndarray) -> list[np.ndarray]:
+        """Each finger's ``(N, 3, n)`` Jacobian of the point of its last link at ``points`` ``(N, b, 3)``
+        (a contact that rolled away from the pad's home point)."""
+        return [
+            np.cross(f.joint_axes, points[:, j, None, :] - f.joint_positions[:, :-1]).transpose(0, 2, 1)
+            for j, f in enumerate(self.fingers.values())
+        ]
 
     def pad_normals(self) -> np.ndarray:
         return np.stack([f.pad_normal for f in self.fingers.values()], axis=1)
@@ -78,6 +91,7 @@ def finger_forward(finger: Finger, q: np.ndarray) -> FingerPose:
     link_rotations, joint_positions = np.stack(rotations, axis=1), np.stack(positions, axis=1)
     pad = finger.pad
     contact = position + rotation @ pad.point
+    centre = position + rotation @ pad.centre
     centres = np.array([s.center for s in finger.spheres]).reshape(-1, 3)
     links = [s.link for s in finger.spheres]
     samples = joint_positions[:, links] + np.einsum("nsij,sj->nsi", link_rotations[:, links], centres)
@@ -88,6 +102,7 @@ def finger_forward(finger: Finger, q: np.ndarray) -> FingerPose:
         joint_axes=axes_arr,
         link_rotations=link_rotations,
         contact=contact,
+        pad_centre=centre,
         pad_normal=rotation @ pad.normal,
         pad_tangent=rotation @ pad.tangent,
         jacobian=jacobian,
@@ -109,6 +124,7 @@ def _to_object(pose: FingerPose, rotation: np.ndarray, position: np.ndarray) -> 
         joint_axes=vector(pose.joint_axes),
         link_rotations=np.einsum("nij,nkjl->nkil", rotation, pose.link_rotations),
         contact=point(pose.contact[:, None, :])[:, 0],
+        pad_centre=point(pose.pad_centre[:, None, :])[:, 0],
         pad_normal=vector(pose.pad_normal[:, None, :])[:, 0],
         pad_tangent=vector(pose.pad_tangent[:, None, :])[:, 0],
         jacobian=rotation @ pose.jacobian,

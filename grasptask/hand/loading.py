@@ -6,7 +6,9 @@
 - a YAML that points at a URDF or MJCF file (``model: path``, relative to the YAML) and adds what the file
   cannot say: ``name``, ``palm_link``, ``fingertips`` (link names) with ``finger_names``, ``grasping_fingers``,
   ``pads`` (per fingertip link, ``point_m``, ``normal`` and ``tangent`` in its frame), ``approach`` (``z`` and
-  ``x`` in the palm frame) and ``sources`` (where each value came from).
+  ``x`` in the palm frame), ``compliance_m`` (how far a fingertip gives at a contact, 0.5 mm unless given) and
+  ``sources`` (where each value came from). A pad may give ``radius_m``, its fingertip's radius of curvature,
+  for the contact to roll over it.
 """
 
 from __future__ import annotations
@@ -19,16 +21,16 @@ import numpy as np
 
 from grasptask.errors import BadInputError, existing_file
 from grasptask.hand.from_yaml import hand_from_yaml
-from grasptask.hand.model import Hand, Pad
+from grasptask.hand.model import DEFAULT_COMPLIANCE_M, Hand, Pad
 from grasptask.hand.tree import HandOptions, hand_from_tree
-from grasptask.io.config import load_yaml, numbers, reject_unknown
+from grasptask.io.config import load_yaml, number, numbers, reject_unknown
 from grasptask.paths import DEFAULT_HAND
 
 URDF_SUFFIXES = (".urdf",)
 MJCF_SUFFIXES = (".xml", ".mjcf")
 MODEL_FIELDS = {
     "model", "name", "description", "palm_link", "fingertips", "finger_names", "grasping_fingers", "pads",
-    "approach", "sources",
+    "approach", "sources", "compliance_m",
 }  # fmt: skip
 
 
@@ -58,14 +60,15 @@ def _pads(value: Any, source: Path) -> dict[str, Pad]:
         where = f"pads.{link}"
         if not isinstance(spec, dict):
             raise BadInputError(source, f"field '{where}' must be a mapping")
-        reject_unknown(spec, {"point_m", "normal", "tangent"}, source, f"{where}.")
+        reject_unknown(spec, {"point_m", "normal", "tangent", "radius_m"}, source, f"{where}.")
         normal = _unit(spec.get("normal"), source, f"{where}.normal")
         tangent = _unit(spec.get("tangent"), source, f"{where}.tangent")
         tangent = tangent - (tangent @ normal) * normal
         if np.linalg.norm(tangent) < 1e-6:
             raise BadInputError(source, f"field '{where}.tangent' is parallel to the normal")
         point = numbers(spec.get("point_m"), source, f"{where}.point_m", 3)
-        pads[str(link)] = Pad(point, normal, tangent / np.linalg.norm(tangent))
+        radius = number(spec.get("radius_m", 0.0), source, f"{where}.radius_m", minimum=0.0)
+        pads[str(link)] = Pad(point, normal, tangent / np.linalg.norm(tangent), radius)
     return pads
 
 
@@ -108,6 +111,7 @@ def _with_model(data: dict, source: Path) -> Hand:
         pads=_pads(data.get("pads"), source),
         grasping=_names(data, "grasping_fingers", source),
         approach=_approach(data.get("approach"), source),
+        compliance_m=number(data.get("compliance_m", DEFAULT_COMPLIANCE_M), source, "compliance_m", minimum=0.0),
     )
     hand = hand_from_tree(_read_model(model, source), model, options)
     sources = data.get("sources") or {}

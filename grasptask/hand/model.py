@@ -36,14 +36,27 @@ class Sphere:
     radius: float
 
 
+#: how far a fingertip gives at a contact when its file does not say (m): a rigid robot fingertip's rubber skin
+DEFAULT_COMPLIANCE_M = 0.5e-3
+
+
 @dataclass(frozen=True)
 class Pad:
-    """The fingertip pad in the frame of the finger's last link: the contact point, the pad's outward normal,
-    and the direction the first friction-cone edge follows (the finger's own frame, as in eq. 24)."""
+    """The fingertip pad in the frame of the finger's last link: the pad's home point, its outward normal there,
+    and the direction the first friction-cone edge follows (the finger's own frame, as in eq. 24).
+
+    ``radius`` is the fingertip's surface about the pad, a sphere centred ``radius`` behind the point along the
+    normal, over which the contact rolls; 0 keeps the contact at the point (the paper's model)."""
 
     point: np.ndarray
     normal: np.ndarray
     tangent: np.ndarray
+    radius: float = 0.0
+
+    @property
+    def centre(self) -> np.ndarray:
+        """The centre of the fingertip's sphere, in the last link's frame."""
+        return self.point - self.radius * self.normal
 
 
 @dataclass(frozen=True)
@@ -152,6 +165,16 @@ class Hand:
     #: own geometry (None: the project's own model, as for the human hand)
     model_file: Path | None = None
     palm_link: str | None = None
+    #: how far each fingertip may give at a contact (m): its sphere's centre sits its radius minus this from
+    #: the object's surface, and no link may sink deeper than this into the object
+    compliance_m: float = DEFAULT_COMPLIANCE_M
+
+    def contact_offsets(self, rolling: bool = True) -> np.ndarray:
+        """Per finger, the distance from the fingertip sphere's centre to the surface at a contact: its radius
+        minus the compliance; 0 where the contact stays at the pad point (a pad without a sphere, or
+        ``rolling`` off, the paper's model)."""
+        radii = np.array([f.pad.radius for f in self.fingers.values()])
+        return np.where(rolling & (radii > 0), radii - self.compliance_m, 0.0)
 
     @property
     def joint_names(self) -> list[str]:

@@ -9,7 +9,7 @@ project's :class:`~grasptask.hand.model.Hand` from it, the same way for both for
   the chain of revolute joints from the palm to its tip, fixed joints folded into the next joint's origin;
 - the pad is on the tip's sphere, facing the way the tip moves as the last joint closes the finger, and the
   first friction-cone edge follows the distal link, from its joint to the tip; the sphere that holds the pad
-  is the contact surface, not a collision sphere;
+  is the contact surface, over which the contact rolls, not a collision sphere;
 - the approach direction for the starts runs from the palm's origin to the pads' centroid at mid-range;
 - each motor limits ``|tau| <= effort``; a joint that mimics another shares its motor and its limit.
 
@@ -27,7 +27,7 @@ import numpy as np
 
 from grasptask.errors import BadInputError
 from grasptask.hand.kinematics import forward
-from grasptask.hand.model import Capability, Finger, Hand, Joint, Pad, Palm, Sphere
+from grasptask.hand.model import DEFAULT_COMPLIANCE_M, Capability, Finger, Hand, Joint, Pad, Palm, Sphere
 
 REVOLUTE = ("revolute", "continuous")
 
@@ -71,6 +71,7 @@ class HandOptions:
     pads: dict[str, Pad] = field(default_factory=dict)  # by fingertip link, in its own frame
     grasping: tuple[str, ...] | None = None
     approach: np.ndarray | None = None  # 3 x 3: the approach frame (z towards the object) in the palm frame
+    compliance_m: float = DEFAULT_COMPLIANCE_M  # how far a fingertip gives at a contact
 
 
 def _check(tree: Tree, source: Path) -> dict[str, TreeJoint]:
@@ -267,7 +268,8 @@ def _pads(
         chain, last = chains[name], finger.joints[-1]
         if tip in options.pads:
             pad, frame = options.pads[tip], chain.tip_frame
-            pad = Pad(frame[:3, :3] @ pad.point + frame[:3, 3], frame[:3, :3] @ pad.normal, frame[:3, :3] @ pad.tangent)
+            rotation = frame[:3, :3]
+            pad = Pad(rotation @ pad.point + frame[:3, 3], rotation @ pad.normal, rotation @ pad.tangent, pad.radius)
         else:
             centre, radius = chain.tip_spheres[-1] if chain.tip_spheres else (chain.tip_frame[:3, 3], 0.0)
             along = centre / max(np.linalg.norm(centre), 1e-12)  # from the last joint to the tip, in its frame
@@ -277,7 +279,7 @@ def _pads(
                 normal = np.cross(along, [0.0, 0.0, 1.0]) if abs(along[2]) < 0.9 else np.cross(along, [1.0, 0.0, 0.0])
             normal = normal / np.linalg.norm(normal)
             tangent = along - (along @ normal) * normal
-            pad = Pad(centre + radius * normal, normal, tangent / max(np.linalg.norm(tangent), 1e-12))
+            pad = Pad(centre + radius * normal, normal, tangent / max(np.linalg.norm(tangent), 1e-12), radius)
         out[name] = Finger(name, finger.joints, _off_the_pad(finger, pad), pad, finger.tip, finger.radius)
     return out
 
@@ -371,6 +373,11 @@ def hand_from_tree(tree: Tree, source: Path, options: HandOptions = HandOptions(
             known = ", ".join(fingers)
             raise BadInputError(source, f"grasping finger '{finger}' is not a finger of this hand ({known})")
     approach = _approach(fingers, options)
+    rounded = [f.pad.radius for f in fingers.values() if f.pad.radius > 0]
+    if rounded and options.compliance_m >= min(rounded):
+        raise BadInputError(
+            source, f"compliance {options.compliance_m} m is not below the fingertip radius {min(rounded)} m"
+        )
     return Hand(
         options.name or source.stem,
         fingers,
@@ -380,4 +387,5 @@ def hand_from_tree(tree: Tree, source: Path, options: HandOptions = HandOptions(
         approach=approach,
         model_file=source.resolve(),
         palm_link=palm,
+        compliance_m=options.compliance_m,
     )

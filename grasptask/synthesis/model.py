@@ -6,9 +6,11 @@ family of variables and constraints, in this order, and the component names carr
     palm_and_joints          eq. 16-23  palm rotation orthonormal; joint limits as bounds (eq. 20-21); DIP = k PIP
     held_axis_rotation       (none)     when asked, the grasp's turn about a solid of revolution's axis held at
                                         the start's (:func:`held_axis_rotation`; not in the paper)
-    kinematics               eq. 2      link frames, joint positions, pad contact points
+    kinematics               eq. 2      link frames, joint positions, pad contact points (or the centres of the
+                                        fingertip spheres the contacts roll over)
     contacts_and_collisions  eq. 3, 14  contacts on the surface; hand spheres outside it; inward unit normals,
-                                        the cone tangent along the pad's own tangent (App. 10.3); pads facing it
+                                        the cone tangent along the pad's own tangent (App. 10.3); pads facing it;
+                                        a rolling contact one offset from its sphere's centre along the normal
     cones_and_wrenches       eq. 24, 5  friction cone edges and the torque parts of the primitive wrenches
     jacobians                eq. 7      finger Jacobian columns and the joint torques of each unit cone edge
     force_closure            eq. 4      phi >= eps, sum phi = 1, sum phi w = 0
@@ -66,12 +68,17 @@ class NLPBuilder:
     held_axis: tuple[np.ndarray, np.ndarray] | None = None
     #: ``(variable, expression)`` pairs in dependency order, for :meth:`GraspNLP.initialise`
     definitions: list[tuple[Any, Any]] = field(default_factory=list)
+    #: per finger, the distance from its fingertip sphere's centre to a rolling contact (0: a fixed pad point)
+    contact_offsets: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    pad_centres: dict[int, Vector] = field(default_factory=dict)  # the rolling fingers' sphere centres
     palm_rotation: Matrix = field(default_factory=list)
     joint_axes: list[list[Vector]] = field(default_factory=list)  # per finger and joint, in the object frame
     joint_positions: list[list[Vector]] = field(default_factory=list)
     pad_normals: list[Vector] = field(default_factory=list)  # each pad's outward normal
     pad_tangents: list[Vector] = field(default_factory=list)  # the direction each cone's first edge follows
-    samples: list[tuple[Vector, float]] = field(default_factory=list)  # collision spheres: centre, radius
+    #: collision spheres: centre, radius, and how deep into the object they may sink (a rolling fingertip's
+    #: compliance, on its last link; 0 elsewhere)
+    samples: list[tuple[Vector, float, float]] = field(default_factory=list)
     contacts: list[Vector] = field(default_factory=list)  # p^j
     edges: list[list[Vector]] = field(default_factory=list)  # l_i^j
     wrenches: list[list[Vector]] = field(default_factory=list)  # (l_i^j, p^j x l_i^j)
@@ -183,6 +190,8 @@ def _finger_chain(nlp: NLPBuilder, j: int, finger: Finger, first_column: int) ->
     spheres, and the pad contact point on the last link."""
     m = nlp.model
     previous = nlp.palm_rotation
+    # a rolling fingertip sinks by the compliance, and so may the rest of its tip (a capsule's other spheres)
+    allowance = nlp.hand.compliance_m if nlp.contact_offsets[j] > 0 else 0.0
     axes_j: list[Vector] = []
     positions_j: list[Vector] = []
     position: Vector = []
@@ -201,13 +210,21 @@ def _finger_chain(nlp: NLPBuilder, j: int, finger: Finger, first_column: int) ->
         previous = [[m.frame[j, k, r, c] for c in XYZ] for r in XYZ]
         for sphere in finger.spheres:
             if sphere.link == k:
-                nlp.samples.append((_moved(position, previous, sphere.center), sphere.radius))
+                sunk = allowance if k == finger.n_joints - 1 else 0.0
+                nlp.samples.append((_moved(position, previous, sphere.center), sphere.radius, sunk))
     pad = finger.pad
-    for i, expr in enumerate(_moved(position, previous, pad.point)):
-        nlp.define(m.eq2_contact_point, m.p[j, i], expr)
+    pad_normal = _direction(previous, pad.normal)
+    offset = float(nlp.contact_offsets[j])
+    if offset > 0:  # rolling: p starts at the pad's home point, sunk by the compliance; eq2_rolling_contact holds it
+        centre = _moved(position, previous, pad.centre)
+        nlp.pad_centres[j] = centre
+        nlp.definitions += [(m.p[j, i], centre[i] + offset * pad_normal[i]) for i in XYZ]
+    else:
+        for i, expr in enumerate(_moved(position, previous, pad.point)):
+            nlp.define(m.eq2_contact_point, m.p[j, i], expr)
     nlp.joint_axes.append(axes_j)
     nlp.joint_positions.append(positions_j)
-    nlp.pad_normals.append(_direction(previous, pad.normal))
+    nlp.pad_normals.append(pad_normal)
     nlp.pad_tangents.append(_direction(previous, pad.tangent))
 
 
@@ -226,19 +243,24 @@ def kinematics(nlp: NLPBuilder) -> None:
         column += finger.n_joints
     palm = nlp.hand.palm
     for point, radius in zip(palm.points, palm.radii, strict=True):
-        nlp.samples.append((_in_palm(nlp, point), float(radius)))
+        nlp.samples.append((_in_palm(nlp, point), float(radius), 0.0))
     nlp.contacts = [[m.p[j, i] for i in XYZ] for j in range(nlp.b)]
 
 
 def contacts_and_collisions(nlp: NLPBuilder) -> None:
     """Eq. 3 and 14: the contacts on the surface and every hand sample outside it by its radius; the inward unit
     normal -grad g / |grad g| at each contact, the first cone tangent (the distal phalanx's axis projected on the
-    tangent plane, App. 10.3), and the pad facing the surface within the configured angle."""
+    tangent plane, App. 10.3), and the pad facing the surface within the configured angle, which keeps a rolling
+    contact on the pad, off the nail and the back of the finger.
+
+    A rolling contact is its fingertip sphere's point nearest the surface, sunk by the hand's compliance:
+    ``p = c + (r - compliance) n``, with the sphere's centre ``c`` fixed in the distal link and ``n`` the
+    inward normal at ``p`` (eq. 2 for a contact that moves over the fingertip)."""
     m, surface, p, samples = nlp.model, nlp.surface, nlp.contacts, nlp.samples
     b = nlp.b
     m.eq3_contact = pyo.Constraint(range(b), rule=lambda _, j: surface.contact(p[j]) == 0)
     m.eq14_collision = pyo.Constraint(
-        range(len(samples)), rule=lambda _, s: surface.clearance(samples[s][0], samples[s][1]) >= 0
+        range(len(samples)), rule=lambda _, s: surface.clearance(samples[s][0], samples[s][1]) >= -samples[s][2]
     )
     m.n = pyo.Var(range(b), XYZ, doc="inward unit normal at p^j")
     m.t = pyo.Var(range(b), XYZ, doc="first cone tangent at p^j")
@@ -258,6 +280,11 @@ def contacts_and_collisions(nlp: NLPBuilder) -> None:
         for i in XYZ:
             m.tangent_definition.add(m.t[j, i] * w_norm == w[i])
             nlp.definitions.append((m.t[j, i], w[i] / w_norm))
+    m.eq2_rolling_contact = pyo.ConstraintList()
+    for j, centre in nlp.pad_centres.items():
+        offset = float(nlp.contact_offsets[j])
+        for i in XYZ:
+            m.eq2_rolling_contact.add(m.p[j, i] == centre[i] + offset * m.n[j, i])
     cos_bound = float(np.cos(np.radians(nlp.settings.pad_angle_max_deg)))
     m.pad_facing = pyo.Constraint(
         range(b), rule=lambda _, j: sum(nlp.pad_normals[j][i] * m.n[j, i] for i in XYZ) >= cos_bound
@@ -570,6 +597,7 @@ def build_model(
         regularisation,
         range(n_axes if torque_axes is None else min(torque_axes, n_axes)),
         held_axis,
+        contact_offsets=grasping.contact_offsets(settings.rolling_contacts),
     )
     builder.surface.attach(builder.model, builder.definitions)
     for equation in EQUATIONS:
