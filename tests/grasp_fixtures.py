@@ -40,8 +40,10 @@ def drawing_like_task(scale: float = 0.2) -> TaskModel:
 
 @lru_cache(maxsize=1)
 def ball_grasp() -> tuple[Grasp, Superquadric]:
-    """Thumb, index and middle pads on a ball, pads facing its centre; the ball is placed to fit the hand."""
+    """Thumb, index and middle pads on a ball, pads facing its centre; the ball is placed to fit the hand. The
+    fingertip spheres touch it as rolling contacts do, sunk by the hand's compliance."""
     hand = load_hand().grasping_hand()
+    offsets = hand.contact_offsets()
     free = [i for i in range(hand.n_joints) if i not in {d for d, *_ in hand.couplings()}]
     lower, upper = hand.lower[free], hand.upper[free]
 
@@ -53,8 +55,8 @@ def ball_grasp() -> tuple[Grasp, Superquadric]:
     def residuals(x):
         q, centre = unpack(x)
         pose = forward(hand, q)
-        pads, normals = pose.contacts()[0], pose.pad_normals()[0]
-        towards = centre - pads
+        tips, normals = pose.pad_centres()[0], pose.pad_normals()[0]
+        towards = centre - tips
         dist = np.linalg.norm(towards, axis=1)
         inward = towards / dist[:, None]
         align = normals - inward
@@ -62,9 +64,8 @@ def ball_grasp() -> tuple[Grasp, Superquadric]:
         gap = np.linalg.norm(spheres[0] - centre, axis=1) - BALL_RADIUS - radii - 0.002
         mid = (x[: len(free)] - 0.5 * (lower + upper)) / (upper - lower)
         # inward normals summing to zero: the pads squeeze from around the ball, not from one side
-        return np.concatenate(
-            [(dist - BALL_RADIUS) * 300, 2.0 * align.ravel(), inward.sum(axis=0), 100 * np.minimum(gap, 0), 0.05 * mid]
-        )
+        touch = (dist - BALL_RADIUS - offsets) * 300
+        return np.concatenate([touch, 2.0 * align.ravel(), inward.sum(axis=0), 100 * np.minimum(gap, 0), 0.05 * mid])
 
     start_q = 0.5 * (lower + upper)
     centre0 = forward(hand, unpack(np.concatenate([start_q, np.zeros(3)]))[0]).contacts()[0].mean(axis=0)

@@ -119,7 +119,7 @@ def test_urdf_record_replays_in_yourdfpy(tmp_path):
         rotation = np.linalg.qr(rng.normal(size=(3, 3)))[0]
         grasp = Grasp(rotation * np.sign(np.linalg.det(rotation)), rng.normal(scale=0.05, size=3), q)
         check = verify(grasp, hand, grasp_ball, drawing_like_task())
-        scene = grasp_scene(hand, grasp_ball.picture(500), grasp, check.normals, 0.5)
+        scene = grasp_scene(hand, grasp_ball.picture(500), grasp, check.contacts, check.normals, 0.5)
         record = json.loads(json.dumps(_record(hand, grasp, scene, check, path)))
         jsonschema.validate(record, SCHEMA)
         assert set(record["joint_angles"]) <= set(robot.joint_names)
@@ -160,7 +160,7 @@ def test_glb_bytes_are_a_binary_gltf():
     grasp, ball = ball_grasp()
     hand = load_hand().grasping_hand()
     check = verify(grasp, hand, ball, drawing_like_task())
-    data = glb_bytes(grasp_scene(hand, ball.picture(500), grasp, check.normals, 0.5))
+    data = glb_bytes(grasp_scene(hand, ball.picture(500), grasp, check.contacts, check.normals, 0.5))
     assert data[:4] == b"glTF"
 
 

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from grasptask.grasp.loads_lp import load_block
-from grasptask.grasp.margins import friction_margin, strength_margin
+from grasptask.grasp.margins import FRICTION_STEPS, friction_margin, strength_margin
 from grasptask.grasp.mechanics import friction_cone_edges
 from grasptask.grasp.settings import GraspSettings, load_grasp_settings
 from grasptask.grasp.verify import _torque_effort
@@ -56,7 +56,7 @@ def test_the_margin_lps_give_the_hand_computed_values(effort, force, mu):
     assert strength == pytest.approx(2 * mu * effort / force, rel=1e-6)
     friction = friction_margin(INWARD, TANGENTS, POINTS, JACOBIANS, _hand(effort), mu, 4, targets)
     expected = force / (2 * effort)
-    assert expected <= friction <= expected + max(mu, expected) / 2**6  # the bisection's resolution
+    assert expected <= friction <= expected + max(mu, expected) / 2**FRICTION_STEPS  # the bisection's resolution
 
 
 def test_a_grasp_at_the_edge_of_its_cones_is_held_without_the_margin_and_refused_with_it():
@@ -75,4 +75,8 @@ def test_the_margin_settings_are_validated(tmp_path):
     config.write_text("friction_scale: 0.8\nactivation_max: 0.8\nmin_normal_force_n: 0.2\n")
     loaded = load_grasp_settings(config)
     assert (loaded.friction_scale, loaded.activation_max, loaded.min_normal_force_n) == (0.8, 0.8, 0.2)
-    assert GraspSettings().activation_max == 1.0
+    # the dataclass's defaults are the shipped config's, and the paper's config keeps no margin
+    assert GraspSettings() == load_grasp_settings("configs/grasp.yaml")
+    paper = load_grasp_settings("configs/grasp_paper.yaml")
+    assert (paper.activation_max, paper.friction_scale, paper.min_normal_force_n) == (1.0, 1.0, 0.0)
+    assert not paper.rolling_contacts

@@ -127,6 +127,9 @@ def test_sweep_writes_rows_verifies_and_clusters(cli, tasks, tmp_path):
     converged = verified[verified["status"] == "optimal"]
     assert (converged["Q"] >= converged["verify_Q"] * (1 - 1e-3)).all()
     assert np.isclose(converged["Q"], converged["verify_Q"], rtol=1e-3).any()
+    # rolling contacts: each fingertip sphere's centre is its radius minus the compliance from the surface
+    distances = converged[[f"verify_contact_distance_m_{f}" for f in ("thumb", "index", "middle")]]
+    assert len(converged) and np.abs(distances.to_numpy()).max() < 1e-6
     optima = pd.read_parquet(tmp_path / "drawing" / "optima.parquet")
     assert len(optima) <= len(verified) and optima["members"].sum() == len(verified)
 

@@ -81,32 +81,44 @@ def solve_loads(
     for i, w in enumerate(targets):
         wrenches[i * rows : i * rows + 6] = w
     if scale_wrenches:  # t w moves to the left-hand side as a column
-        column, b_eq = sp.csr_matrix(-wrenches.reshape(-1, 1)), np.zeros(k * rows)
+        column, b_eq = -wrenches, np.zeros(k * rows)
     else:
-        column, b_eq = sp.csr_matrix((k * rows, 1)), wrenches
-    a_eq = sp.hstack([sp.kron(sp.identity(k), sp.csr_matrix(block.matrix)), column])
+        column, b_eq = np.zeros(k * rows), wrenches
+    a_eq = _repeated(block.matrix, k, column)
     pick = np.hstack([np.zeros((block.actuators, block.forces)), np.eye(block.actuators)])
     if scale_wrenches:
-        a_ub = sp.hstack([sp.kron(sp.identity(k), sp.csr_matrix(pick)), sp.csr_matrix((k * block.actuators, 1))])
+        a_ub = _repeated(pick, k, np.zeros(k * block.actuators))
         b_ub = np.full(k * block.actuators, float(activation_max if activation_max is not None else 1.0))
     else:
-        a_ub = sp.hstack(
-            [sp.kron(sp.identity(k), sp.csr_matrix(pick)), -sp.csr_matrix(np.ones((k * block.actuators, 1)))]
-        )
+        a_ub = _repeated(pick, k, -np.ones(k * block.actuators))
         b_ub = np.zeros(k * block.actuators)
     if minimum_normal is not None:
         normals, force = minimum_normal
-        extra = sp.hstack([sp.kron(sp.identity(k), sp.csr_matrix(-normals)), sp.csr_matrix((k * len(normals), 1))])
-        a_ub = sp.vstack([a_ub, extra])
+        a_ub = sp.vstack([a_ub, _repeated(-normals, k, np.zeros(k * len(normals)))])
         b_ub = np.concatenate([b_ub, np.full(k * len(normals), -force)])
     cost = np.zeros(k * width + 1)
     cost[-1] = -1.0 if scale_wrenches else 1.0
     bounds = [(0, None)] * (k * width) + [(0, MARGIN_CAP if scale_wrenches else None)]
     # presolve costs more than it saves on an LP this small and this well structured
     return linprog(
-        cost, A_ub=a_ub.tocsr(), b_ub=b_ub, A_eq=a_eq.tocsr(), b_eq=b_eq, bounds=bounds, method="highs",
+        cost, A_ub=sp.csr_matrix(a_ub), b_ub=b_ub, A_eq=a_eq, b_eq=b_eq, bounds=bounds, method="highs",
         options={"presolve": False},
     )  # fmt: skip
+
+
+def _repeated(matrix: np.ndarray, k: int, last: np.ndarray) -> sp.csr_matrix:
+    """``k`` copies of ``matrix`` down the diagonal and the column ``last`` beside them, as CSR, built from the
+    nonzeros directly (SciPy's kron and hstack took a fifth of the verifier's time)."""
+    rows, cols = np.nonzero(matrix)
+    height, width = matrix.shape
+    copy = np.arange(k)[:, None]
+    r = (rows[None] + height * copy).ravel()
+    c = (cols[None] + width * copy).ravel()
+    v = np.tile(matrix[rows, cols], k)
+    tail = np.flatnonzero(last)
+    r, c = np.concatenate([r, tail]), np.concatenate([c, np.full(len(tail), k * width)])
+    v = np.concatenate([v, last[tail]])
+    return sp.csr_matrix((v, (r, c)), shape=(k * height, k * width + 1))
 
 
 #: the largest strength margin reported: wrenches of zero size are held at any scale

@@ -15,8 +15,9 @@ from grasptask.grasp.loads_lp import MARGIN_CAP, LoadBlock, load_block, solve_lo
 from grasptask.grasp.mechanics import friction_cone_edges
 from grasptask.hand.model import Hand
 
-#: bisection steps of the friction margin: its resolution is 1/128 of its bracket (0.004 at mu 0.5)
-FRICTION_STEPS = 7
+#: bisection steps of the friction margin: its resolution is 1/32 of its bracket (0.0125 at a bracket of 0.4),
+#: finer than a friction coefficient is known; each step is an LP, and 7 of them were 60% of the verifier's time
+FRICTION_STEPS = 5
 #: the friction margin is sought up to this multiple of the model's mu (beyond it: infinite)
 FRICTION_CEILING = 8.0
 
@@ -45,7 +46,7 @@ def friction_margin(
     targets: list[np.ndarray],
     known: float | None = None,
 ) -> float:
-    """The smallest friction coefficient (to 1/128 of its bracket) with which the cones of ``edges`` edges about
+    """The smallest friction coefficient (to 1/32 of its bracket) with which the cones of ``edges`` edges about
     ``inward`` hold every target at full strength; inf above ``FRICTION_CEILING mu``. ``known``: a coefficient
     already known to hold them, which brackets the search without an LP."""
     low, high = 0.0, mu if known is None else known

@@ -30,16 +30,16 @@ def finger_colour(name: str, index: int) -> str:
 class FingerBody:
     name: str
     colour: str
-    mesh: trimesh.Trimesh  # its collision spheres, merged
+    mesh: trimesh.Trimesh  # its collision spheres and its fingertip's sphere, merged
     chain: np.ndarray  # (n+1, 3): the joints' origins, then the fingertip's end
-    pad: np.ndarray  # (3,): the pad point, where the finger touches
+    pad: np.ndarray  # (3,): where the finger touches
     pad_normal: np.ndarray  # (3,): outward from the pad
 
 
 @dataclass(frozen=True)
 class GraspScene:
-    """A grasp's geometry in the object frame (m); ``contacts`` are the pad points, ``normals`` the object's
-    outward normals there, ``mu`` the friction coefficient of the cones."""
+    """A grasp's geometry in the object frame (m); ``contacts`` are where the fingers touch, ``normals`` the
+    object's outward normals there, ``mu`` the friction coefficient of the cones."""
 
     fingers: tuple[FingerBody, ...]
     palm: trimesh.Trimesh
@@ -69,23 +69,25 @@ def grasp_scene(
     hand: Hand,
     object_mesh: trimesh.Trimesh,
     grasp: Grasp,
+    contacts: np.ndarray,
     normals: np.ndarray,
     mu: float,
     subdivisions: int = 1,
 ) -> GraspScene:
     """The scene of ``grasp`` by ``hand`` (its grasping fingers, as the solutions hold them) on the object
-    pictured by ``object_mesh``, with the object's outward ``normals`` at the contacts."""
+    pictured by ``object_mesh``, touching it at ``contacts`` (the verifier's), with the object's outward
+    ``normals`` there."""
     pose = forward(hand, grasp.joint_angles, grasp.palm_rotation, grasp.palm_position)
-    bodies = tuple(
-        FingerBody(
-            name,
-            finger_colour(name, k),
-            spheres_mesh(finger.samples[0], finger.radii, subdivisions),
-            finger.joint_positions[0],
-            finger.contact[0],
-            finger.pad_normal[0],
+    bodies = []
+    for k, (name, finger) in enumerate(pose.fingers.items()):
+        radius = hand.fingers[name].pad.radius
+        centres, radii = finger.samples[0], finger.radii
+        if radius > 0:  # the fingertip's own sphere, which the contact rolls over
+            centres, radii = np.vstack([centres, finger.pad_centre]), np.append(radii, radius)
+        mesh = spheres_mesh(centres, radii, subdivisions)
+        bodies.append(
+            FingerBody(name, finger_colour(name, k), mesh, finger.joint_positions[0], contacts[k], finger.pad_normal[0])
         )
-        for k, (name, finger) in enumerate(pose.fingers.items())
-    )
     palm = spheres_mesh(pose.palm_samples[0], pose.palm_radii, subdivisions)
-    return GraspScene(bodies, palm, object_mesh, pose.contacts()[0], np.asarray(normals, dtype=float), mu)
+    contacts = np.asarray(contacts, dtype=float)
+    return GraspScene(tuple(bodies), palm, object_mesh, contacts, np.asarray(normals, dtype=float), mu)

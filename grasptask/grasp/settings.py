@@ -19,9 +19,9 @@ class GraspSettings:
     activation_margin: float = 0.02
     #: the margin every task wrench is held with, by synthesis and the verifier alike: activations at most
     #: activation_max, forces inside cones of friction_scale mu, and at least min_normal_force_n at each contact
-    activation_max: float = 1.0
-    friction_scale: float = 1.0
-    min_normal_force_n: float = 0.0
+    activation_max: float = 0.8
+    friction_scale: float = 0.8
+    min_normal_force_n: float = 0.5
     #: contacts roll over the fingertip's sphere, sunk by the hand's compliance (False: a fixed pad point, the
     #: paper's model)
     rolling_contacts: bool = True

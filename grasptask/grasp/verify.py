@@ -46,6 +46,7 @@ class Tolerances:
     epsilon_min: float = 1e-6  # Ferrari-Canny epsilon (torques divided by the characteristic length)
     rank_rtol: float = 1e-8  # relative singular value threshold for the rank condition of eq. 9
     effort_slack: float = 1e-6  # how far the activations the task wrenches need may exceed activation_max
+    penetration_m: float = 1e-4  # how far the hand's true geometry may sink beyond its compliance
 
 
 @dataclass(frozen=True)
@@ -67,6 +68,8 @@ class Verification:
     coupling_error_deg: float
     rotation_error: float
     min_clearance_m: float
+    #: how deep the hand's true collision geometry (every link, the fingertips included) sinks into the object
+    penetration_m: float
     pad_angle_deg: np.ndarray
     epsilon: float
     internal_force_rank: int
@@ -137,6 +140,13 @@ def _torque_effort(
     return float(result.x[-1]), loads
 
 
+def _penetration(points: np.ndarray, obj: ImplicitObject) -> float:
+    """How deep the deepest of ``points`` lies inside ``obj`` (m; 0 when none does). Only points inside by
+    ``g`` are measured, for the distance costs a surface search each."""
+    inside = points[obj.g(points) < 0]
+    return float(max(0.0, -obj.signed_distance(inside).min())) if len(inside) else 0.0
+
+
 def verify(
     grasp: Grasp,
     hand: Hand,
@@ -172,6 +182,7 @@ def verify(
     ]
     allowance = np.concatenate([*sunk, np.zeros(len(hand.palm.radii))])
     clearance = float((obj.signed_distance(spheres[0]) - radii + allowance).min())
+    penetration = _penetration(pose.skin()[0], obj)
     # each finger's Jacobian at its contact, the point of the distal link that touches the object
     on_finger = np.where(rolling[:, None], surface_points, pose.contacts()[0])
     jacobians = [jacobian[0] for jacobian in pose.jacobians_at(on_finger[None])]
@@ -197,6 +208,8 @@ def verify(
         "coupling": coupling <= tol.coupling_rad,
         "palm_rotation": rotation_error <= tol.rotation,
         "clearance": clearance >= tol.clearance_m,
+        # a real fingertip gives by its compliance and no more (the paper's fixed pad point may sink further)
+        "penetration": not settings.rolling_contacts or penetration <= hand.compliance_m + tol.penetration_m,
         "pad_angle": pad_angle.max() <= settings.pad_angle_max_deg + tol.pad_angle_slack_deg,
         "force_closure": epsilon > tol.epsilon_min,
         "rank_condition": A.size > 0 and rank == A.shape[1],
@@ -218,6 +231,7 @@ def verify(
         coupling_error_deg=float(np.degrees(coupling)),
         rotation_error=float(rotation_error),
         min_clearance_m=clearance,
+        penetration_m=penetration,
         pad_angle_deg=pad_angle,
         epsilon=epsilon,
         internal_force_rank=rank,

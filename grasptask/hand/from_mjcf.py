@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 
 from grasptask.errors import BadInputError
+from grasptask.hand import skin
 from grasptask.hand import spheres as cover
 from grasptask.hand.tree import Tree, TreeJoint, TreeLink
 
@@ -68,24 +69,33 @@ def _name(model, kind, index: int, fallback: str) -> str:
     return mujoco.mj_id2name(model, kind, index) or f"{fallback}{index}"
 
 
-def _geom_spheres(model, g: int, shift: np.ndarray) -> tuple[list, bool]:
+def _geom_spheres(model, g: int, shift: np.ndarray) -> tuple[list, bool, np.ndarray]:
+    """The spheres covering one collision geom, whether it was rounded (a fingertip's shape), and points on its
+    surface."""
     import mujoco
 
     kind, size = int(model.geom_type[g]), model.geom_size[g]  # an int: numpy's does not match enums with `in`
     transform = _frame(-shift) @ _frame(model.geom_pos[g], model.geom_quat[g])
     if kind == mujoco.mjtGeom.mjGEOM_SPHERE:
-        return [(transform[:3, 3].copy(), float(size[0]))], True
+        return [(transform[:3, 3].copy(), float(size[0]))], True, skin.sphere(transform[:3, 3], float(size[0]))
     if kind == mujoco.mjtGeom.mjGEOM_CAPSULE:
-        return cover.capsule(float(size[0]), float(size[1]), transform), True
+        radius, half = float(size[0]), float(size[1])
+        return cover.capsule(radius, half, transform), True, skin.capsule(radius, half, transform)
     if kind == mujoco.mjtGeom.mjGEOM_CYLINDER:
-        return cover.cylinder(float(size[0]), 2 * float(size[1]), transform), False
-    if kind in (mujoco.mjtGeom.mjGEOM_BOX, mujoco.mjtGeom.mjGEOM_ELLIPSOID):
-        return cover.box(np.asarray(size, dtype=float), transform), False
+        radius, length = float(size[0]), 2 * float(size[1])
+        return cover.cylinder(radius, length, transform), False, skin.cylinder(radius, length, transform)
+    if kind == mujoco.mjtGeom.mjGEOM_BOX:
+        half = np.asarray(size, dtype=float)
+        return cover.box(half, transform), False, skin.box(half, transform)
+    if kind == mujoco.mjtGeom.mjGEOM_ELLIPSOID:
+        half = np.asarray(size, dtype=float)
+        return cover.box(half, transform), False, skin.ellipsoid(half, transform)
     if kind == mujoco.mjtGeom.mjGEOM_MESH:
         mesh = model.geom_dataid[g]
         start, count = model.mesh_vertadr[mesh], model.mesh_vertnum[mesh]
-        return cover.mesh_box(np.asarray(model.mesh_vert[start : start + count], dtype=float), transform), False
-    return [], False  # planes and height fields are scenery, not hand
+        vertices = np.asarray(model.mesh_vert[start : start + count], dtype=float)
+        return cover.mesh_box(vertices, transform), False, skin.mesh(vertices, transform)
+    return [], False, np.zeros((0, 3))  # planes and height fields are scenery, not hand
 
 
 def _efforts(model) -> dict[int, float]:
@@ -149,8 +159,9 @@ def read_mjcf(source: Path) -> Tree:
     for b in range(1, model.nbody):
         link = TreeLink(body_name[b])
         for g in np.flatnonzero(model.geom_bodyid == b):
-            found, rounded = _geom_spheres(model, int(g), shifts[b])
+            found, rounded, surface = _geom_spheres(model, int(g), shifts[b])
             link.spheres += found
+            link.skin.append(surface)
             if rounded:
                 link.rounded += found
         links[link.name] = link

@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from grasptask.errors import BadInputError
+from grasptask.hand import skin
 from grasptask.hand import spheres as cover
 from grasptask.hand.tree import Tree, TreeJoint, TreeLink
 
@@ -27,16 +28,20 @@ def resolve_mesh(filename: str, source: Path) -> Path | None:
     return next((c for c in candidates if c.is_file()), None)
 
 
-def _geometry_spheres(geometry, transform: np.ndarray, link: str, source: Path) -> tuple[list, bool]:
-    """The spheres covering one collision geometry, and whether it was a sphere (a fingertip's shape)."""
+def _geometry_spheres(geometry, transform: np.ndarray, link: str, source: Path) -> tuple[list, bool, np.ndarray]:
+    """The spheres covering one collision geometry, whether it was a sphere (a fingertip's shape), and points
+    on its surface."""
     import trimesh
 
     if geometry.sphere is not None:
-        return [(transform[:3, 3].copy(), float(geometry.sphere.radius))], True
+        radius = float(geometry.sphere.radius)
+        return [(transform[:3, 3].copy(), radius)], True, skin.sphere(transform[:3, 3], radius)
     if geometry.cylinder is not None:
-        return cover.cylinder(float(geometry.cylinder.radius), float(geometry.cylinder.length), transform), False
+        radius, length = float(geometry.cylinder.radius), float(geometry.cylinder.length)
+        return cover.cylinder(radius, length, transform), False, skin.cylinder(radius, length, transform)
     if geometry.box is not None:
-        return cover.box(np.asarray(geometry.box.size, dtype=float) / 2, transform), False
+        half = np.asarray(geometry.box.size, dtype=float) / 2
+        return cover.box(half, transform), False, skin.box(half, transform)
     if geometry.mesh is not None:
         path = resolve_mesh(geometry.mesh.filename, source)
         if path is None:
@@ -49,8 +54,8 @@ def _geometry_spheres(geometry, transform: np.ndarray, link: str, source: Path) 
         vertices = np.array(getattr(mesh, "vertices", np.zeros((0, 3))), dtype=np.float64) * scale
         if len(vertices) < 4:
             raise BadInputError(path, f"link '{link}': the collision mesh has no volume")
-        return cover.mesh_box(vertices, transform), False
-    return [], False
+        return cover.mesh_box(vertices, transform), False, skin.mesh(vertices, transform)
+    return [], False, np.zeros((0, 3))
 
 
 def read_urdf(source: Path) -> Tree:
@@ -78,8 +83,9 @@ def read_urdf(source: Path) -> Tree:
         tree_link = TreeLink(link.name)
         for collision in link.collisions:
             origin = np.eye(4) if collision.origin is None else np.asarray(collision.origin, dtype=float)
-            found, rounded = _geometry_spheres(collision.geometry, origin, link.name, source)
+            found, rounded, surface = _geometry_spheres(collision.geometry, origin, link.name, source)
             tree_link.spheres += found
+            tree_link.skin.append(surface)
             if rounded:
                 tree_link.rounded += found
         links[link.name] = tree_link

@@ -11,7 +11,8 @@ from typing import Any
 import numpy as np
 
 from grasptask.errors import BadInputError
-from grasptask.hand.model import DEFAULT_COMPLIANCE_M, Capability, Finger, Hand, Joint, Pad, Palm, Sphere
+from grasptask.hand import skin
+from grasptask.hand.model import DEFAULT_COMPLIANCE_M, Capability, Finger, Hand, Joint, Pad, Palm, Skin, Sphere
 from grasptask.io.config import number, numbers, reject_unknown, require, whole
 
 TOP_FIELDS = {
@@ -117,6 +118,8 @@ def _finger(data: dict, name: str, spec: Any, source: Path) -> Finger:
     pad_along = number(spec.get("pad_along", 0.65), source, f"{where}.pad_along", minimum=0.0)
     # the pad is the distal link's skin over its axis: a sphere of the finger's radius rolls on the object
     pad = Pad(np.array([pad_along * distal, 0.0, radius]), np.array([0.0, 0.0, 1.0]), np.array([1.0, 0.0, 0.0]), radius)
+    # the model's geometry is its spheres, the fingertip's included: their surfaces are its skin
+    shapes = [(s.link, s.center, s.radius) for s in spheres] + [(len(joints) - 1, pad.centre, pad.radius)]
     return Finger(
         name=name,
         joints=tuple(joints),
@@ -124,6 +127,7 @@ def _finger(data: dict, name: str, spec: Any, source: Path) -> Finger:
         pad=pad,
         tip=np.array([distal, 0.0, 0.0]),
         radius=radius,
+        skin=tuple(Skin(link, skin.sphere(centre, r)) for link, centre, r in shapes),
     )
 
 
@@ -137,7 +141,7 @@ def _palm(data: dict, source: Path) -> Palm:
     nx, ny = (whole(g, source, f"palm.grid[{k + 1}]", minimum=1) for k, g in enumerate(grid))
     points = np.array([[x, y, 0.0] for x in np.linspace(x0, x1, nx) for y in np.linspace(y0, y1, ny)])
     radius = number(palm.get("radius_m"), source, "palm.radius_m", positive=True)
-    return Palm(points, np.full(len(points), radius))
+    return Palm(points, np.full(len(points), radius), np.vstack([skin.sphere(p, radius) for p in points]))
 
 
 def hand_from_yaml(data: dict, path: Path) -> Hand:

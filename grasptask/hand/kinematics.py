@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from grasptask.hand.model import Finger, Hand
+from grasptask.hand.model import Finger, Hand, Skin
 
 
 def axis_rotations(axis: np.ndarray, angles: np.ndarray) -> np.ndarray:
@@ -37,6 +37,17 @@ class FingerPose:
     samples: np.ndarray  # (N, s, 3): collision sphere centres on the links
     radii: np.ndarray  # (s,)
     radius: float  # for drawing the links
+    #: the links' true collision surfaces, sampled in their own frames (placed by :meth:`skin`, on demand: a
+    #: batch of many configurations would not hold them all)
+    skin_shapes: tuple[Skin, ...] = ()
+
+    def skin(self) -> np.ndarray:
+        """``(N, k, 3)`` points on the links' true collision surfaces."""
+        placed = [
+            self.joint_positions[:, s.link, None] + np.einsum("nij,kj->nki", self.link_rotations[:, s.link], s.points)
+            for s in self.skin_shapes
+        ]
+        return np.concatenate([np.zeros((len(self.joint_positions), 0, 3)), *placed], axis=1)
 
 
 @dataclass
@@ -44,6 +55,14 @@ class HandPose:
     fingers: dict[str, FingerPose]
     palm_samples: np.ndarray  # (N, k, 3)
     palm_radii: np.ndarray  # (k,)
+    palm_rotation: np.ndarray  # (N, 3, 3)
+    palm_position: np.ndarray  # (N, 3)
+    palm_skin: np.ndarray  # (k, 3) in the palm frame
+
+    def skin(self) -> np.ndarray:
+        """``(N, k, 3)`` points on the true collision surface of every link, the palm's last."""
+        palm = np.einsum("nij,kj->nki", self.palm_rotation, self.palm_skin) + self.palm_position[:, None, :]
+        return np.concatenate([f.skin() for f in self.fingers.values()] + [palm], axis=1)
 
     def contacts(self) -> np.ndarray:
         """``(N, b, 3)`` pad points of the fingers, in order."""
@@ -109,6 +128,7 @@ def finger_forward(finger: Finger, q: np.ndarray) -> FingerPose:
         samples=samples,
         radii=np.array([s.radius for s in finger.spheres]),
         radius=finger.radius,
+        skin_shapes=finger.skin,
     )
 
 
@@ -131,6 +151,7 @@ def _to_object(pose: FingerPose, rotation: np.ndarray, position: np.ndarray) -> 
         samples=point(pose.samples),
         radii=pose.radii,
         radius=pose.radius,
+        skin_shapes=pose.skin_shapes,
     )
 
 
@@ -153,4 +174,4 @@ def forward(
         for (name, finger), cols in zip(hand.fingers.items(), hand.slices().values(), strict=True)
     }
     palm = np.einsum("nij,kj->nki", rotation, hand.palm.points) + position[:, None, :]
-    return HandPose(fingers, palm, hand.palm.radii)
+    return HandPose(fingers, palm, hand.palm.radii, rotation, position, hand.palm.skin)

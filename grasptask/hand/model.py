@@ -123,6 +123,15 @@ def _block_diagonal(blocks: list[np.ndarray]) -> np.ndarray:
 
 
 @dataclass(frozen=True)
+class Skin:
+    """Points on the true collision surface of the link after joint ``link`` of its finger, in that link's frame
+    (:mod:`grasptask.hand.skin`)."""
+
+    link: int
+    points: np.ndarray
+
+
+@dataclass(frozen=True)
 class Finger:
     name: str
     joints: tuple[Joint, ...]
@@ -130,6 +139,7 @@ class Finger:
     pad: Pad
     tip: np.ndarray  # the fingertip's end, in the last link's frame (for drawing the chain)
     radius: float  # the links' radius, for drawing
+    skin: tuple[Skin, ...] = ()
 
     @property
     def n_joints(self) -> int:
@@ -148,6 +158,7 @@ class Finger:
 class Palm:
     points: np.ndarray  # (k, 3) collision sphere centres in the palm frame
     radii: np.ndarray  # (k,)
+    skin: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))  # its true collision surface, sampled
 
 
 @dataclass(frozen=True)

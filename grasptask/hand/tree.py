@@ -27,7 +27,7 @@ import numpy as np
 
 from grasptask.errors import BadInputError
 from grasptask.hand.kinematics import forward
-from grasptask.hand.model import DEFAULT_COMPLIANCE_M, Capability, Finger, Hand, Joint, Pad, Palm, Sphere
+from grasptask.hand.model import DEFAULT_COMPLIANCE_M, Capability, Finger, Hand, Joint, Pad, Palm, Skin, Sphere
 
 REVOLUTE = ("revolute", "continuous")
 
@@ -38,6 +38,7 @@ class TreeLink:
     #: collision spheres (centre in the link's frame, radius), and whether one came from a sphere or capsule
     spheres: list[tuple[np.ndarray, float]] = field(default_factory=list)
     rounded: list[tuple[np.ndarray, float]] = field(default_factory=list)
+    skin: list[np.ndarray] = field(default_factory=list)  # points on each collision shape, in the link's frame
 
 
 @dataclass
@@ -160,6 +161,7 @@ class _Chain:
 
     joints: list[Joint]
     spheres: list[Sphere]
+    skin: list[Skin]
     tip_frame: np.ndarray
     tip_spheres: list[tuple[np.ndarray, float]]
 
@@ -177,9 +179,16 @@ def _fixed_descendants(tree: Tree, link: str, skip: set[str]) -> list[tuple[str,
     return found
 
 
+def _skin(link: TreeLink, transform: np.ndarray) -> np.ndarray:
+    """The link's collision surface points in the frame ``transform`` places it in."""
+    points = np.vstack([np.zeros((0, 3)), *link.skin])
+    return points @ transform[:3, :3].T + transform[:3, 3]
+
+
 def _chain(tree: Tree, path: list[TreeJoint], source: Path, on_path: set[str]) -> _Chain:
     joints: list[Joint] = []
     spheres: list[Sphere] = []
+    skin: list[Skin] = []
     pending = np.eye(4)  # fixed transforms since the last movable joint's link
     for tree_joint in path:
         if tree_joint.kind == "fixed":
@@ -187,6 +196,7 @@ def _chain(tree: Tree, path: list[TreeJoint], source: Path, on_path: set[str]) -
             if joints:
                 for c, r in _transform_spheres(tree.links[tree_joint.child].spheres, pending):
                     spheres.append(Sphere(len(joints) - 1, c, r))
+                skin.append(Skin(len(joints) - 1, _skin(tree.links[tree_joint.child], pending)))
             continue
         if tree_joint.kind not in REVOLUTE:
             kind = tree_joint.kind
@@ -209,13 +219,17 @@ def _chain(tree: Tree, path: list[TreeJoint], source: Path, on_path: set[str]) -
         child = tree_joint.child
         for c, r in tree.links[child].spheres:
             spheres.append(Sphere(k, c, r))
+        skin.append(Skin(k, _skin(tree.links[child], np.eye(4))))
         for link, link_frame in _fixed_descendants(tree, child, on_path):
             for c, r in _transform_spheres(tree.links[link].spheres, link_frame):
                 spheres.append(Sphere(k, c, r))
+            skin.append(Skin(k, _skin(tree.links[link], link_frame)))
     if not joints:
         raise BadInputError(source, f"fingertip '{path[-1].child}': no revolute joint between it and the palm")
     tip = tree.links[path[-1].child]
-    return _Chain(joints, spheres, pending, _transform_spheres(tip.rounded, pending))
+    return _Chain(
+        joints, spheres, [s for s in skin if len(s.points)], pending, _transform_spheres(tip.rounded, pending)
+    )
 
 
 def _mimic(tree: Tree, chains: dict[str, _Chain], source: Path) -> dict[str, tuple[str, float, float]]:
@@ -280,7 +294,7 @@ def _pads(
             normal = normal / np.linalg.norm(normal)
             tangent = along - (along @ normal) * normal
             pad = Pad(centre + radius * normal, normal, tangent / max(np.linalg.norm(tangent), 1e-12), radius)
-        out[name] = Finger(name, finger.joints, _off_the_pad(finger, pad), pad, finger.tip, finger.radius)
+        out[name] = replace(finger, spheres=_off_the_pad(finger, pad), pad=pad)
     return out
 
 
@@ -358,12 +372,16 @@ def hand_from_tree(tree: Tree, source: Path, options: HandOptions = HandOptions(
             for j in chain.joints
         )
         radius = float(np.median([s.radius for s in chain.spheres])) if chain.spheres else 0.008
-        fingers[name] = Finger(name, joints, tuple(chain.spheres), unset, chain.tip_frame[:3, 3].copy(), radius)
+        tip = chain.tip_frame[:3, 3].copy()
+        fingers[name] = Finger(name, joints, tuple(chain.spheres), unset, tip, radius, tuple(chain.skin))
     fingers = _pads(fingers, chains, tips, options)
     palm_spheres = list(tree.links[palm].spheres)
+    palm_skin = [_skin(tree.links[palm], np.eye(4))]
     for link, frame in _fixed_descendants(tree, palm, on_path):
         palm_spheres += _transform_spheres(tree.links[link].spheres, frame)
-    palm_model = Palm(np.array([c for c, _ in palm_spheres]).reshape(-1, 3), np.array([r for _, r in palm_spheres]))
+        palm_skin.append(_skin(tree.links[link], frame))
+    centres, radii = np.array([c for c, _ in palm_spheres]).reshape(-1, 3), np.array([r for _, r in palm_spheres])
+    palm_model = Palm(centres, radii, np.vstack(palm_skin))
     joint_names = [j.name for f in fingers.values() for j in f.joints]
     efforts = {j.name: j.effort for j in tree.joints}
     capability = _capability(joint_names, efforts, couplings, source)

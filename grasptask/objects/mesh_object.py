@@ -39,8 +39,8 @@ class MeshObject(ImplicitObject):
         """Euclidean signed distance to the triangles (m), negative inside."""
         return -trimesh.proximity.signed_distance(self.mesh, np.atleast_2d(p))
 
-    def closest_point(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The closest point on the triangles, and the outward normal there."""
+    def closest_point(self, p: np.ndarray, exact: bool = False) -> tuple[np.ndarray, np.ndarray]:
+        """The closest point on the triangles, and the outward normal there (always exact)."""
         closest, _, triangle = self.mesh.nearest.on_surface(np.atleast_2d(p))
         corners = self.mesh.triangles[triangle]
         weights = trimesh.triangles.points_to_barycentric(corners, closest)
@@ -128,7 +128,8 @@ class PointCloudObject(ImplicitObject):
     def signed_distance(self, p: np.ndarray) -> np.ndarray:
         return self._nearest(p)[0]
 
-    def closest_point(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def closest_point(self, p: np.ndarray, exact: bool = False) -> tuple[np.ndarray, np.ndarray]:
+        """The foot of each point on its nearest sample's tangent plane (``exact`` changes nothing)."""
         signed, index, along = self._nearest(p)
         normals = self.normals[index]
         return np.atleast_2d(p) - along[:, None] * normals, normals

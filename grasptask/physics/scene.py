@@ -111,10 +111,13 @@ def _collider(body, size: float, pos: np.ndarray, friction: list[float]) -> None
 
 
 def pad_contacts(hand: Hand, obj: ImplicitObject, grasp: Grasp) -> tuple[np.ndarray, np.ndarray]:
-    """Each grasping finger's synthesized contact and the object's own outward normal there (not the NLP's)."""
+    """Each grasping finger's contact, where its fingertip sphere comes nearest the object (the pad point for a
+    pad without one), and the object's own outward normal there (not the NLP's)."""
     pose = forward(hand, grasp.joint_angles, grasp.palm_rotation, grasp.palm_position)
-    contacts = np.array([placed.contact[0] for placed in pose.fingers.values()])
-    _, normals = obj.closest_point(contacts)
+    rounded = np.array([f.pad.radius > 0 for f in hand.fingers.values()])
+    centres = np.where(rounded[:, None], pose.pad_centres()[0], pose.contacts()[0])
+    nearest, normals = obj.closest_point(centres, exact=True)
+    contacts = np.where(rounded[:, None], nearest, pose.contacts()[0])
     return contacts, np.asarray(normals, dtype=float)
 
 

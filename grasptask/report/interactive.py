@@ -95,7 +95,9 @@ def grasp_view(
         traces.append(_line(finger.chain, finger.colour, f"{name} links", showlegend=False, legendgroup=group))
     summary = (
         f"Q {verification.Q:.4g}, epsilon {verification.epsilon:.3g}, peak activation "
-        f"{verification.torque_effort:.3g}, clearance {verification.min_clearance_m * 1e3:.2f} mm, "
+        f"{verification.torque_effort:.3g}, strength margin {verification.strength_margin:.3g}, friction needed "
+        f"{verification.friction_margin:.3g}, clearance {verification.min_clearance_m * 1e3:.2f} mm, penetration "
+        f"{verification.penetration_m * 1e3:.2f} mm, "
         f"{'verified' if verification.ok else 'rejected: ' + ', '.join(verification.failures)}"
     )
     title = html.escape(title)  # plotly reads titles as HTML; a task or finger name is the user's text

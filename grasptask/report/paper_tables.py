@@ -103,8 +103,16 @@ def largest_differences(stats: pd.DataFrame, reference: pd.DataFrame) -> dict:
     }
 
 
+def _median(solutions: pd.DataFrame, verified: pd.Series, column: str) -> float | None:
+    """The median of a verifier figure over the verified grasps (None: a table without it, or none verified)."""
+    if column not in solutions or not verified.any():
+        return None
+    return round(float(solutions.loc[verified, column].astype(float).median()), 3)
+
+
 def sweep_table(sweeps: dict, paper: PaperSynthesis) -> pd.DataFrame:
-    """Per task: starts, statuses, verified fraction, distinct optima and time per start, beside the paper."""
+    """Per task: starts, statuses, verified fraction, distinct optima, the verified grasps' median strength margin
+    and friction needed, and time per start, beside the paper."""
     rows = []
     for task, sweep in sweeps.items():
         seconds = sweep.solutions["seconds"].astype(float)
@@ -119,6 +127,8 @@ def sweep_table(sweeps: dict, paper: PaperSynthesis) -> pd.DataFrame:
                 "verified": f"{int(verified.sum())} ({verified.mean():.0%}; {on_retry} on a retry)",
                 "distinct optima": len(sweep.optima),
                 "paper optima": paper.optima.get(task),
+                "median strength margin": _median(sweep.solutions, verified, "verify_strength_margin"),
+                "median friction needed": _median(sweep.solutions, verified, "verify_friction_margin"),
                 "median s/start": round(float(seconds.median()), 2),
                 "p90 s/start": round(float(np.percentile(seconds, 90)), 2),
                 "mean +- sd s/start": f"{seconds.mean():.1f} +- {seconds.std(ddof=1) if len(seconds) > 1 else 0:.1f}",
@@ -143,6 +153,8 @@ def quality_table(sweeps: dict, paper: PaperSynthesis) -> pd.DataFrame:
                     "starts reaching it": int(optimum["members"]),
                     "epsilon": round(float(optimum.get("verify_epsilon", np.nan)), 4),
                     "torque effort": round(float(optimum.get("verify_torque_effort", np.nan)), 3),
+                    "strength margin": round(float(optimum.get("verify_strength_margin", np.nan)), 3),
+                    "friction needed": round(float(optimum.get("verify_friction_margin", np.nan)), 3),
                     "Q shown in the paper": shown,
                 }
             )

@@ -300,7 +300,9 @@ def grasps_section(
             title = f"{task}, optimum {number}: Q = {optimum['Q']:.4g} ({int(optimum['members'])} starts)"
             if task in task_models:
                 check = verify(grasp, hand, obj, task_models[task], settings)
-                scene = grasp_scene(hand, view_mesh, grasp, check.normals, settings.friction_coefficient)
+                scene = grasp_scene(
+                    hand, view_mesh, grasp, check.contacts, check.normals, settings.friction_coefficient
+                )
                 view = grasp_view(scene, check, title, obj.centre, task_axis)
                 caption = (
                     f"{title}: drag to turn, scroll to zoom, click a legend entry to hide it; hover over a contact "

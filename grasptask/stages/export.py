@@ -88,7 +88,7 @@ def run_export(
     with StagedOutput(out, Provenance.of("export", config, inputs)) as staged:
         for row, grasp in progress(chosen, desc=f"export: {files.task}", unit="grasp"):
             check = verify(grasp, solved.hand, obj, model, settings)
-            scene = grasp_scene(solved.hand, mesh, grasp, check.normals, settings.friction_coefficient)
+            scene = grasp_scene(solved.hand, mesh, grasp, check.contacts, check.normals, settings.friction_coefficient)
             record = grasp_record(
                 task=files.task,
                 row=row,

@@ -1,0 +1,200 @@
+"""Grasps with room to spare (issue 41), synthesis and the physics judge in one run: for the human 3-finger
+hand, the Allegro and the Barrett on the tool, drawing, cutting and screw driving, each of
+
+- ``today``: the route before the margin, ``configs/grasp_paper.yaml`` (no margin, a fixed pad point);
+- ``default``: ``configs/grasp.yaml`` (the margin and rolling contacts);
+- the neighbours of the default: ``activation_max`` and ``friction_scale`` each 0.1 either side of it, on every
+  third start (``--neighbour-starts``);
+
+is synthesized from the starts, and every verified grasp is then held in MuJoCo by the grip controller at the
+hand's real strength and friction (the physics judge as shipped). Per route, hand and task: the verified
+fraction, the fraction of the verified grasps physics holds, the median strength and friction margins, the
+deepest penetration of a verified grasp (the verifier's, on the hand's true geometry, and MuJoCo's at the start
+of the hold), and the median seconds per start over today's, in the same run.
+
+    python benchmarks/margins.py [--starts N] [--hands human3,allegro,barrett] [--neighbour-starts N]
+    python benchmarks/margins.py --table                    # the saved results as a table
+
+Targets (default route): held >= 90% and verified >= 80% per hand x task, penetration at most the hand's
+compliance, median seconds per start at most 1.5x today's. Results are saved after every sweep
+(benchmarks/results/margins.json), so an interrupted run keeps what it did.
+"""
+
+from __future__ import annotations
+
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import yaml
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path[:0] = [str(ROOT / "benchmarks"), str(ROOT)]
+from common import demonstration_tasks, finished_sweep, print_saved, save, save_and_print, sweep_parser  # noqa: E402
+
+TASKS = ("drawing", "cutting", "screwdriving")
+HANDS = {
+    "human3": ROOT / "configs/hands/human.yaml",
+    "allegro": ROOT / "configs/hands/allegro.yaml",
+    "barrett": ROOT / "configs/hands/barrett_bh8_282.urdf",
+}
+TODAY, DEFAULT = ROOT / "configs/grasp_paper.yaml", ROOT / "configs/grasp.yaml"
+#: the default's neighbours: (key, change)
+NEIGHBOURS = (("activation_max", -0.1), ("activation_max", 0.1), ("friction_scale", -0.1), ("friction_scale", 0.1))
+
+
+def check_prerequisites(hands: list[str]) -> None:
+    import mujoco  # noqa: F401
+
+    from grasptask.grasp.settings import load_grasp_settings
+
+    for name in hands:
+        if name not in HANDS:
+            raise SystemExit(f"unknown hand '{name}' (known: {', '.join(HANDS)})")
+    for path in (TODAY, DEFAULT):
+        load_grasp_settings(path)
+
+
+def routes(folder: Path) -> dict[str, tuple[Path, bool]]:
+    """Each route's grasp config, and whether it is a neighbour (run on fewer starts)."""
+    found = {"today": (TODAY, False), "default": (DEFAULT, False)}
+    default = yaml.safe_load(DEFAULT.read_text())
+    for key, change in NEIGHBOURS:
+        value = round(float(default[key]) + change, 3)
+        if not 0 < value <= 1:
+            continue
+        path = folder / f"grasp_{key}_{value}.yaml"
+        path.write_text(yaml.safe_dump({**default, key: value}))
+        found[f"{key}={value}"] = (path, True)
+    return found
+
+
+def _median(values: pd.Series) -> float | None:
+    values = values.dropna().astype(float)
+    return float(values.median()) if len(values) else None
+
+
+def figures(sweep: Path, physics: pd.DataFrame | None, compliance_m: float) -> dict:
+    run, solutions = finished_sweep(sweep)
+    verified = solutions[solutions["verified"]]
+    out = {
+        "starts": run["starts"],
+        "verified_fraction": run["verified_fraction"],
+        "median_s_per_start": run["seconds_per_start"]["median"],
+        "median_strength_margin": _median(verified.get("verify_strength_margin", pd.Series(dtype=float))),
+        "median_friction_margin": _median(verified.get("verify_friction_margin", pd.Series(dtype=float))),
+        "largest_strength_margin": _median(solutions["verify_strength_margin"].nlargest(1))
+        if "verify_strength_margin" in solutions and solutions["verify_strength_margin"].notna().any()
+        else None,
+        "deepest_penetration_mm": float(verified["verify_penetration_m"].max() * 1e3)
+        if len(verified) and "verify_penetration_m" in verified
+        else None,
+        "compliance_mm": compliance_m * 1e3,
+        "held_of_verified": None,
+        "physics_initial_penetration_mm_max": None,
+    }
+    if physics is not None and len(physics):
+        checked = physics[physics["verified"]]
+        if len(checked):
+            out["held_of_verified"] = float(checked["physics_passed"].astype(bool).mean())
+            out["physics_initial_penetration_mm_max"] = float(checked["physics_initial_penetration_mm"].max())
+            out["physics_s_per_grasp_median"] = float(checked["physics_seconds"].median())
+    return out
+
+
+def main(n_starts: int | None, neighbour_starts: int, hands: list[str], name: str) -> dict:
+    from grasptask.hand import load_hand
+    from grasptask.stages import PhysicsInputs, SynthesisOptions, run_physics, run_synthesize
+
+    results: dict = {"starts_per_task": n_starts or 126, "neighbour_starts": neighbour_starts, "routes": {}}
+    with tempfile.TemporaryDirectory() as scratch:
+        tmp = Path(scratch)
+        tasks = demonstration_tasks(tmp)
+        for route, (config, neighbour) in routes(tmp).items():
+            results["routes"][route] = {"grasp_config": yaml.safe_load(config.read_text()), "hands": {}}
+            for hand in hands:
+                compliance = load_hand(HANDS[hand]).compliance_m
+                entry = results["routes"][route]["hands"].setdefault(hand, {})
+                for task in TASKS:
+                    began = time.perf_counter()
+                    out = tmp / route / hand
+                    options = SynthesisOptions(
+                        tasks=tasks, task=task, out=out, hand=HANDS[hand], grasp_config=config, workers=2,
+                        starts=neighbour_starts if neighbour else n_starts,
+                    )  # fmt: skip
+                    run_synthesize(options, echo=lambda _: None)
+                    inputs = PhysicsInputs(out / task / "solutions.parquet", tasks, task)
+                    physics = run_physics(inputs, tmp / "physics" / route / hand / task, 2, echo=lambda _: None)
+                    shown = entry[task] = figures(out / task, physics, compliance)
+                    held = "-" if shown["held_of_verified"] is None else f"{shown['held_of_verified']:.0%}"
+                    print(
+                        f"{route} {hand} {task}: {shown['verified_fraction']:.0%} verified, {held} of them held, "
+                        f"margins {shown['median_strength_margin']} / {shown['median_friction_margin']}, "
+                        f"{shown['median_s_per_start']:.2f} s per start ({time.perf_counter() - began:.0f} s)",
+                        flush=True,
+                    )
+                    save(name, results)  # partial results survive an interruption
+    compare(results)
+    save_and_print(name, results, markdown_table)
+    return results
+
+
+def compare(results: dict) -> None:
+    """Each route's median seconds per start over today's, and the default route's targets."""
+    today = results["routes"].get("today", {}).get("hands", {})
+    for entry in results["routes"].values():
+        for hand, tasks in entry["hands"].items():
+            for task, f in tasks.items():
+                base = today.get(hand, {}).get(task, {}).get("median_s_per_start")
+                f["median_over_today"] = f["median_s_per_start"] / base if base else None
+    default = results["routes"].get("default", {}).get("hands", {})
+    results["targets"] = {
+        hand: {
+            "held_at_least_90pct": all((f["held_of_verified"] or 0) >= 0.9 for f in tasks.values()),
+            "verified_at_least_80pct": all(f["verified_fraction"] >= 0.8 for f in tasks.values()),
+            "penetration_within_compliance": all(
+                (f["deepest_penetration_mm"] or 0) <= f["compliance_mm"] + 0.1 for f in tasks.values()
+            ),
+            "median_within_1_5x_today": all((f["median_over_today"] or np.inf) <= 1.5 for f in tasks.values()),
+        }
+        for hand, tasks in default.items()
+    }
+
+
+def _cell(value: float | None, form: str) -> str:
+    return "-" if value is None else format(value, form)
+
+
+def markdown_table(results: dict) -> str:
+    lines = [
+        "| route | hand | task | verified | held | strength margin | friction needed | deepest (mm) | s/start "
+        "(x today) |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
+    for route, entry in results["routes"].items():
+        for hand, tasks in entry["hands"].items():
+            for task, f in tasks.items():
+                ratio = f" ({f['median_over_today']:.2f}x)" if f.get("median_over_today") else ""
+                lines.append(
+                    f"| {route} | {hand} | {task} | {f['verified_fraction']:.0%} | {_cell(f['held_of_verified'], '.0%')} "
+                    f"| {_cell(f['median_strength_margin'], '.2f')} | {_cell(f['median_friction_margin'], '.2f')} | "
+                    f"{_cell(f['deepest_penetration_mm'], '.2f')} | {f['median_s_per_start']:.2f}{ratio} |"
+                )
+    return "\n".join(lines)
+
+
+if __name__ == "__main__":
+    parser = sweep_parser(__doc__.splitlines()[0], "margins")
+    parser.add_argument("--hands", default=",".join(HANDS), help="comma-separated, of: " + ", ".join(HANDS))
+    parser.add_argument("--neighbour-starts", type=int, default=42, help="starts per task of the neighbours")
+    args = parser.parse_args()
+    if args.table:
+        print_saved(args.name, markdown_table)
+        raise SystemExit(0)
+    chosen = [h.strip() for h in args.hands.split(",") if h.strip()]
+    check_prerequisites(chosen)
+    np.seterr(all="ignore")
+    main(args.starts, args.neighbour_starts, chosen, args.name)

@@ -1,0 +1,110 @@
+"""Contacts a real fingertip can make: the contact rolls over the fingertip's sphere, whose centre sits one
+radius minus the hand's compliance from the surface, and no link of the hand's true geometry sinks deeper than
+that compliance."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pyomo.environ as pyo
+import pytest
+import yaml
+
+from grasptask.errors import BadInputError
+from grasptask.grasp.grasp import Grasp
+from grasptask.grasp.settings import GraspSettings
+from grasptask.grasp.verify import verify
+from grasptask.hand import forward, load_hand
+from grasptask.objects.superquadric import Superquadric
+from grasptask.synthesis.model import build_model
+from tests.grasp_fixtures import BALL_RADIUS, ball_grasp, drawing_like_task
+from tests.hand_files import write_mesh_gripper
+
+
+def test_the_rolling_contact_is_the_sphere_nearest_the_surface_sunk_by_the_compliance():
+    grasp, ball = ball_grasp()
+    hand = load_hand().grasping_hand()
+    result = verify(grasp, hand, ball, drawing_like_task())
+    assert result.ok, result.failures
+    pose = forward(hand, grasp.joint_angles, grasp.palm_rotation, grasp.palm_position)
+    centres = pose.pad_centres()[0]
+    radii = np.array([f.pad.radius for f in hand.fingers.values()])
+    # each contact is on the line from the ball's centre to its fingertip's centre, one offset from it, give or
+    # take the contact distance the verifier reports (the fixture fits the contacts to 0.4 mm)
+    along = centres / np.linalg.norm(centres, axis=1, keepdims=True)
+    np.testing.assert_allclose(result.contacts, BALL_RADIUS * along, atol=1e-7)
+    reach = np.linalg.norm(result.contacts - centres, axis=1)
+    np.testing.assert_allclose(reach, radii - 0.002 + result.contact_distance_m, atol=1e-9)
+    # the deepest sinking is a fingertip's, by the compliance less its contact distance
+    assert result.penetration_m == pytest.approx((0.002 - result.contact_distance_m).max(), abs=5e-5)
+
+
+def test_the_penetration_check_rejects_a_fingertip_sunk_3_mm_into_the_object():
+    grasp, ball = ball_grasp()
+    hand = load_hand().grasping_hand()
+    pose = forward(hand, grasp.joint_angles, grasp.palm_rotation, grasp.palm_position)
+    towards = -pose.pad_centres()[0][0] / np.linalg.norm(pose.pad_centres()[0][0])  # thumb tip to ball centre
+    sunk = dataclasses.replace(grasp, palm_position=grasp.palm_position + 0.003 * towards)
+    result = verify(sunk, hand, ball, drawing_like_task())
+    assert "penetration" in result.failures
+    # the compliance's 2 mm and 3 mm more, less the thumb's contact distance in the fixture
+    before = verify(grasp, hand, ball, drawing_like_task()).contact_distance_m[0]
+    assert result.penetration_m == pytest.approx(0.005 - before, abs=5e-5)
+    paper = verify(sunk, hand, ball, drawing_like_task(), GraspSettings(rolling_contacts=False))
+    assert "penetration" not in paper.failures  # the paper's fixed pad point sets no such limit
+
+
+def test_penetration_is_measured_on_the_true_geometry_a_box_edge_the_spheres_miss(tmp_path):
+    """A ball 2 mm into the edge of a gripper's box link, from the diagonal: the spheres covering the box (of
+    its half-width, on its spine) stay clear of the ball, its true surface does not."""
+    hand = load_hand(write_mesh_gripper(tmp_path))
+    radius, depth, half = 0.02, 0.002, 0.006
+    edge = np.array([0.03 + half, half, 0.035])  # finger 0's first link: a 12 mm box from z = 0 to 7 cm
+    centre = edge + (radius - depth) * np.array([1.0, 1.0, 0.0]) / np.sqrt(2)
+    grasp = Grasp(np.eye(3), -centre, np.zeros(hand.n_joints))
+    result = verify(grasp, hand, Superquadric(np.full(3, radius), 1.0, 1.0, name="ball"), drawing_like_task())
+    assert result.penetration_m == pytest.approx(depth, abs=1e-4)
+    assert result.min_clearance_m > 0
+    assert "penetration" in result.failures and "clearance" not in result.failures
+
+
+def test_the_paper_mode_keeps_the_fixed_pad_point():
+    grasp, ball = ball_grasp()
+    rolling = build_model(load_hand(), ball, drawing_like_task()).model
+    fixed = build_model(load_hand(), ball, drawing_like_task(), GraspSettings(rolling_contacts=False)).model
+    assert len(rolling.eq2_rolling_contact) == 9 and len(rolling.eq2_contact_point) == 0
+    assert len(fixed.eq2_rolling_contact) == 0 and len(fixed.eq2_contact_point) == 9
+    bounds = [c.lower for c in fixed.eq14_collision.values()]
+    assert all(pyo.value(b) == 0 for b in bounds)  # no sphere may sink without rolling contacts
+
+
+def test_compliance_is_a_hand_property_checked_against_the_fingertip(tmp_path):
+    gripper = write_mesh_gripper(tmp_path)
+    assert load_hand(gripper).compliance_m == 0.0005  # a robot fingertip's default
+    assert load_hand().compliance_m == 0.002  # the human pulp, cited in configs/hands/human.yaml
+    spec = {"model": str(gripper), "compliance_m": 0.012}
+    (tmp_path / "soft.yaml").write_text(yaml.safe_dump(spec))
+    with pytest.raises(BadInputError, match="compliance 0.012 m is not below the fingertip radius 0.01 m"):
+        load_hand(tmp_path / "soft.yaml")
+    spec["compliance_m"] = 0.001
+    (tmp_path / "soft.yaml").write_text(yaml.safe_dump(spec))
+    assert load_hand(tmp_path / "soft.yaml").compliance_m == 0.001
+
+
+def test_the_human_hand_cites_a_source_for_every_maximal_tendon_force():
+    """Every thumb muscle names its own source; those still assumed are the ones no published model gives."""
+    data = yaml.safe_load(open("configs/hands/human.yaml"))
+    header = open("configs/hands/human.yaml").read().split("\nname:")[0]
+    tables = data["tendons"]
+    assert "[AN83]" in tables["index"]["source"] and tables["middle"]["same_as"] == "index"
+    assumed = set()
+    for name, muscle in tables["thumb"]["muscles"].items():
+        source = muscle["source"]
+        if source.startswith("ASSUMPTION"):
+            assumed.add(name)
+        else:
+            assert source in header, f"{name}: {source} is not among the file's sources"
+    assert assumed == {"FPB", "APB", "ADP"}
+    forces = {name: m["max_force_n"] for name, m in tables["thumb"]["muscles"].items()}
+    assert forces["FPL"] == 201.0 and forces["EPL"] == 88.3 and forces["EPB"] == 46.0 and forces["APL"] == 116.7
