@@ -179,8 +179,9 @@ def markdown_table(results: dict) -> str:
             for task, f in tasks.items():
                 ratio = f" ({f['median_over_today']:.2f}x)" if f.get("median_over_today") else ""
                 lines.append(
-                    f"| {route} | {hand} | {task} | {f['verified_fraction']:.0%} | {_cell(f['held_of_verified'], '.0%')} "
-                    f"| {_cell(f['median_strength_margin'], '.2f')} | {_cell(f['median_friction_margin'], '.2f')} | "
+                    f"| {route} | {hand} | {task} | {f['verified_fraction']:.0%} | "
+                    f"{_cell(f['held_of_verified'], '.0%')} | {_cell(f['median_strength_margin'], '.2f')} | "
+                    f"{_cell(f['median_friction_margin'], '.2f')} | "
                     f"{_cell(f['deepest_penetration_mm'], '.2f')} | {f['median_s_per_start']:.2f}{ratio} |"
                 )
     return "\n".join(lines)

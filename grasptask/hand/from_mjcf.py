@@ -79,17 +79,16 @@ def _geom_spheres(model, g: int, shift: np.ndarray) -> tuple[list, bool, np.ndar
     if kind == mujoco.mjtGeom.mjGEOM_SPHERE:
         return [(transform[:3, 3].copy(), float(size[0]))], True, skin.sphere(transform[:3, 3], float(size[0]))
     if kind == mujoco.mjtGeom.mjGEOM_CAPSULE:
-        radius, half = float(size[0]), float(size[1])
-        return cover.capsule(radius, half, transform), True, skin.capsule(radius, half, transform)
+        radius, spine = float(size[0]), float(size[1])
+        return cover.capsule(radius, spine, transform), True, skin.capsule(radius, spine, transform)
     if kind == mujoco.mjtGeom.mjGEOM_CYLINDER:
         radius, length = float(size[0]), 2 * float(size[1])
         return cover.cylinder(radius, length, transform), False, skin.cylinder(radius, length, transform)
+    halves = np.asarray(size, dtype=float)
     if kind == mujoco.mjtGeom.mjGEOM_BOX:
-        half = np.asarray(size, dtype=float)
-        return cover.box(half, transform), False, skin.box(half, transform)
+        return cover.box(halves, transform), False, skin.box(halves, transform)
     if kind == mujoco.mjtGeom.mjGEOM_ELLIPSOID:
-        half = np.asarray(size, dtype=float)
-        return cover.box(half, transform), False, skin.ellipsoid(half, transform)
+        return cover.box(halves, transform), False, skin.ellipsoid(halves, transform)
     if kind == mujoco.mjtGeom.mjGEOM_MESH:
         mesh = model.geom_dataid[g]
         start, count = model.mesh_vertadr[mesh], model.mesh_vertnum[mesh]

@@ -372,8 +372,8 @@ def hand_from_tree(tree: Tree, source: Path, options: HandOptions = HandOptions(
             for j in chain.joints
         )
         radius = float(np.median([s.radius for s in chain.spheres])) if chain.spheres else 0.008
-        tip = chain.tip_frame[:3, 3].copy()
-        fingers[name] = Finger(name, joints, tuple(chain.spheres), unset, tip, radius, tuple(chain.skin))
+        end = chain.tip_frame[:3, 3].copy()
+        fingers[name] = Finger(name, joints, tuple(chain.spheres), unset, end, radius, tuple(chain.skin))
     fingers = _pads(fingers, chains, tips, options)
     palm_spheres = list(tree.links[palm].spheres)
     palm_skin = [_skin(tree.links[palm], np.eye(4))]
