@@ -56,14 +56,16 @@ def test_export_writes_a_glb_and_a_record_per_optimum(exported):
     expected = {"object", "palm"} | {f"{kind}_{f}" for f in hand.fingers for kind in ("finger", "contact")}
     assert set(scene.geometry) == expected
     record = json.loads((out / "optimum_00.json").read_text())
-    # each finger's body holds one icosphere per collision sphere of that finger, around the right centres
+    # each finger's body holds one icosphere per collision sphere of that finger and one for its fingertip's
+    # sphere, around the right centres
     pose = forward(hand, *_pose_arguments(grasp_from_record(record, hand.joint_names)))
     for name, finger in pose.fingers.items():
         body = scene.geometry[f"finger_{name}"]
-        assert len(body.vertices) == 42 * len(finger.radii)
-        assert np.allclose(body.vertices.reshape(-1, 42, 3).mean(axis=1), finger.samples[0], atol=1e-6)
+        assert len(body.vertices) == 42 * (len(finger.radii) + 1)
+        centres = np.vstack([finger.samples[0], finger.pad_centre])
+        assert np.allclose(body.vertices.reshape(-1, 42, 3).mean(axis=1), centres, atol=1e-6)
     contact = scene.geometry["contact_thumb"].bounds.mean(axis=0)
-    assert np.allclose(contact, record["contacts"][0]["pad"], atol=1e-6)
+    assert np.allclose(contact, record["contacts"][0]["surface_point"], atol=1e-6)
     assert np.allclose(scene.geometry["object"].bounds, [[-0.03] * 3, [0.03] * 3], atol=2e-3)
 
 

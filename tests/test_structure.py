@@ -57,12 +57,13 @@ def test_the_equation_families_create_their_components_in_the_paper_s_order(simu
     assert names == [
         "R_h", "d_h", "theta", "eq16_23_palm_orthonormal", "eq22_coupling",
         "frame", "eq2_frame", "p", "eq2_contact_point",
-        "eq3_contact", "eq14_collision", "n", "t", "normal_definition", "tangent_definition", "pad_facing",
+        "eq3_contact", "eq14_collision", "n", "t", "normal_definition", "tangent_definition", "eq2_rolling_contact",
+        "pad_facing",
         "l", "l_torque", "eq24_cone_edge", "eq5_wrench",
         "J", "eq7_jacobian", "edge_torque", "eq7_edge_torque",
         "phi", "eq4_weights_sum", "eq4_force_closure",
         "force", "eq8_task_force",
-        "lam", "act", "eq10_wrench", "eq10_torque",
+        "lam", "act", "eq10_wrench", "eq10_torque", "eq10_normal",
         "eq12_objective",
     ]  # fmt: skip
     # the held turn (only when asked) comes right after the palm pose it holds

@@ -32,8 +32,10 @@ class FingerBody:
     colour: str
     mesh: trimesh.Trimesh  # its collision spheres and its fingertip's sphere, merged
     chain: np.ndarray  # (n+1, 3): the joints' origins, then the fingertip's end
-    pad: np.ndarray  # (3,): where the finger touches
+    pad: np.ndarray  # (3,): the pad's home point on the fingertip
     pad_normal: np.ndarray  # (3,): outward from the pad
+    tip_centre: np.ndarray  # (3,): the centre of the fingertip's sphere, over which the contact rolls
+    tip_radius: float  # its radius (0: the pad is a point)
 
 
 @dataclass(frozen=True)
@@ -85,9 +87,8 @@ def grasp_scene(
         if radius > 0:  # the fingertip's own sphere, which the contact rolls over
             centres, radii = np.vstack([centres, finger.pad_centre]), np.append(radii, radius)
         mesh = spheres_mesh(centres, radii, subdivisions)
-        bodies.append(
-            FingerBody(name, finger_colour(name, k), mesh, finger.joint_positions[0], contacts[k], finger.pad_normal[0])
-        )
+        chain, pad, normal = finger.joint_positions[0], finger.contact[0], finger.pad_normal[0]
+        bodies.append(FingerBody(name, finger_colour(name, k), mesh, chain, pad, normal, finger.pad_centre[0], radius))
     palm = spheres_mesh(pose.palm_samples[0], pose.palm_radii, subdivisions)
     contacts = np.asarray(contacts, dtype=float)
     return GraspScene(tuple(bodies), palm, object_mesh, contacts, np.asarray(normals, dtype=float), mu)

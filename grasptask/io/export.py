@@ -105,6 +105,8 @@ def grasp_record(
             "finger": finger.name,
             "pad": _vector(finger.pad),
             "pad_normal": _vector(finger.pad_normal),
+            "fingertip_centre": _vector(finger.tip_centre),
+            "fingertip_radius": float(finger.tip_radius),
             "surface_point": _vector(surface),
             "normal": _vector(normal),
         }

@@ -101,7 +101,7 @@ def grasp_view(
         f"{'verified' if verification.ok else 'rejected: ' + ', '.join(verification.failures)}"
     )
     title = html.escape(title)  # plotly reads titles as HTML; a task or finger name is the user's text
-    pads = np.array([f.pad for f in scene.fingers], dtype=np.float32)
+    pads = np.asarray(scene.contacts, dtype=np.float32)
     traces.append(
         go.Scatter3d(
             x=pads[:, 0],
