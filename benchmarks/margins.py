@@ -13,6 +13,7 @@ deepest penetration of a verified grasp (the verifier's, on the hand's true geom
 of the hold), and the median seconds per start over today's, in the same run.
 
     python benchmarks/margins.py [--starts N] [--hands human3,allegro,barrett] [--neighbour-starts N]
+    python benchmarks/margins.py --routes NAME,... [--keep]  # some routes again (--keep: the others' results kept)
     python benchmarks/margins.py --table                    # the saved results as a table
 
 Targets (default route): held >= 90% and verified >= 80% per hand x task, penetration at most the hand's
@@ -22,6 +23,7 @@ compliance, median seconds per start at most 1.5x today's. Results are saved aft
 
 from __future__ import annotations
 
+import json
 import sys
 import tempfile
 import time
@@ -33,7 +35,15 @@ import yaml
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT / "benchmarks"), str(ROOT)]
-from common import demonstration_tasks, finished_sweep, print_saved, save, save_and_print, sweep_parser  # noqa: E402
+from common import (  # noqa: E402
+    RESULTS,
+    demonstration_tasks,
+    finished_sweep,
+    print_saved,
+    save,
+    save_and_print,
+    sweep_parser,
+)
 
 TASKS = ("drawing", "cutting", "screwdriving")
 HANDS = {
@@ -105,15 +115,22 @@ def figures(sweep: Path, physics: pd.DataFrame | None, compliance_m: float) -> d
     return out
 
 
-def main(n_starts: int | None, neighbour_starts: int, hands: list[str], name: str) -> dict:
+def main(
+    n_starts: int | None, neighbour_starts: int, hands: list[str], name: str, only: list[str] | None, keep: bool
+) -> dict:
     from grasptask.hand import load_hand
     from grasptask.stages import PhysicsInputs, SynthesisOptions, run_physics, run_synthesize
 
     results: dict = {"starts_per_task": n_starts or 126, "neighbour_starts": neighbour_starts, "routes": {}}
+    saved = RESULTS / f"{name}.json"
+    if keep and saved.exists():  # the routes not run again keep their figures
+        results["routes"] = json.loads(saved.read_text())["routes"]
     with tempfile.TemporaryDirectory() as scratch:
         tmp = Path(scratch)
         tasks = demonstration_tasks(tmp)
         for route, (config, neighbour) in routes(tmp).items():
+            if only and route not in only:
+                continue
             results["routes"][route] = {"grasp_config": yaml.safe_load(config.read_text()), "hands": {}}
             for hand in hands:
                 compliance = load_hand(HANDS[hand]).compliance_m
@@ -191,6 +208,8 @@ if __name__ == "__main__":
     parser = sweep_parser(__doc__.splitlines()[0], "margins")
     parser.add_argument("--hands", default=",".join(HANDS), help="comma-separated, of: " + ", ".join(HANDS))
     parser.add_argument("--neighbour-starts", type=int, default=42, help="starts per task of the neighbours")
+    parser.add_argument("--routes", default=None, help="comma-separated routes to run (default: all)")
+    parser.add_argument("--keep", action="store_true", help="keep the saved figures of the routes not run")
     args = parser.parse_args()
     if args.table:
         print_saved(args.name, markdown_table)
@@ -198,4 +217,5 @@ if __name__ == "__main__":
     chosen = [h.strip() for h in args.hands.split(",") if h.strip()]
     check_prerequisites(chosen)
     np.seterr(all="ignore")
-    main(args.starts, args.neighbour_starts, chosen, args.name)
+    only = [r.strip() for r in args.routes.split(",")] if args.routes else None
+    main(args.starts, args.neighbour_starts, chosen, args.name, only, args.keep)
