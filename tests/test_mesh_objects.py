@@ -250,7 +250,8 @@ def test_the_verifiers_feedback_turns_a_narrow_miss_into_a_verified_grasp(simula
         with_feedback = contexts[solver.feedback_rounds].solve(starts[start_id])
         assert without["feedback_rounds"] == 0
         assert with_feedback["verified"] and with_feedback["feedback_rounds"] >= 1
-        assert with_feedback["iterations"] > without["iterations"] and with_feedback["seconds"] > without["seconds"]
+        # the rounds' iterations add up (their seconds too, but two runs' wall times do not compare on a busy machine)
+        assert with_feedback["iterations"] > without["iterations"]
         return
     pytest.fail("none of the spray bottle's narrow misses was a narrow miss without the feedback")
 
