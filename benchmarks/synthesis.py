@@ -46,6 +46,7 @@ from grasptask.io.solutions import contacts_from_row, palm_normal_from_row  # no
 from grasptask.stages import SynthesisOptions, run_fit_task, run_simulate, run_synthesize  # noqa: E402  # noqa: E402
 
 PAPER_GRASP = Path(__file__).resolve().parents[1] / "configs" / "grasp_paper.yaml"
+PAPER_HAND = Path(__file__).resolve().parents[1] / "configs" / "hands" / "human_paper.yaml"
 TASKS = ("drawing", "cutting", "screwdriving")
 CONFIGS = ROOT / "configs"
 #: issue 20's reference run, and the commit whose code made it
@@ -159,7 +160,8 @@ def main(
                 task=task,
                 out=out,
                 solver_config=config,
-                grasp_config=PAPER_GRASP,  # the paper's contact model, whose Section 7.3 the run checks
+                grasp_config=PAPER_GRASP,  # the paper's contact model and hand, whose Section 7.3 the run checks
+                hand=PAPER_HAND,
                 starts=starts,
                 workers=workers,
                 backend=backend,

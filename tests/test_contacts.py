@@ -109,3 +109,17 @@ def test_the_human_hand_cites_a_source_for_every_maximal_tendon_force():
     assert assumed == {"FPB", "APB", "ADP"}
     forces = {name: m["max_force_n"] for name, m in tables["thumb"]["muscles"].items()}
     assert forces["FPL"] == 201.0 and forces["EPL"] == 88.3 and forces["EPB"] == 46.0 and forces["APL"] == 116.7
+
+
+def test_the_paper_hand_is_the_human_hand_with_the_assumed_thumb_strengths(tmp_path):
+    """make paper's hand (configs/hands/human_paper.yaml, ``base: human.yaml``) differs in the thumb's maximal
+    forces only; a base that leads back to its own file is one line."""
+    cited, paper = load_hand(), load_hand("configs/hands/human_paper.yaml")
+    assert paper.joint_names == cited.joint_names and paper.compliance_m == cited.compliance_m
+    thumb = cited.slices()["thumb"]
+    differs = np.abs(cited.capability.torque_map - paper.capability.torque_map) > 1e-12
+    assert differs.any() and not differs[thumb.stop :].any()  # the fingers' tendons are the same
+    (tmp_path / "a.yaml").write_text("base: b.yaml\n")
+    (tmp_path / "b.yaml").write_text("base: a.yaml\n")
+    with pytest.raises(BadInputError, match="leads back"):
+        load_hand(tmp_path / "a.yaml")

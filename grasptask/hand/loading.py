@@ -120,10 +120,27 @@ def _with_model(data: dict, source: Path) -> Hand:
     return replace(hand, sources={str(k): str(v) for k, v in sources.items()})
 
 
+def _with_base(data: dict, path: Path, seen: tuple[Path, ...] = ()) -> dict:
+    """A project hand YAML with ``base: FILE`` is that file's hand with this one's fields in place of its own, and
+    its tendon tables in place of the same fingers' tables (e.g. the paper's thumb strengths)."""
+    if "base" not in data:
+        return data
+    base = existing_file(path.parent / str(data["base"]), "base hand file")
+    if base.resolve() in seen:
+        raise BadInputError(path, f"field 'base': '{data['base']}' leads back to this file")
+    merged = _with_base(load_yaml(base), base, (*seen, path.resolve()))
+    for key, value in data.items():
+        if key == "tendons" and isinstance(value, dict) and isinstance(merged.get("tendons"), dict):
+            merged["tendons"] = {**merged["tendons"], **value}
+        elif key != "base":
+            merged[key] = value
+    return merged
+
+
 def load_hand(path: str | Path = DEFAULT_HAND) -> Hand:
     """The hand described by ``path``; a one-line error names the file and the field, link or joint at fault."""
     path = existing_file(path, "hand file")
     if path.suffix.lower() in URDF_SUFFIXES + MJCF_SUFFIXES:
         return hand_from_tree(_read_model(path, path), path)
-    data = load_yaml(path)
+    data = _with_base(load_yaml(path), path)
     return _with_model(data, path) if "model" in data else hand_from_yaml(data, path)
