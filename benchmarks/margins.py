@@ -87,6 +87,11 @@ def _median(values: pd.Series) -> float | None:
     return float(values.median()) if len(values) else None
 
 
+def _largest(values: pd.Series) -> float | None:
+    values = values.dropna().astype(float)
+    return float(values.max()) if len(values) else None
+
+
 def figures(sweep: Path, physics: pd.DataFrame | None, compliance_m: float) -> dict:
     run, solutions = finished_sweep(sweep)
     verified = solutions[solutions["verified"]]
@@ -96,9 +101,7 @@ def figures(sweep: Path, physics: pd.DataFrame | None, compliance_m: float) -> d
         "median_s_per_start": run["seconds_per_start"]["median"],
         "median_strength_margin": _median(verified.get("verify_strength_margin", pd.Series(dtype=float))),
         "median_friction_margin": _median(verified.get("verify_friction_margin", pd.Series(dtype=float))),
-        "largest_strength_margin": _median(solutions["verify_strength_margin"].nlargest(1))
-        if "verify_strength_margin" in solutions and solutions["verify_strength_margin"].notna().any()
-        else None,
+        "largest_strength_margin": _largest(solutions.get("verify_strength_margin", pd.Series(dtype=float))),
         "deepest_penetration_mm": float(verified["verify_penetration_m"].max() * 1e3)
         if len(verified) and "verify_penetration_m" in verified
         else None,

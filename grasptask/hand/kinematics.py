@@ -76,7 +76,7 @@ class HandPose:
         """Each finger's ``(N, 3, n)`` Jacobian of the point of its last link at ``points`` ``(N, b, 3)``
         (a contact that rolled away from the pad's home point)."""
         return [
-            np.cross(f.joint_axes, points[:, j, None, :] - f.joint_positions[:, :-1]).transpose(0, 2, 1)
+            point_jacobian(f.joint_axes, f.joint_positions[:, :-1], points[:, j])
             for j, f in enumerate(self.fingers.values())
         ]
 
@@ -91,6 +91,12 @@ class HandPose:
         points = [f.samples for f in self.fingers.values()] + [self.palm_samples]
         radii = [f.radii for f in self.fingers.values()] + [self.palm_radii]
         return np.concatenate(points, axis=1), np.concatenate(radii)
+
+
+def point_jacobian(axes: np.ndarray, joints: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """``(N, 3, n)``: d point / d joint angles, ``a_k x (p - P_k)``, for revolute joints of axes ``(N, n, 3)`` at
+    ``(N, n, 3)`` moving points ``(N, 3)`` of the link after the last of them."""
+    return np.cross(axes, points[:, None, :] - joints).transpose(0, 2, 1)
 
 
 def finger_forward(finger: Finger, q: np.ndarray) -> FingerPose:
@@ -115,7 +121,7 @@ def finger_forward(finger: Finger, q: np.ndarray) -> FingerPose:
     links = [s.link for s in finger.spheres]
     samples = joint_positions[:, links] + np.einsum("nsij,sj->nsi", link_rotations[:, links], centres)
     axes_arr = np.stack(axes, axis=1)
-    jacobian = np.cross(axes_arr, contact[:, None, :] - joint_positions).transpose(0, 2, 1)
+    jacobian = point_jacobian(axes_arr, joint_positions, contact)
     return FingerPose(
         joint_positions=np.concatenate([joint_positions, (position + rotation @ finger.tip)[:, None]], axis=1),
         joint_axes=axes_arr,
