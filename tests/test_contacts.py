@@ -10,6 +10,8 @@ import numpy as np
 import pyomo.environ as pyo
 import pytest
 import yaml
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from grasptask.errors import BadInputError
 from grasptask.grasp.grasp import Grasp
@@ -123,3 +125,25 @@ def test_the_paper_hand_is_the_human_hand_with_the_assumed_thumb_strengths(tmp_p
     (tmp_path / "b.yaml").write_text("base: a.yaml\n")
     with pytest.raises(BadInputError, match="leads back"):
         load_hand(tmp_path / "a.yaml")
+
+
+@settings(max_examples=30, deadline=None)
+@given(radius=st.floats(0.003, 0.02), half_length=st.floats(0.0, 0.05))
+def test_a_capsule_cover_holds_the_whole_capsule_and_keeps_its_ends_exact(radius, half_length):
+    """Every point of a capsule lies in one of its cover's spheres (no sag between them, which let the Allegro's
+    tips sink 0.85 mm where eq. 14 allowed 0.5), the end spheres are the capsule's own (the pad sits on the
+    last), and the inner ones bulge at most 3.1% of the radius."""
+    from grasptask.hand import skin, spheres
+
+    frame = np.eye(4)
+    frame[:3, :3] = np.linalg.qr(np.array([[1.0, 0.2, 0.3], [0.1, 1.0, 0.4], [0.5, 0.3, 1.0]]))[0]
+    frame[:3, 3] = [0.01, -0.02, 0.03]
+    cover = spheres.capsule(radius, half_length, frame)
+    centres = np.array([c for c, _ in cover])
+    radii = np.array([r for _, r in cover])
+    points = skin.capsule(radius, half_length, frame)
+    inside = (np.linalg.norm(points[:, None] - centres[None], axis=2) - radii[None]).min(axis=1)
+    assert inside.max() <= 1e-9
+    assert radii[0] == radii[-1] == radius
+    assert np.allclose(centres[-1], frame[:3, 3] + half_length * frame[:3, 2])
+    assert radii.max() <= radius * np.hypot(1.0, spheres.CAPSULE_STEP / 2) + 1e-12

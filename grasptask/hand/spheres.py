@@ -1,11 +1,13 @@
 """Collision geometry as spheres: every link's primitive (sphere, capsule, cylinder, box) or mesh covered by a
 few spheres, which is what the NLP's eq. 14 and the verifier's clearance check take.
 
-The covers hold the whole shape: a capsule is exact at its spine; a cylinder and a box are swept by spheres a
-little wider than their smallest half-width, spaced half that width apart, so that every edge and corner lies in
-a sphere (spheres of the half-width itself left a box's edges 0.41 of it outside, and a Barrett link sank 2 mm
-into the object where its spheres cleared it, docs/margins.md); they bulge out of the flat faces by 6-12% of the
-half-width. A mesh becomes its oriented bounding box.
+The covers hold the whole shape. A capsule keeps its two end spheres exact (a fingertip's pad sits on the last),
+with spheres a little wider than it between them, so that its side does not sag between spheres (spheres of its
+own radius one radius apart left 13% of it outside, and the Allegro's tips sank 0.85 mm where eq. 14 allowed
+0.5); a cylinder and a box are swept by spheres a little wider than their smallest half-width, spaced half that
+width apart, so that every edge and corner lies in a sphere (spheres of the half-width itself left a box's edges
+0.41 of it outside, and a Barrett link sank 2 mm into the object where its spheres cleared it, docs/margins.md);
+they bulge out of the flat faces by 6-12% of the half-width. A mesh becomes its oriented bounding box.
 
 The true surfaces, for the verifier's penetration check, are :mod:`grasptask.hand.skin`."""
 
@@ -13,24 +15,27 @@ from __future__ import annotations
 
 import numpy as np
 
-#: spheres along a segment are at most this fraction of their radius apart
-SPACING = 1.0
+#: a capsule's inner spheres are this fraction of its radius apart: they bulge 3% of the radius out of its side
+CAPSULE_STEP = 0.5
 #: a box's or cylinder's spheres are this fraction of its smallest half-width apart: 1 gives about twice the
 #: spheres of the old cover and bulges 22% out of the faces; 0.5 bulged 6% with five times the spheres
 GRID = 1.0
 
 
-def along_segment(a: np.ndarray, b: np.ndarray, radius: float) -> list[tuple[np.ndarray, float]]:
-    """Spheres of ``radius`` centred on the segment ``a``-``b``, ends included."""
-    length = float(np.linalg.norm(b - a))
-    count = max(1, int(np.ceil(length / (SPACING * radius)))) + 1 if length > 0 else 1
-    return [(a + (b - a) * t, radius) for t in np.linspace(0.0, 1.0, count)]
-
-
 def capsule(radius: float, half_length: float, transform: np.ndarray) -> list[tuple[np.ndarray, float]]:
-    """A capsule along the local z axis of ``transform`` (4 x 4), as MJCF defines it."""
+    """A capsule along the local z axis of ``transform`` (4 x 4), as MJCF defines it: its end spheres, exact, first
+    and last, and between them spheres at most ``CAPSULE_STEP`` radii apart, each wide enough to hold the side of
+    the capsule half a step either way, the outer ones half a step inside the ends."""
     axis, centre = transform[:3, 2], transform[:3, 3]
-    return along_segment(centre - half_length * axis, centre + half_length * axis, radius)
+    ends = [(centre - half_length * axis, radius), (centre + half_length * axis, radius)]
+    if half_length <= 0:
+        return ends[:1]
+    step = CAPSULE_STEP * radius
+    count = max(1, int(np.ceil(2 * half_length / step)))
+    reach = half_length - half_length / count  # count spheres, each holding 2 half_length / count of the side
+    wide = float(np.hypot(radius, half_length / count))
+    inner = [(centre + axis * t, wide) for t in np.linspace(-reach, reach, count)]
+    return [ends[0], *inner, ends[1]]
 
 
 def cylinder(radius: float, length: float, transform: np.ndarray) -> list[tuple[np.ndarray, float]]:
