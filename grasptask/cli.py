@@ -266,6 +266,27 @@ _model_options = _model_option_set(sweep=False)
 _sweep_model_options = _model_option_set(sweep=True)
 
 
+def _object_options(f):
+    """--unit, --mass and --task-frame: what a bare mesh or point cloud cannot say (a mesh YAML's fields)."""
+    f = click.option(
+        "--task-frame",
+        type=click.Choice(["centre", "origin"]),
+        default=None,
+        help="The object's task frame: centre (its centre of volume, z along its longest axis: a bare file's "
+        "default) or origin (the file's own frame).",
+    )(f)
+    f = click.option(
+        "--mass", "mass_kg", type=click.FloatRange(min=0, min_open=True), default=None,
+        help="The object's mass (kg), for the physics check [default: the object YAML's mass_kg; none is stated].",
+    )(f)  # fmt: skip
+    return click.option(
+        "--unit",
+        type=click.Choice(["m", "cm", "mm"]),
+        default=None,
+        help="The length unit of a mesh or point-cloud object's file [default: the YAML's unit, or m].",
+    )(f)
+
+
 @main.command()
 @click.option(
     "--tasks", "tasks_path", required=True, type=click.Path(path_type=Path), help="task_models.json from fit-task."
@@ -273,6 +294,7 @@ _sweep_model_options = _model_option_set(sweep=True)
 @click.option("--task", required=True, help="Task to grasp for, e.g. drawing, cutting, screwdriving.")
 @_out_option
 @_model_options
+@_object_options
 @click.option(
     "--solver-config",
     type=click.Path(path_type=Path),
@@ -321,6 +343,9 @@ def synthesize(
     out,
     hand,
     object_path,
+    unit,
+    mass_kg,
+    task_frame,
     grasp_config,
     solver_config,
     starts,
@@ -355,6 +380,9 @@ def synthesize(
         resume=resume,
         fingers=fingers,
         physics=physics_config if physics_flag else None,
+        unit=unit,
+        mass_kg=mass_kg,
+        task_frame=task_frame,
     )
     try:
         run = stages.run_synthesize(options, echo=click.echo)
@@ -369,8 +397,21 @@ def synthesize(
         f"{run['distinct_optima']} distinct optima, "
         f"best Q {_number(run['best_Q'])}; {seconds['median']:.2f} s per start (median), "
         f"statuses {', '.join(f'{k} {v}' for k, v in run['status_counts'].items() if v)}"
+        f"{_object_said(run)}"
     )
     click.echo(f"wrote {out}/{task}/solutions.parquet, optima.parquet, run.json")
+
+
+def _object_said(run: dict) -> str:
+    """The summary's word on a mesh or cloud object: where its task frame is, and a mass not given."""
+    frame = run.get("task_frame") or {}
+    if frame.get("rule") in (None, "object"):
+        return ""
+    origin = ", ".join(f"{row[3] * 1e3:.0f}" for row in frame["in_file_frame"][:3])
+    said = f"; task frame: {frame['rule']}, at ({origin}) mm in the file's frame"
+    if run.get("object_mass_kg") is None:
+        said += "; the object's mass is not given (physics takes its config's object_mass_kg; --mass KG)"
+    return said
 
 
 @main.command("verify")
@@ -379,11 +420,17 @@ def synthesize(
 @click.option("--task", required=True, help="The task the solutions were made for.")
 @_out_option
 @_model_options
+@_object_options
 @_fingers_option("those SOLUTIONS holds contacts of")
-def verify_command(solutions, tasks_path, task, out, hand, object_path, grasp_config, fingers):
+def verify_command(
+    solutions, tasks_path, task, out, hand, object_path, unit, mass_kg, task_frame, grasp_config, fingers
+):
     """Check every grasp in SOLUTIONS (solutions.parquet) again with the independent verifier; writes
     OUT/verification.parquet with one row per start and its verification figures."""
-    table = stages.run_verify(solutions, tasks_path, task, out, hand, object_path, grasp_config, fingers)
+    table = stages.run_verify(
+        solutions, tasks_path, task, out, hand, object_path, grasp_config, fingers,
+        {"unit": unit, "mass_kg": mass_kg, "task_frame": task_frame},
+    )  # fmt: skip
     click.echo(f"{int(table['verified'].sum())}/{len(table)} grasps verified; wrote {out}/verification.parquet")
 
 

@@ -105,7 +105,7 @@ def test_a_cloud_with_columns_and_properties_it_does_not_use_loads_the_same(tmp_
     header += [f"property float {n}" for n in names[:6]] + [f"property uchar {n}" for n in names[6:]]
     body = "\n".join(" ".join(f"{v:.9g}" for v in row[:6]) + " 7 7 7" for row in rows)
     (tmp_path / "scan.ply").write_text("\n".join(header + ["end_header", body]) + "\n")
-    (tmp_path / "scan.yaml").write_text("type: mesh\npoints: scan.ply\nunit: mm\n")
+    (tmp_path / "scan.yaml").write_text("type: mesh\npoints: scan.ply\nunit: mm\ntask_frame: centre\n")
     scan = load_object(tmp_path / "scan.yaml")
     assert isinstance(scan, PointCloudObject)
     np.testing.assert_allclose(scan.points, plain.points, atol=1e-9)
@@ -137,7 +137,7 @@ def bad_object(tmp_path: Path, case: str) -> Path:
         trimesh.Trimesh(np.array([[0, 0, 0], [0.01, 0, 0], [0.02, 0, 0.0]]), [[0, 1, 2]], process=False).export(path)
     elif case == "open":
         mesh = handle()
-        mesh.update_faces(mesh.triangles_center[:, 2] < 0.03)  # the top cap and more cut away
+        mesh.update_faces(mesh.triangles_center[:, 2] < 0.0)  # its top half cut away
         mesh.export(path)
     elif case == "millimetres":
         handle(1000.0).export(path)
@@ -151,7 +151,7 @@ BAD = {
     "unreadable": "trimesh can read",
     "empty": "no triangles",
     "degenerate": "degenerate",
-    "open": "open edges",
+    "open": "too wide to fill",
     "millimetres": "unit: mm",
     "no normals": "normals",
 }

@@ -19,13 +19,19 @@
     mesh: ../../data/objects/knife.stl  # or points: a point cloud with normals (CSV x,y,z,nx,ny,nz, or PLY)
     unit: mm                          # the file's length unit: m (default), cm or mm
     task_frame: {origin_m: [0, 0, 0.05], rotation_rpy_deg: [0, 0, 0]}  # where the task's wrenches act,
-                                      # in the file's frame (metres); by default the file's own origin and axes
+                                      # in the file's frame (metres); or centre, or origin (the default here)
+    task_frame_outside: false         # true: allow a task frame outside the object or within 5 mm of it
     pose: {position_m: [0, 0, 0], rotation_rpy_deg: [0, 0, 0]}  # the file's frame in the world (kept)
     mass_kg: 0.08
     grid_spacing_m: 0.0025            # the synthesis surrogate's grid; finer for blades and thin shafts
 
-A mesh or point-cloud file can also be given directly (``--object thing.obj``): metres, its own frame as the
-task frame. A mesh or cloud object lives in its task frame, so grasps are reported in it.
+A mesh or point-cloud file can also be given directly (``--object thing.obj``), with ``--unit``, ``--mass`` and
+``--task-frame`` for what a bare file cannot say (the same fields of a mesh object's YAML, which they override).
+A bare file's task frame is its ``centre``: the centre of volume (of the points, for a cloud), z along the
+longest principal axis, x along the next; this is where the paper's frame sits on its tool. ``origin`` keeps the
+file's own frame. A mesh or cloud object lives in its task frame, so grasps are reported in it. A task frame
+outside the object, or within 5 mm of its surface, is refused unless ``task_frame_outside: true``: the task's
+torques act about it, and a frame on the base of a scan (where YCB's origins are) makes a different task.
 
 Paths are relative to the config file. An optional ``symmetry`` entry, ``{rotation_axis: z, flip_axis: z}``
 (or ``rotation_axis: any`` for a sphere), describes the object's symmetry for clustering grasps; the loaded
@@ -54,15 +60,59 @@ from grasptask.paths import DEFAULT_OBJECT
 
 #: the largest half-size of an object, in metres: a hand grasps nothing bigger
 MAX_SIZE_M = 2.0
+#: a task frame's origin at least this deep inside the object (m), unless the YAML allows it outside
+FRAME_DEPTH_M = 0.005
+#: the task frames a word can name: the object's centre of volume and principal axes, or the file's own frame
+FRAME_WORDS = ("centre", "origin")
+#: what --unit, --mass and --task-frame set, as fields of a mesh object's YAML
+OVERRIDES = ("unit", "mass_kg", "task_frame")
 
 
-def load_object(path: str | Path = DEFAULT_OBJECT, say: Callable[[str], Any] = print) -> ImplicitObject:
+def load_object(
+    path: str | Path = DEFAULT_OBJECT, say: Callable[[str], Any] = print, **overrides: Any
+) -> ImplicitObject:
     """An object from its YAML config, or a mesh or point-cloud file itself, every field checked: a one-line
-    error names the file and the field at fault. ``say`` reports a repaired mesh."""
+    error names the file and the field at fault. ``say`` reports a repaired mesh. ``overrides`` (``unit``,
+    ``mass_kg``, ``task_frame``; None: not given) are a mesh object's fields, as ``--unit``, ``--mass`` and
+    ``--task-frame`` give them."""
     path = Path(path)
+    config = object_config(path, **overrides)
+    if config is not None:
+        return object_from_config(config, path, say)
     if path.suffix.lower() in MESH_SUFFIXES + CLOUD_SUFFIXES:
         return mesh_object(existing_file(path, "object file"), {}, path, say)
+    return object_from_config(load_yaml(path), path, say)
+
+
+def object_config(path: str | Path, **overrides: Any) -> dict[str, Any] | None:
+    """The YAML config of ``path`` with ``overrides`` in place (None: there are none), its files named by
+    absolute paths so that it can be written anywhere: what a sweep run with --unit, --mass or --task-frame
+    records as its object."""
+    path = Path(path)
+    unknown = set(overrides) - set(OVERRIDES)
+    if unknown:
+        raise TypeError(f"unknown object overrides: {', '.join(sorted(unknown))}")
+    given = {k: v for k, v in overrides.items() if v is not None}
+    if not given:
+        return None
+    if path.suffix.lower() in MESH_SUFFIXES + CLOUD_SUFFIXES:
+        source = existing_file(path, "object file").resolve()
+        cloud = path.suffix.lower() == ".csv" or (path.suffix.lower() == ".ply" and not _has_faces(path))
+        return {"type": "mesh", "name": path.stem, "points" if cloud else "mesh": str(source), "task_frame": "centre",
+                **given}  # fmt: skip
     data = load_yaml(path)
+    if data.get("type") != "mesh":
+        flags = ", ".join("--" + {"mass_kg": "mass", "task_frame": "task-frame"}.get(k, k) for k in given)
+        raise BadInputError(path, f"{flags}: for a mesh or point-cloud object; this is a {data.get('type')!r} object")
+    for key in ("mesh", "points"):
+        if key in data:
+            data[key] = str((path.parent / str(data[key])).resolve())
+    return {**data, **given}
+
+
+def object_from_config(data: dict[str, Any], path: Path, say: Callable[[str], Any] = print) -> ImplicitObject:
+    """An object from a config's mapping; ``path`` is the config's file, which relative paths start from and
+    messages name."""
     kind = require(data, "type", path, str)
     common = {"type", "name", "description", "symmetry"}
     symmetry = _symmetry(data.get("symmetry"), path)
@@ -88,7 +138,7 @@ def load_object(path: str | Path = DEFAULT_OBJECT, say: Callable[[str], Any] = p
         )
         return replace(gp, symmetry=symmetry)
     if kind == "mesh":
-        fields = {"mesh", "points", "unit", "pose", "task_frame", "mass_kg", "grid_spacing_m"}
+        fields = {"mesh", "points", "unit", "pose", "task_frame", "task_frame_outside", "mass_kg", "grid_spacing_m"}
         reject_unknown(data, common | fields, path)
         keys = [k for k in ("mesh", "points") if k in data]
         if len(keys) != 1:
@@ -119,30 +169,112 @@ def mesh_object(
     source: Path, data: dict, path: Path, say: Callable[[str], Any] = print, cloud: bool | None = None
 ) -> ImplicitObject:
     """A mesh or point cloud in its task frame (``task_frame`` in the file's own frame, after ``unit``; by
-    default the file's own origin and axes)."""
+    default, ``centre`` for a bare file and ``origin`` for a YAML's), checked to lie inside the object."""
     unit = str(data.get("unit", "m"))
     unit_scale(unit, path)
-    task_frame = _frame(data.get("task_frame"), path, "task_frame", "origin_m")
     pose = _frame(data.get("pose"), path, "pose", "position_m")
     mass = number(data["mass_kg"], path, "mass_kg", positive=True) if "mass_kg" in data else None
     spacing = number(data.get("grid_spacing_m", GRID_SPACING_M), path, "grid_spacing_m", positive=True)
     if not 5e-4 <= spacing <= 0.01:
         raise BadInputError(path, f"field 'grid_spacing_m' must lie in [0.0005, 0.01] m, got {spacing}")
+    outside = data.get("task_frame_outside", False)
+    if not isinstance(outside, bool):
+        raise BadInputError(path, f"field 'task_frame_outside' must be true or false, got {outside!r}")
     name = str(data.get("name", source.stem))
     symmetry = _symmetry(data.get("symmetry"), path)
     if cloud is None:  # a file given directly: a CSV is a cloud, a PLY is a cloud when it has no faces
         cloud = source.suffix.lower() == ".csv" or (source.suffix.lower() == ".ply" and not _has_faces(source))
-    into_task = np.linalg.inv(task_frame)
+    rule = data.get("task_frame", "centre" if path == source else "origin")
+    if isinstance(rule, str) and rule not in FRAME_WORDS:
+        raise BadInputError(
+            path, f"field 'task_frame' must be a mapping or one of {', '.join(FRAME_WORDS)}, got {rule!r}"
+        )
+    found: ImplicitObject
+    repairs: list[str] = []  # said once the object is known to be good: a refused file gets one line
     if cloud:
         points = read_cloud(source, unit)
-        rotation = into_task[:3, :3]
+        found = PointCloudObject(points.points, points.normals, name, symmetry, mass, None, spacing)
+    else:
+        found = MeshObject(read_mesh(source, unit, repairs.append), name, symmetry, mass, None, spacing)
+    if rule == "centre":
+        task_frame = principal_frame(found)
+    elif rule == "origin":
+        task_frame = np.eye(4)
+    else:
+        task_frame = _frame(rule, path, "task_frame", "origin_m")
+    if not outside:
+        _check_inside(found, task_frame[:3, 3], path, rule if isinstance(rule, str) else "given")
+    for repair in repairs:
+        say(repair)
+    into_task = np.linalg.inv(task_frame)
+    rotation = into_task[:3, :3]
+    if isinstance(found, PointCloudObject):
         return PointCloudObject(
-            points.points @ rotation.T + into_task[:3, 3], points.normals @ rotation.T, name, symmetry, mass,
-            pose @ task_frame, spacing,
+            found.points @ rotation.T + into_task[:3, 3], found.normals @ rotation.T, name, symmetry, mass,
+            pose @ task_frame, spacing, task_frame, rule if isinstance(rule, str) else "given",
         )  # fmt: skip
-    mesh = read_mesh(source, unit, say)
+    assert isinstance(found, MeshObject)
+    mesh = found.mesh
     mesh.apply_transform(into_task)
-    return MeshObject(mesh, name, symmetry, mass, pose @ task_frame, spacing)
+    return MeshObject(mesh, name, symmetry, mass, pose @ task_frame, spacing, task_frame,
+                      rule if isinstance(rule, str) else "given")  # fmt: skip
+
+
+def object_facts(obj: ImplicitObject) -> dict[str, Any]:
+    """What a run records of its object: the task frame in the file's coordinates (metres) and how it was chosen
+    (a formula object's frame is its own), and the mass (None: not given)."""
+    frame = getattr(obj, "task_frame", None)
+    return {
+        "task_frame": {
+            "rule": getattr(obj, "task_frame_rule", "object"),
+            "in_file_frame": None if frame is None else np.round(frame, 9).tolist(),
+        },
+        "object_mass_kg": getattr(obj, "mass_kg", None),
+    }
+
+
+def principal_frame(obj: ImplicitObject) -> np.ndarray:
+    """The object's centre of volume (of its points, for a cloud) and principal axes, as a 4 x 4 frame in its
+    file's coordinates: z along the longest axis, x along the next. Each axis points to the side where the
+    object reaches farther (the sign of its third moment), so that the frame turns with the object."""
+    if isinstance(obj, MeshObject):
+        centre = np.asarray(obj.mesh.center_mass, dtype=float)
+        inertia = np.asarray(obj.mesh.moment_inertia, dtype=float)
+        _, vectors = np.linalg.eigh(inertia)  # ascending: the least inertia is about the longest axis
+        longest, next_ = vectors[:, 0], vectors[:, 1]
+        areas = obj.mesh.area_faces
+        spread = obj.mesh.triangles_center - centre
+    else:
+        assert isinstance(obj, PointCloudObject)
+        centre = obj.points.mean(axis=0)
+        spread = obj.points - centre
+        _, vectors = np.linalg.eigh(spread.T @ spread)  # ascending: the most variance is along the longest axis
+        longest, next_ = vectors[:, 2], vectors[:, 1]
+        areas = np.ones(len(spread))
+    axes = []
+    for axis in (longest, next_):
+        skew = float(areas @ (spread @ axis) ** 3)
+        axes.append(-axis if skew < 0 else axis)
+    z, x = axes
+    frame = np.eye(4)
+    frame[:3, :3] = np.column_stack([x, np.cross(z, x), z])
+    frame[:3, 3] = centre
+    return frame
+
+
+def _check_inside(obj: ImplicitObject, origin: np.ndarray, path: Path, rule: str) -> None:
+    """A task frame at least ``FRAME_DEPTH_M`` inside the object, or one line saying where it is."""
+    depth = -float(obj.signed_distance(origin[None])[0])
+    if depth >= FRAME_DEPTH_M:
+        return
+    at = ", ".join(f"{v * 1e3:.0f}" for v in origin)
+    where = f"lies {-depth * 1e3:.1f} mm outside the object" if depth < 0 else f"is only {depth * 1e3:.1f} mm inside it"
+    raise BadInputError(
+        path,
+        f"the task frame ({rule}, at ({at}) mm in the file's frame) {where}; the task's torques act about it, so "
+        f"place it at least {FRAME_DEPTH_M * 1e3:.0f} mm inside (task_frame in the object's YAML, or --task-frame "
+        "centre), or say task_frame_outside: true",
+    )
 
 
 def _has_faces(source: Path) -> bool:

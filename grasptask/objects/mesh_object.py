@@ -31,6 +31,9 @@ class MeshObject(ImplicitObject):
     #: the task frame's pose in the world, for placing the object (not used by synthesis, which works in it)
     world_pose: np.ndarray | None = None
     grid_spacing: float = GRID_SPACING_M  # of the synthesis surrogate's distance grid (m)
+    #: the task frame in the file's own coordinates (metres), and how it was chosen: centre, origin or given
+    task_frame: np.ndarray | None = None
+    task_frame_rule: str = "origin"
 
     def bounds(self) -> np.ndarray:
         return np.array(self.mesh.bounds, dtype=float)
@@ -104,6 +107,8 @@ class PointCloudObject(ImplicitObject):
     mass_kg: float | None = None
     world_pose: np.ndarray | None = None
     grid_spacing: float = GRID_SPACING_M
+    task_frame: np.ndarray | None = None
+    task_frame_rule: str = "origin"
 
     @cached_property
     def tree(self) -> cKDTree:

@@ -73,7 +73,7 @@ def draw_grasp(
             for edge in cone:
                 ax.plot(*np.column_stack([point - scale * edge, point]), color="red", lw=0.6, alpha=0.7)
     if task_axis is not None:
-        centre = obj.centre
+        centre = np.zeros(3)  # the task frame's origin: objects live in their task frame
         for vector, colour, label in ((task_axis[:3], "magenta", "force"), (task_axis[3:], "black", "torque")):
             norm = np.linalg.norm(vector)
             if norm > 1e-6:

@@ -6,6 +6,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pandas as pd
 
 from grasptask.hand.model import Hand
@@ -258,8 +259,9 @@ def grasps_section(
         "grasps",
         "Synthesized grasps: every distinct optimum (Tables 11-12, Figure 11)",
         "Each distinct verified optimum from two viewpoints: thumb orange, index green, middle purple; red crosses "
-        "and lines are the contact points and their friction cones; the arrows from the object's centre show the "
-        "task's main wrench axis (force magenta, torque black). Q is eq. 12 (lower is better).",
+        "and lines are the contact points and their friction cones; the arrows from the task frame's origin (where "
+        "the task's torques act) show its main wrench axis (force magenta, torque black). Q is eq. 12 (lower is "
+        "better).",
     )
     if not sweeps:
         section.blocks.append(_no_sweeps(results))
@@ -303,7 +305,7 @@ def grasps_section(
                 scene = grasp_scene(
                     hand, view_mesh, grasp, check.contacts, check.normals, settings.friction_coefficient
                 )
-                view = grasp_view(scene, check, title, obj.centre, task_axis)
+                view = grasp_view(scene, check, title, np.zeros(3), task_axis)  # objects live in their task frame
                 caption = (
                     f"{title}: drag to turn, scroll to zoom, click a legend entry to hide it; hover over a contact "
                     "for its forces under the task wrenches (the verifier's LP) and the verifier's figures."

@@ -16,9 +16,18 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
+import yaml
 
 from grasptask.errors import BadInputError
-from grasptask.io.artifacts import Provenance, StagedOutput, config_hash, path_hash, plain_name, write_json_atomic
+from grasptask.io.artifacts import (
+    Provenance,
+    StagedOutput,
+    config_hash,
+    path_hash,
+    plain_name,
+    write_json_atomic,
+    write_text_atomic,
+)
 from grasptask.io.config import read_json
 from grasptask.io.locking import folder_lock
 from grasptask.io.reference import PaperSynthesis, read_paper_synthesis
@@ -54,6 +63,11 @@ class SynthesisOptions:
     fingers: tuple[str, ...] | None = None
     #: a physics config: hold each verified grasp in MuJoCo too (grasptask.physics); None: no physics check
     physics: Path | None = None
+    #: what a bare mesh cannot say (--unit, --mass, --task-frame): the object's unit (m, cm, mm), mass (kg) and
+    #: task frame (centre, origin); None: the object file's or YAML's own
+    unit: str | None = None
+    mass_kg: float | None = None
+    task_frame: str | None = None
 
     def __post_init__(self) -> None:
         for name in ("tasks", "out", "hand", "object", "solver_config", "grasp_config"):
@@ -80,8 +94,20 @@ class SynthesisOptions:
     def folder(self) -> Path:
         return self.out / self.task
 
+    @property
+    def object_overrides(self) -> dict[str, Any]:
+        return {"unit": self.unit, "mass_kg": self.mass_kg, "task_frame": self.task_frame}
+
+    @property
+    def object_used(self) -> Path:
+        """The object the sweep records: the given file, or with --unit, --mass or --task-frame the config
+        written beside its results (``object.yaml``), which the later stages then read."""
+        given = any(v is not None for v in self.object_overrides.values())
+        return self.folder / OBJECT_FILE if given else self.object
+
 
 DEFINITION_FILE = "sweep.json"
+OBJECT_FILE = "object.yaml"
 LOG_FILE = "solutions.jsonl"
 
 
@@ -96,13 +122,16 @@ class _Prepared:
     hang_after_s: float
     definition: dict[str, Any]
     paper: PaperSynthesis
+    #: the object config written beside the results (None: the given file is recorded as it is)
+    object_config: dict[str, Any] | None
+    object_facts: dict[str, Any]
 
 
 def _prepare(options: SynthesisOptions) -> _Prepared:
     from grasptask.grasp.settings import load_grasp_settings
     from grasptask.hand import load_hand
     from grasptask.objects import load_object
-    from grasptask.objects.loading import object_files
+    from grasptask.objects.loading import object_config, object_facts, object_files
     from grasptask.synthesis.backends import check_ipopt_options
     from grasptask.synthesis.config import load_solver_config
     from grasptask.synthesis.context import Job
@@ -127,7 +156,7 @@ def _prepare(options: SynthesisOptions) -> _Prepared:
             raise BadInputError("--fingers", f"hand '{hand.name}' has no finger {exc} (it has {known})") from None
         if len(set(options.fingers)) < 2 or len(set(options.fingers)) != len(options.fingers):
             raise BadInputError("--fingers", "name at least two different fingers")
-    obj = load_object(options.object)
+    obj = load_object(options.object, **options.object_overrides)
     every = make_starts(obj.bounds(), options.seed)
     if options.starts is not None and options.starts > len(every):
         raise BadInputError("synthesize", f"--starts {options.starts}: there are {len(every)} starts")
@@ -137,7 +166,7 @@ def _prepare(options: SynthesisOptions) -> _Prepared:
         "solver": options.backend,
         "task model": config_hash(model.ellipsoid.S.tolist()),
         "hand": path_hash(options.hand),
-        "object": config_hash([path_hash(p) for p in object_files(options.object)]),
+        "object": config_hash([path_hash(p) for p in object_files(options.object)] + [options.object_overrides]),
         "solver config": path_hash(options.solver_config),
         "grasp config": path_hash(options.grasp_config),
         "fingers": list(hand.grasping),
@@ -154,6 +183,7 @@ def _prepare(options: SynthesisOptions) -> _Prepared:
         settings_path=str(options.grasp_config),
         fingers=hand.grasping,
         physics_path=str(options.physics) if options.physics is not None else "",
+        object_overrides=tuple((k, v) for k, v in options.object_overrides.items() if v is not None),
     )
     return _Prepared(
         job,
@@ -163,6 +193,8 @@ def _prepare(options: SynthesisOptions) -> _Prepared:
         solver.start_time_limit + solver.hang_grace_s,
         definition,
         read_paper_synthesis(),
+        object_config(options.object, **options.object_overrides),
+        object_facts(obj),
     )
 
 
@@ -255,6 +287,8 @@ def run_synthesize(options: SynthesisOptions, echo: Callable[[str], Any] = print
                 if done.repairs or not options.resume:
                     rewrite_log(log, rows)
                 write_json_atomic(folder / DEFINITION_FILE, {"definition": prepared.definition})
+                if prepared.object_config is not None:
+                    write_text_atomic(folder / OBJECT_FILE, yaml.safe_dump(prepared.object_config, sort_keys=False))
                 if todo:  # a resumed sweep may have nothing left to solve
                     _solve(executor, todo, rows, log, options.task, len(prepared.starts))
             finally:
@@ -267,6 +301,7 @@ def run_synthesize(options: SynthesisOptions, echo: Callable[[str], Any] = print
             symmetry=prepared.symmetry,
             fingers=prepared.fingers,
             paper=prepared.paper,
+            object_facts=prepared.object_facts,
         )
 
 
@@ -311,6 +346,7 @@ def summarise(
     symmetry: Symmetry | None,
     fingers: list[str],
     paper: PaperSynthesis,
+    object_facts: dict[str, Any] | None = None,
 ) -> dict:
     """Write the sweep's ``solutions.parquet``, ``optima.parquet`` and ``run.json`` from its rows; the run
     summary."""
@@ -327,7 +363,11 @@ def summarise(
     status_counts = {s: int((solutions["status"] == s).sum()) for s in STATUSES}
     run = {
         "task": options.task,
-        "object": str(options.object),
+        "object": str(options.object_used),
+        # the object's task frame in its file's coordinates and how it was chosen, its unit and its mass (None:
+        # not given; the physics check then assumes its config's object_mass_kg)
+        **(object_facts or {}),
+        "object_options": {k: v for k, v in options.object_overrides.items() if v is not None},
         "hand": str(options.hand),
         "grasp_config": str(options.grasp_config),
         "tasks": str(options.tasks),
@@ -362,7 +402,7 @@ def summarise(
         "versions": {"casadi": casadi.CasadiMeta.version(), "pyomo": pyomo.version.version},
     }
     config = {k: str(v) for k, v in asdict(options).items() if k != "out"}
-    inputs = [options.tasks, options.hand, options.object, options.solver_config, options.grasp_config]
+    inputs = [options.tasks, options.hand, options.object_used, options.solver_config, options.grasp_config]
     judge = _physics_judge(options, solutions, fingers) if options.physics is not None else None
     with StagedOutput(options.folder, Provenance.of("synthesize", config, inputs, options.seed)) as staged:
         staged.write_parquet("solutions.parquet", solutions)
@@ -392,4 +432,4 @@ def _physics_judge(options: SynthesisOptions, solutions: pd.DataFrame, fingers: 
         for row in solutions.to_dict("records")
     ]
     task = load_task_model(options.tasks, options.task)
-    return Judge.of(SolvedGrasps(hand, rows), task, options.object, options.grasp_config, options.physics)
+    return Judge.of(SolvedGrasps(hand, rows), task, options.object_used, options.grasp_config, options.physics)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import pandas as pd
 
@@ -124,13 +125,14 @@ def run_verify(
     object_path: str | Path = DEFAULT_OBJECT,
     grasp_config: str | Path = DEFAULT_GRASP_CONFIG,
     fingers: tuple[str, ...] | None = None,
+    object_overrides: dict[str, Any] | None = None,
 ) -> pd.DataFrame:
     """Verify every row of ``solutions_path`` for ``task``; writes ``out/verification.parquet`` (one row per
     start: ``verified``, ``verify_failures`` and the verifier's figures) and returns it. ``fingers`` defaults to
-    those the table holds contacts of."""
+    those the table holds contacts of; ``object_overrides`` are --unit, --mass and --task-frame."""
     model = load_task_model(tasks_path, task)
     solved = read_grasps(solutions_path, hand_path, fingers)
-    obj = load_object(object_path)
+    obj = load_object(object_path, **(object_overrides or {}))
     settings = load_grasp_settings(grasp_config)
     rows = []
     for row, grasp in solved.rows:

@@ -44,6 +44,8 @@ class Job:
     fingers: tuple[str, ...] | None = None
     #: a physics config: each verified grasp is also held in MuJoCo (grasptask.physics); "": not
     physics_path: str = ""
+    #: --unit, --mass and --task-frame for the object, as (field, value) pairs (grasptask.objects.load_object)
+    object_overrides: tuple[tuple[str, Any], ...] = ()
 
 
 @dataclass
@@ -144,7 +146,7 @@ class SolverContext:
         self.hand = load_hand(job.hand_path)
         if job.fingers:
             self.hand = self.hand.with_grasping(job.fingers)
-        self.obj = load_object(job.object_path)
+        self.obj = load_object(job.object_path, **dict(job.object_overrides))
         self.task = load_task_models(job.tasks_path)[job.task]
         self.settings = load_grasp_settings(job.settings_path) if job.settings_path else GraspSettings()
         parts = (self.hand, self.obj, self.task, self.settings, job)
