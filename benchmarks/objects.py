@@ -8,7 +8,12 @@ alone, as an exact superquadric (``benchmarks/proxies/``): its shape without a s
     python benchmarks/objects.py [--starts N] [--objects tool,mug,...] [--name NAME] [--keep DIR]
     python benchmarks/objects.py --name NAME --table     # the saved results as the README's table
 
-Targets: a worker's model ready in <= 15 s, the median within 2x the cylinder's, >= 80% of starts verified.
+``scan_bottle`` and ``scan_box`` are scanned household objects as people download them, written by the run
+(``tests/scan_files.py``): bare textured OBJs split along every texture seam, no YAML, so their task frame is
+the default, their centre of volume.
+
+Targets: a worker's model ready in <= 15 s, the median within 2x the cylinder's (4x for the scans), >= 80% of
+starts verified.
 Results are saved after every sweep (benchmarks/results/NAME.json), so an interrupted run keeps what it did.
 """
 
@@ -53,13 +58,30 @@ OBJECTS.update(
 )
 
 
+#: scanned household objects as people download them, written by the run itself (tests/scan_files.py): bare
+#: textured OBJs split along their seams, base at the file's origin, no YAML (issue 42)
+SCANS = ("scan_bottle", "scan_box")
+
+
+def scan_file(name: str, folder: Path) -> Path:
+    from tests.scan_files import bottle, box, write_textured_obj
+
+    folder.mkdir(parents=True, exist_ok=True)
+    return write_textured_obj(bottle() if name == "scan_bottle" else box(), folder / f"{name}.obj")
+
+
+def object_path(name: str, folder: Path) -> Path:
+    return scan_file(name, folder / "scans") if name in SCANS else OBJECTS[name]
+
+
 def check_prerequisites(objects: list[str]) -> None:
     from grasptask.objects import load_object
 
-    for name in objects:
-        if name not in OBJECTS:
-            raise SystemExit(f"unknown object '{name}' (known: {', '.join(OBJECTS)})")
-        load_object(OBJECTS[name])  # a missing or broken mesh fails here, before any sweep
+    with tempfile.TemporaryDirectory() as scratch:
+        for name in objects:
+            if name not in OBJECTS and name not in SCANS:
+                raise SystemExit(f"unknown object '{name}' (known: {', '.join([*OBJECTS, *SCANS])})")
+            load_object(object_path(name, Path(scratch)), say=lambda _: None)  # a broken mesh fails here
 
 
 def build_seconds(path: Path, tasks: Path, task: str, solver: Path) -> float:
@@ -78,6 +100,7 @@ def sweep_figures(run: dict, solutions: pd.DataFrame) -> dict:
     solving = solved["seconds"] - solved.get("placement_seconds", 0.0)
     per_iteration = (solving / solved["iterations"]).median() * 1000 if len(solved) else None
     errors = solutions.filter(like="surrogate_error_m_").abs().max(axis=1)
+    distances = solutions.filter(like="verify_contact_distance_m_").abs().max(axis=1)
     return {
         "starts": run["starts"],
         "median_s_per_start": run["seconds_per_start"]["median"],
@@ -94,6 +117,10 @@ def sweep_figures(run: dict, solutions: pd.DataFrame) -> dict:
         "sweep_wall_s": run["sweep_wall_seconds_this_run"],
         "first_attempt": first_attempt_figures(solutions),
         "all_axes_starts": run.get("all_axes_starts", 0),
+        "max_contact_distance_mm_verified": (
+            float(distances[solutions["verified"]].max() * 1000) if solutions["verified"].any() else None
+        ),
+        "task_frame": run.get("task_frame"),
     }  # fmt: skip
 
 
@@ -103,6 +130,8 @@ def compare(results: dict) -> dict:
         name: {
             "build_within_15_s": entry["build_s"] <= 15,
             "median_within_2x_tool": all((t["median_over_tool"] or np.inf) <= 2 for t in entry["tasks"].values()),
+            # a scanned mesh's bar (issue 42)
+            "median_within_4x_tool": all((t["median_over_tool"] or np.inf) <= 4 for t in entry["tasks"].values()),
             "verified_at_least_80pct": all(t["verified_fraction"] >= 0.8 for t in entry["tasks"].values()),
         }
         for name, entry in results["objects"].items()
@@ -120,10 +149,11 @@ def main(n_starts: int | None, objects: list[str], name: str, solver: Path, keep
         tmp = Path(keep or scratch)
         tasks = demonstration_tasks(tmp)
         for obj in objects:
-            path = OBJECTS[obj]
+            path = object_path(obj, tmp)
             build = build_seconds(path, tasks, "drawing", solver)
             print(f"{obj}: a worker's models in {build:.1f} s", flush=True)
-            entry = results["objects"][obj] = {"file": str(path.relative_to(ROOT)), "build_s": build, "tasks": {}}
+            shown = path.name if obj in SCANS else str(path.relative_to(ROOT))
+            entry = results["objects"][obj] = {"file": shown, "build_s": build, "tasks": {}}
             for task in TASKS:
                 began = time.perf_counter()
                 options = SynthesisOptions(
@@ -162,7 +192,7 @@ def markdown_table(results: dict) -> str:
 
 if __name__ == "__main__":
     parser = sweep_parser(__doc__.splitlines()[0], "objects")
-    parser.add_argument("--objects", default="tool,mug,spray_bottle,kitchen_knife,screwdriver")
+    parser.add_argument("--objects", default="tool,mug,spray_bottle,kitchen_knife,screwdriver,scan_bottle,scan_box")
     parser.add_argument(
         "--keep", type=Path, help="run the sweeps in this folder and keep them (default: a temporary one)"
     )
