@@ -224,12 +224,17 @@ def write_physics_results(
     settings: PhysicsSettings,
     trace: pd.DataFrame,
     table_name: str | None = "physics.parquet",
+    judge: Judge | None = None,
 ) -> dict[str, Any]:
     """``physics_summary.json`` and ``physics_trace.parquet`` (and the table itself, unless ``table_name`` is
-    None: a sweep's solutions table already holds the columns); the summary."""
+    None: a sweep's solutions table already holds the columns); the summary, with the object's mass from
+    ``judge``."""
     summarised = ("physics_passed", "dexgraspbench_passed", "physics_failed_wrench", "physics_seconds")
     table = table.assign(**{c: pd.NA for c in summarised if c not in table})  # no columns: no grasp was checked
     result = summary(table, task, settings)
+    if judge is not None:  # a mass not given is stated, never silently assumed
+        result["object_mass_kg"] = judge.body.mass_kg
+        result["object_mass_given"] = getattr(judge.obj, "mass_kg", None) is not None
     if table_name is not None:
         staged.write_parquet(table_name, table)
     staged.write_json("physics_summary.json", result)
@@ -276,7 +281,7 @@ def run_physics(
     }
     provenance = Provenance.of("physics", parameters, [f for f in files if f is not None])
     with StagedOutput(out, provenance) as staged:
-        result = write_physics_results(staged, table, inputs.task, judge.settings, trace)
+        result = write_physics_results(staged, table, inputs.task, judge.settings, trace, judge=judge)
     echo(physics_line(result))
     return table
 
@@ -289,4 +294,10 @@ def physics_line(result: dict[str, Any]) -> str:
         f"{result['task']}: of {result['verified']} verified grasps {rates}; verifier x physics: "
         f"{pair['verified_and_held']} both accept, {pair['verified_and_dropped']} only the verifier, "
         f"{pair['rejected_and_held']} only physics, {pair['rejected_and_dropped']} neither"
+        + (
+            f"; the object's mass is not given: {result['object_mass_kg']:g} kg assumed (physics config "
+            "object_mass_kg; --mass KG on synthesize)"
+            if result.get("object_mass_given") is False
+            else ""
+        )
     )

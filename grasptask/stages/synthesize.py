@@ -412,7 +412,7 @@ def summarise(
             from grasptask.stages.physics import best_grasp_trace, write_physics_results
 
             trace = best_grasp_trace(judge)
-            write_physics_results(staged, solutions, options.task, judge.settings, trace, table_name=None)
+            write_physics_results(staged, solutions, options.task, judge.settings, trace, table_name=None, judge=judge)
     return run
 
 
