@@ -6,12 +6,10 @@
 - ``strong``: grip, every actuator 10 times stronger and friction doubled. A grasp with room to spare must hold,
   so this is the judge's validity figure: at least 95% of the verified grasps. For a robot hand only the grasps
   whose own geometry sinks at most 1 mm into the object count; the deeper ones are reported apart;
-- ``weak``: grip at 1% of the strength, which must hold none;
-- ``seated`` (robot hands): today's robot grasps all sink their rigid tips 1.6-3 mm into the object, so the
-  strong-hand figure counts none of them. To check the judge on robot hands anyway, each verified grasp's fingers
-  are first opened by the least joint motion that leaves no hand geometry more than 0.3 mm inside the object
-  (:func:`seat`, Gauss-Newton steps on MuJoCo's own contact depths), and the seated grasp is held as ``strong``.
-  A seated grasp is no longer the verified one, so this checks the judge, not the grasp.
+- ``weak``: grip at 1% of the strength, which must hold none.
+
+The judge starts every grasp with its fingers seated at rest on the object (``grasptask.physics.seating``): a
+robot fingertip synthesized into the object by its compliance is first lifted out by the least joint motion.
 
 Per protocol: the pass rate of the verified grasps and the seconds per grasp (median; each worker process is one
 core); for ``grip`` also the 2x2 agreement with the analytic verifier, and the grasps' penetration, peak
@@ -118,81 +116,6 @@ def figures(table: pd.DataFrame, hand: str, protocol: str, wall_s: float) -> dic
     return out
 
 
-#: the depth a seated grasp may keep (m), and the Gauss-Newton steps it may take
-SEATED_DEPTH_M, SEATING_STEPS = 5e-5, 60
-
-
-def seat(judge, grasp):
-    """``grasp`` with its fingers opened until no hand geometry sinks deeper than :data:`SEATED_DEPTH_M` (None when
-    a palm contact, which no joint moves, is deeper)."""
-    import mujoco
-
-    from grasptask.grasp.grasp import Grasp
-    from grasptask.physics.scene import build_scene
-    from grasptask.physics.sensing import hand_contacts, point_jacobian
-
-    hand = judge.solved.hand
-    scene = build_scene(hand, judge.obj, judge.body, grasp, judge.friction, judge.settings, judge.strength)
-    data = mujoco.MjData(scene.model)
-    q = np.asarray(grasp.joint_angles, dtype=float).copy()
-    for _ in range(SEATING_STEPS):
-        data.qpos[scene.hand_qpos] = q
-        mujoco.mj_forward(scene.model, data)
-        contacts = hand_contacts(scene, data)
-        deep = contacts.depths > SEATED_DEPTH_M
-        if not deep.any():
-            return Grasp(grasp.palm_rotation, grasp.palm_position, q)
-        if (scene.finger_of_body[contacts.bodies[deep]] < 0).any():
-            return None
-        rows = np.array(
-            [frame[0] @ point_jacobian(scene, data, p, int(b))
-             for frame, p, b in zip(contacts.frames[deep], contacts.points[deep], contacts.bodies[deep], strict=True)]
-        )  # fmt: skip
-        # move each deep point back out along its normal (into the object is +normal), to a fifth of the depth
-        wanted = -(contacts.depths[deep] - 0.2 * SEATED_DEPTH_M)
-        step = np.linalg.lstsq(rows, wanted, rcond=1e-6)[0]
-        q = hand.apply_coupling(np.clip(q + step, hand.lower, hand.upper))
-    return None
-
-
-def _seated_check(index: int) -> dict | None:
-    from grasptask.stages import physics as stage
-
-    judge = stage._worker
-    assert judge is not None
-    row, grasp = judge.solved.rows[index]
-    seated = seat(judge, grasp)
-    if seated is None:
-        return None
-    return judge.hold(seated).record()
-
-
-def seated_figures(sweep: Path, tasks_file: Path, task: str, workers: int) -> dict:
-    """The strong-hand protocol on the verified grasps, seated first."""
-    from concurrent.futures import ProcessPoolExecutor
-
-    from grasptask.stages.physics import Judge, PhysicsInputs, _start_worker
-
-    controller, strength, friction = PROTOCOLS["strong"]
-    inputs = PhysicsInputs(
-        sweep / "solutions.parquet", tasks_file, task, controller=controller, strength=strength,
-        friction_scale=friction,
-    ).resolved()  # fmt: skip
-    judge = Judge.for_inputs(inputs)
-    chosen = [i for i, (row, grasp) in enumerate(judge.solved.rows) if grasp is not None and row.get("verified")]
-    began = time.perf_counter()
-    with ProcessPoolExecutor(workers, initializer=_start_worker, initargs=(judge,)) as pool:
-        records = list(pool.map(_seated_check, chosen))
-    seated = [r for r in records if r is not None]
-    return {
-        "verified": len(chosen),
-        "seated": len(seated),
-        "held_of_seated": rate(pd.Series([r["physics_passed"] for r in seated], dtype=bool)),
-        "seconds_per_grasp_median": float(np.median([r["physics_seconds"] for r in seated])) if seated else None,
-        "wall_s": time.perf_counter() - began,
-    }
-
-
 def main(folder: Path, found: list[tuple[str, str, Path]], workers: int, name: str) -> dict:
     from grasptask.stages import PhysicsInputs, run_physics
 
@@ -218,15 +141,6 @@ def main(folder: Path, found: list[tuple[str, str, Path]], workers: int, name: s
                     flush=True,
                 )
                 save(name, results)  # partial results survive an interruption
-            if hand in ROBOT_HANDS:
-                entry["seated"] = seated_figures(sweep, tasks_file, task, workers)
-                shown = entry["seated"]
-                print(
-                    f"{hand} {task} seated: {_pct(shown['held_of_seated'])} of {shown['seated']} seated "
-                    f"(of {shown['verified']} verified) held",
-                    flush=True,
-                )
-                save(name, results)
     save_and_print(name, results, markdown_table)
     return results
 
@@ -237,9 +151,8 @@ def _pct(value: float | None) -> str:
 
 def markdown_table(results: dict) -> str:
     lines = [
-        "| hand | task | verified | grip | spring | strong (counted) | deeper, strong | seated, strong | weak | "
-        "s per grasp (grip) |",
-        "|---|---|---|---|---|---|---|---|---|---|",
+        "| hand | task | verified | grip | spring | strong (counted) | deeper, strong | weak | s per grasp (grip) |",
+        "|---|---|---|---|---|---|---|---|---|",
     ]
     for hand, tasks in results["hands"].items():
         for task, p in tasks.items():
@@ -251,11 +164,10 @@ def markdown_table(results: dict) -> str:
                 f"{_pct(deeper['held'])} of {deeper['grasps']} ({deeper['penetration_mm_median']:.1f} mm)"
                 if deeper["grasps"] else "none"
             )  # fmt: skip
-            seated = "-" if "seated" not in p else f"{_pct(p['seated']['held_of_seated'])} ({p['seated']['seated']})"
             lines.append(
                 f"| {hand} | {task} | {p['grip']['verified']} | {_pct(p['grip']['held_of_verified'])} | "
                 f"{_pct(p['spring']['held_of_verified'])} | {_pct(strong['held_of_counted'])} "
-                f"({strong['counted']}) | {deep} | {seated} | {_pct(p['weak']['held_of_verified'])} | "
+                f"({strong['counted']}) | {deep} | {_pct(p['weak']['held_of_verified'])} | "
                 f"{p['grip']['seconds_per_grasp_median']:.2f} |"
             )
     return "\n".join(lines)

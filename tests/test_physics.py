@@ -367,3 +367,27 @@ def test_fingers_the_grasp_leaves_out_are_left_out_of_the_files_scene(tmp_path):
     names = {scene.model.joint(j).name for j in range(scene.model.njnt)}
     assert "j21" not in names and "j22" not in names and {"j32", "j33", "j11", "j12", "j13"} <= names
     assert scene.model.neq == 2  # the two remaining fingers' distal couplings
+
+
+def test_fingertips_sunk_by_the_compliance_are_seated_at_rest_before_the_hold(tmp_path):
+    """The gripper's tips 0.5 mm into a ball (a fingertip's compliance, as synthesis leaves it): the scene starts
+    from the least joint motion that lifts them out, so that MuJoCo's rigid geoms do not resolve the overlap as an
+    impulse; the row records the synthesized depth and the motion, and the grasp holds."""
+    from grasptask.physics.protocol import hold_grasp
+    from grasptask.physics.seating import SEATED_DEPTH_M, seat
+
+    hand = load_hand(write_mesh_gripper(tmp_path, 2.0)).grasping_hand()
+    ball = Superquadric(np.full(3, GRIPPER_BALL_RADIUS_M + 5e-4), 1.0, 1.0, name="ball")
+    grasp = Grasp(np.eye(3), -ball_centre(), np.zeros(hand.n_joints))
+    body = object_body(ball, SETTINGS)
+    scene = build_scene(hand, ball, body, grasp, 0.5, SETTINGS)
+    seating = seat(scene, hand, scene.posture)
+    assert seating.joints is not None and seating.synthesized_depth_m == pytest.approx(5e-4, abs=1e-4)
+    data = mujoco.MjData(scene.model)
+    data.qpos[scene.hand_qpos] = seating.joints
+    mujoco.mj_forward(scene.model, data)
+    assert hand_contacts(scene, data).depths.max(initial=0.0) <= SEATED_DEPTH_M
+    assert 0 < seating.moved_deg < 3
+    record = hold_grasp(hand, ball, body, grasp, 0.5, drawing_like_task(0.2), SETTINGS).record()
+    assert record["physics_passed"] and record["physics_seat_deg"] == pytest.approx(seating.moved_deg)
+    assert record["physics_initial_penetration_mm"] == pytest.approx(0.5, abs=0.1)

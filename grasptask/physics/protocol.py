@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import copy
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import mujoco
 import numpy as np
@@ -18,6 +18,7 @@ from grasptask.physics.actuation import ActuatorMap
 from grasptask.physics.grip import GripController
 from grasptask.physics.loads import Test, benchmark_tests, task_tests
 from grasptask.physics.scene import ObjectBody, Scene, build_scene
+from grasptask.physics.seating import Seating, seat
 from grasptask.physics.sensing import friction_use, hand_contacts, penetration_m
 from grasptask.physics.settings import PhysicsSettings
 from grasptask.physics.spring import SpringController
@@ -52,6 +53,8 @@ class PhysicsResult:
     #: and once the hand has settled
     initial_penetration_m: float = 0.0
     settled_penetration_m: float = 0.0
+    #: the largest joint motion that seated the fingers at rest on the object first (deg; nan: not seated)
+    seat_deg: float = 0.0
     controller: str = "grip"
     #: with ``check_grasp(..., trace=True)``: per phase (``"settle"`` and each test), the object's motion at
     #: every control step, ``(n, 3)``: seconds into the phase, translation (m), rotation (deg)
@@ -87,6 +90,7 @@ class PhysicsResult:
             "physics_friction_use": max(self.settle.friction_use, task.friction_use),
             "physics_initial_penetration_mm": 1e3 * self.initial_penetration_m,
             "physics_penetration_mm": 1e3 * self.settled_penetration_m,
+            "physics_seat_deg": self.seat_deg,
             "physics_controller": self.controller,
             "dexgraspbench_passed": self.benchmark_passed,
             "dexgraspbench_worst_translation_m": bench.translation_m,
@@ -162,13 +166,19 @@ class _Run:
 
 
 def check_grasp(
-    scene: Scene, task: TaskModel, mass_kg: float, settings: PhysicsSettings, trace: bool = False
+    scene: Scene,
+    task: TaskModel,
+    mass_kg: float,
+    settings: PhysicsSettings,
+    trace: bool = False,
+    seating: Seating | None = None,
 ) -> PhysicsResult:
     """Hold ``scene``'s grasp against every test wrench of ``task`` and DexGraspBench's six forces; ``trace``
-    keeps the object's motion over every phase (:attr:`PhysicsResult.traces`)."""
+    keeps the object's motion over every phase (:attr:`PhysicsResult.traces`). ``seating``: how the scene's
+    posture was seated from the synthesized one (None: it is the synthesized one)."""
     began = time.perf_counter()
     run = _Run(scene, settings)
-    initial = penetration_m(scene, run.data)
+    initial = penetration_m(scene, run.data) if seating is None else seating.synthesized_depth_m
     traces: dict[str, list] = {}
     ours = (settings.max_translation_m, settings.max_rotation_deg)
     theirs = (settings.benchmark_translation_m, settings.benchmark_rotation_deg)
@@ -198,6 +208,7 @@ def check_grasp(
         seconds=time.perf_counter() - began,
         initial_penetration_m=initial,
         settled_penetration_m=settled_depth,
+        seat_deg=0.0 if seating is None else seating.moved_deg,
         controller=settings.controller,
         traces={name: np.array(rows).reshape(-1, 3) for name, rows in traces.items()},
     )
@@ -215,6 +226,10 @@ def hold_grasp(
     strength: float = 1.0,
 ) -> PhysicsResult:
     """``grasp`` by ``hand`` on ``obj`` (``body`` its MuJoCo parts) built into a scene, the hand ``strength``
-    times as strong as its model, and put through :func:`check_grasp`."""
+    times as strong as its model, its fingers seated at rest on the object (:mod:`grasptask.physics.seating`),
+    and put through :func:`check_grasp`."""
     scene = build_scene(hand, obj, body, grasp, friction, settings, strength)
-    return check_grasp(scene, task, body.mass_kg, settings, trace)
+    seating = seat(scene, hand, scene.posture)
+    if seating.joints is not None:
+        scene = replace(scene, posture=seating.joints)
+    return check_grasp(scene, task, body.mass_kg, settings, trace, seating)
