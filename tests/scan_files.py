@@ -25,10 +25,11 @@ def bottle(sections: int = 48, step: float = 0.004) -> trimesh.Trimesh:
     return trimesh.creation.revolve(np.array(profile), sections=sections)
 
 
-def box(size=(0.09, 0.06, 0.16), cells: int = 6) -> trimesh.Trimesh:
-    """A box with sharp edges (a cereal or sugar box), each face a grid of cells, its base at z = 0."""
+def box(size=(0.09, 0.04, 0.175), subdivisions: int = 4) -> trimesh.Trimesh:
+    """A box with sharp edges, YCB's sugar box's size, its base at z = 0; its faces split ``subdivisions`` times,
+    to scan-sized triangles (6 mm at 4)."""
     mesh = trimesh.creation.box(extents=size)
-    for _ in range(int(np.log2(cells))):
+    for _ in range(subdivisions):
         mesh = mesh.subdivide()
     mesh.apply_translation([0, 0, size[2] / 2])
     return mesh
