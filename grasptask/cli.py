@@ -407,7 +407,7 @@ def _object_said(run: dict) -> str:
     frame = run.get("task_frame") or {}
     if frame.get("rule") in (None, "object"):
         return ""
-    origin = ", ".join(f"{row[3] * 1e3:.0f}" for row in frame["in_file_frame"][:3])
+    origin = ", ".join(str(int(round(row[3] * 1e3))) for row in frame["in_file_frame"][:3])  # no "-0"
     said = f"; task frame: {frame['rule']}, at ({origin}) mm in the file's frame"
     if run.get("object_mass_kg") is None:
         said += "; the object's mass is not given (physics takes its config's object_mass_kg; --mass KG)"

@@ -126,7 +126,7 @@ def test_unit_mass_and_task_frame_reach_run_json(cli, simulated, tmp_path):
     np.testing.assert_allclose(np.array(run["task_frame"]["in_file_frame"])[:3, 3], [0, 0, 0.0875], atol=1e-6)
     config = yaml.safe_load((out / "drawing" / "object.yaml").read_text())
     assert run["object"] == str(out / "drawing" / "object.yaml") and config["unit"] == "mm"
-    assert "task frame: centre, at (0, 0, 8" in result.output and "mass is not given" not in result.output
+    assert "task frame: centre, at (0, 0, 88) mm" in result.output and "mass is not given" not in result.output
     again = cli(*args, "--unit", "mm")  # no mass: said
     assert "the object's mass is not given" in again.output
 

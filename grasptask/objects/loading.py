@@ -267,7 +267,7 @@ def _check_inside(obj: ImplicitObject, origin: np.ndarray, path: Path, rule: str
     depth = -float(obj.signed_distance(origin[None])[0])
     if depth >= FRAME_DEPTH_M:
         return
-    at = ", ".join(f"{v * 1e3:.0f}" for v in origin)
+    at = ", ".join(str(int(round(v * 1e3))) for v in origin)
     where = f"lies {-depth * 1e3:.1f} mm outside the object" if depth < 0 else f"is only {depth * 1e3:.1f} mm inside it"
     raise BadInputError(
         path,
