@@ -97,9 +97,8 @@ def object_config(path: str | Path, **overrides: Any) -> dict[str, Any] | None:
         return None
     if path.suffix.lower() in MESH_SUFFIXES + CLOUD_SUFFIXES:
         source = existing_file(path, "object file").resolve()
-        cloud = path.suffix.lower() == ".csv" or (path.suffix.lower() == ".ply" and not _has_faces(path))
-        return {"type": "mesh", "name": path.stem, "points" if cloud else "mesh": str(source), "task_frame": "centre",
-                **given}  # fmt: skip
+        key = "points" if _is_cloud(path) else "mesh"
+        return {"type": "mesh", "name": path.stem, key: str(source), "task_frame": "centre", **given}
     data = load_yaml(path)
     if data.get("type") != "mesh":
         flags = ", ".join("--" + {"mass_kg": "mass", "task_frame": "task-frame"}.get(k, k) for k in given)
@@ -182,8 +181,8 @@ def mesh_object(
         raise BadInputError(path, f"field 'task_frame_outside' must be true or false, got {outside!r}")
     name = str(data.get("name", source.stem))
     symmetry = _symmetry(data.get("symmetry"), path)
-    if cloud is None:  # a file given directly: a CSV is a cloud, a PLY is a cloud when it has no faces
-        cloud = source.suffix.lower() == ".csv" or (source.suffix.lower() == ".ply" and not _has_faces(source))
+    if cloud is None:  # a file given directly
+        cloud = _is_cloud(source)
     rule = data.get("task_frame", "centre" if path == source else "origin")
     if isinstance(rule, str) and rule not in FRAME_WORDS:
         raise BadInputError(
@@ -202,8 +201,9 @@ def mesh_object(
         task_frame = np.eye(4)
     else:
         task_frame = _frame(rule, path, "task_frame", "origin_m")
+    label = rule if isinstance(rule, str) else "given"
     if not outside:
-        _check_inside(found, task_frame[:3, 3], path, rule if isinstance(rule, str) else "given")
+        _check_inside(found, task_frame[:3, 3], path, label)
     for repair in repairs:
         say(repair)
     into_task = np.linalg.inv(task_frame)
@@ -211,13 +211,12 @@ def mesh_object(
     if isinstance(found, PointCloudObject):
         return PointCloudObject(
             found.points @ rotation.T + into_task[:3, 3], found.normals @ rotation.T, name, symmetry, mass,
-            pose @ task_frame, spacing, task_frame, rule if isinstance(rule, str) else "given",
+            pose @ task_frame, spacing, task_frame, label,
         )  # fmt: skip
     assert isinstance(found, MeshObject)
     mesh = found.mesh
     mesh.apply_transform(into_task)
-    return MeshObject(mesh, name, symmetry, mass, pose @ task_frame, spacing, task_frame,
-                      rule if isinstance(rule, str) else "given")  # fmt: skip
+    return MeshObject(mesh, name, symmetry, mass, pose @ task_frame, spacing, task_frame, label)
 
 
 def object_facts(obj: ImplicitObject) -> dict[str, Any]:
@@ -275,6 +274,11 @@ def _check_inside(obj: ImplicitObject, origin: np.ndarray, path: Path, rule: str
         f"place it at least {FRAME_DEPTH_M * 1e3:.0f} mm inside (task_frame in the object's YAML, or --task-frame "
         "centre), or say task_frame_outside: true",
     )
+
+
+def _is_cloud(source: Path) -> bool:
+    """A file given directly is a point cloud: a CSV, or a PLY without faces."""
+    return source.suffix.lower() == ".csv" or (source.suffix.lower() == ".ply" and not _has_faces(source))
 
 
 def _has_faces(source: Path) -> bool:

@@ -114,8 +114,9 @@ def read_mesh(path: Path, unit: str = "m", say: Callable[[str], Any] = print) ->
     done = []
     split = open_edges(mesh)
     mesh.merge_vertices(merge_tex=True, merge_norm=True)
-    if split > open_edges(mesh):
-        done.append(f"merged the vertices split along {split - open_edges(mesh)} seam edges")
+    seams = split - open_edges(mesh)
+    if seams > 0:
+        done.append(f"merged the vertices split along {seams} seam edges")
     good = mesh.nondegenerate_faces()
     if not good.any():
         raise BadInputError(path, f"all {len(mesh.faces)} faces are degenerate (zero area)")

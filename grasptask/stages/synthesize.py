@@ -96,14 +96,15 @@ class SynthesisOptions:
 
     @property
     def object_overrides(self) -> dict[str, Any]:
-        return {"unit": self.unit, "mass_kg": self.mass_kg, "task_frame": self.task_frame}
+        """--unit, --mass and --task-frame, those given."""
+        given = {"unit": self.unit, "mass_kg": self.mass_kg, "task_frame": self.task_frame}
+        return {k: v for k, v in given.items() if v is not None}
 
     @property
     def object_used(self) -> Path:
         """The object the sweep records: the given file, or with --unit, --mass or --task-frame the config
         written beside its results (``object.yaml``), which the later stages then read."""
-        given = any(v is not None for v in self.object_overrides.values())
-        return self.folder / OBJECT_FILE if given else self.object
+        return self.folder / OBJECT_FILE if self.object_overrides else self.object
 
 
 DEFINITION_FILE = "sweep.json"
@@ -131,7 +132,7 @@ def _prepare(options: SynthesisOptions) -> _Prepared:
     from grasptask.grasp.settings import load_grasp_settings
     from grasptask.hand import load_hand
     from grasptask.objects import load_object
-    from grasptask.objects.loading import object_config, object_facts, object_files
+    from grasptask.objects.loading import object_config, object_facts, object_files, object_from_config
     from grasptask.synthesis.backends import check_ipopt_options
     from grasptask.synthesis.config import load_solver_config
     from grasptask.synthesis.context import Job
@@ -156,7 +157,8 @@ def _prepare(options: SynthesisOptions) -> _Prepared:
             raise BadInputError("--fingers", f"hand '{hand.name}' has no finger {exc} (it has {known})") from None
         if len(set(options.fingers)) < 2 or len(set(options.fingers)) != len(options.fingers):
             raise BadInputError("--fingers", "name at least two different fingers")
-    obj = load_object(options.object, **options.object_overrides)
+    config = object_config(options.object, **options.object_overrides)
+    obj = load_object(options.object) if config is None else object_from_config(config, options.object)
     every = make_starts(obj.bounds(), options.seed)
     if options.starts is not None and options.starts > len(every):
         raise BadInputError("synthesize", f"--starts {options.starts}: there are {len(every)} starts")
@@ -183,7 +185,7 @@ def _prepare(options: SynthesisOptions) -> _Prepared:
         settings_path=str(options.grasp_config),
         fingers=hand.grasping,
         physics_path=str(options.physics) if options.physics is not None else "",
-        object_overrides=tuple((k, v) for k, v in options.object_overrides.items() if v is not None),
+        object_overrides=tuple(options.object_overrides.items()),
     )
     return _Prepared(
         job,
@@ -193,7 +195,7 @@ def _prepare(options: SynthesisOptions) -> _Prepared:
         solver.start_time_limit + solver.hang_grace_s,
         definition,
         read_paper_synthesis(),
-        object_config(options.object, **options.object_overrides),
+        config,
         object_facts(obj),
     )
 
@@ -367,7 +369,7 @@ def summarise(
         # the object's task frame in its file's coordinates and how it was chosen, its unit and its mass (None:
         # not given; the physics check then assumes its config's object_mass_kg)
         **(object_facts or {}),
-        "object_options": {k: v for k, v in options.object_overrides.items() if v is not None},
+        "object_options": options.object_overrides,
         "hand": str(options.hand),
         "grasp_config": str(options.grasp_config),
         "tasks": str(options.tasks),
