@@ -68,3 +68,76 @@ def write_mesh_gripper(root: Path, effort_nm: float = 2.0, inertia: str | None =
     path = package / "urdf" / "gripper.urdf"
     path.write_text('<?xml version="1.0"?>\n<robot name="gripper">\n' + "\n".join(links + joints) + "\n</robot>\n")
     return path
+
+
+ALLEGRO_MJCF = Path(__file__).resolve().parents[1] / "configs" / "hands" / "allegro.xml"
+
+
+def _geom_mesh(model, g: int) -> trimesh.Trimesh:
+    """One MuJoCo primitive geom as a triangle mesh in its body's frame."""
+    import mujoco
+
+    kind, size = int(model.geom_type[g]), model.geom_size[g]
+    if kind == mujoco.mjtGeom.mjGEOM_CAPSULE:
+        mesh = trimesh.creation.capsule(height=2 * size[1], radius=size[0], count=[24, 24])
+    elif kind == mujoco.mjtGeom.mjGEOM_SPHERE:
+        mesh = trimesh.creation.icosphere(subdivisions=3, radius=size[0])
+    else:
+        mesh = trimesh.creation.box(2 * size[:3])
+    mesh.apply_transform(trimesh.transformations.quaternion_matrix(model.geom_quat[g]))
+    mesh.apply_translation(model.geom_pos[g])
+    return mesh
+
+
+def write_mesh_allegro(root: Path, tips: str = "mesh") -> Path:
+    """The Allegro Hand's kinematics as a hand is often published: a ROS package under ``root``
+    (``hand/urdf/hand.urdf``) whose every link is an STL mesh found through ``package://``, its 16 joints named
+    "0" to "15", no YAML. ``tips="sphere"`` writes its twin, whose fingertips are the sphere at the end of each
+    capsule tip, as a primitive."""
+    import mujoco
+
+    model = mujoco.MjModel.from_xml_path(str(ALLEGRO_MJCF))
+    package = root / "hand"
+    (package / "meshes").mkdir(parents=True, exist_ok=True)
+    (package / "urdf").mkdir(parents=True, exist_ok=True)
+    names = [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, b) for b in range(model.nbody)]
+    links, joints, number = [], [], 0
+    for b in range(1, model.nbody):
+        geoms = np.flatnonzero(model.geom_bodyid == b)
+        collision = ""
+        capsule = [g for g in geoms if model.geom_type[g] == mujoco.mjtGeom.mjGEOM_CAPSULE]
+        if tips == "sphere" and capsule:
+            g = capsule[0]
+            axis = trimesh.transformations.quaternion_matrix(model.geom_quat[g])[:3, 2]
+            end = model.geom_pos[g] + axis * model.geom_size[g][1]
+            collision = (
+                f'<collision><origin xyz="{end[0]:.6f} {end[1]:.6f} {end[2]:.6f}"/>'
+                f'<geometry><sphere radius="{model.geom_size[g][0]}"/></geometry></collision>'
+            )
+        elif len(geoms):
+            mesh = trimesh.util.concatenate([_geom_mesh(model, int(g)) for g in geoms])
+            mesh.export(package / "meshes" / f"{names[b]}.stl")
+            collision = (
+                f'<collision><geometry><mesh filename="package://hand/meshes/{names[b]}.stl"/></geometry></collision>'
+            )
+        links.append(f'<link name="{names[b]}">{collision}</link>')
+        parent = int(model.body_parentid[b])
+        if parent == 0:
+            continue
+        xyz = " ".join(f"{v:.6f}" for v in model.body_pos[b])
+        rpy = " ".join(f"{v:.6f}" for v in trimesh.transformations.euler_from_quaternion(model.body_quat[b], "sxyz"))
+        ends = f'<parent link="{names[parent]}"/><child link="{names[b]}"/><origin xyz="{xyz}" rpy="{rpy}"/>'
+        if model.body_jntnum[b]:
+            j = int(model.body_jntadr[b])
+            axis = " ".join(f"{v:.6f}" for v in model.jnt_axis[j])
+            low, high = model.jnt_range[j]
+            joints.append(
+                f'<joint name="{number}" type="revolute">{ends}<axis xyz="{axis}"/>'
+                f'<limit lower="{low:.6f}" upper="{high:.6f}" effort="0.7" velocity="6"/></joint>'
+            )
+            number += 1
+        else:
+            joints.append(f'<joint name="{names[b]}_fixed" type="fixed">{ends}</joint>')
+    path = package / "urdf" / "hand.urdf"
+    path.write_text('<?xml version="1.0"?>\n<robot name="hand">\n' + "\n".join(links + joints) + "\n</robot>\n")
+    return path

@@ -16,7 +16,8 @@ import numpy as np
 from grasptask.errors import BadInputError
 from grasptask.hand import skin
 from grasptask.hand import spheres as cover
-from grasptask.hand.tree import Tree, TreeJoint, TreeLink
+from grasptask.hand.mesh_cover import mesh_shape
+from grasptask.hand.tree import Shape, Tree, TreeJoint, TreeLink
 
 
 def _frame(position: np.ndarray, quaternion: np.ndarray | None = None) -> np.ndarray:
@@ -69,32 +70,34 @@ def _name(model, kind, index: int, fallback: str) -> str:
     return mujoco.mj_id2name(model, kind, index) or f"{fallback}{index}"
 
 
-def _geom_spheres(model, g: int, shift: np.ndarray) -> tuple[list, bool, np.ndarray]:
-    """The spheres covering one collision geom, whether it was rounded (a fingertip's shape), and points on its
-    surface."""
+def _shape(model, g: int, shift: np.ndarray, link: str, source: Path) -> Shape:
+    """One collision geom: the spheres covering it, points on its surface, and a mesh's triangles."""
     import mujoco
 
     kind, size = int(model.geom_type[g]), model.geom_size[g]  # an int: numpy's does not match enums with `in`
     transform = _frame(-shift) @ _frame(model.geom_pos[g], model.geom_quat[g])
     if kind == mujoco.mjtGeom.mjGEOM_SPHERE:
-        return [(transform[:3, 3].copy(), float(size[0]))], True, skin.sphere(transform[:3, 3], float(size[0]))
+        radius = float(size[0])
+        return Shape([(transform[:3, 3].copy(), radius)], skin.sphere(transform[:3, 3], radius), rounded=True)
     if kind == mujoco.mjtGeom.mjGEOM_CAPSULE:
         radius, spine = float(size[0]), float(size[1])
-        return cover.capsule(radius, spine, transform), True, skin.capsule(radius, spine, transform)
+        return Shape(cover.capsule(radius, spine, transform), skin.capsule(radius, spine, transform), rounded=True)
     if kind == mujoco.mjtGeom.mjGEOM_CYLINDER:
         radius, length = float(size[0]), 2 * float(size[1])
-        return cover.cylinder(radius, length, transform), False, skin.cylinder(radius, length, transform)
+        return Shape(cover.cylinder(radius, length, transform), skin.cylinder(radius, length, transform))
     halves = np.asarray(size, dtype=float)
     if kind == mujoco.mjtGeom.mjGEOM_BOX:
-        return cover.box(halves, transform), False, skin.box(halves, transform)
+        return Shape(cover.box(halves, transform), skin.box(halves, transform))
     if kind == mujoco.mjtGeom.mjGEOM_ELLIPSOID:
-        return cover.box(halves, transform), False, skin.ellipsoid(halves, transform)
+        return Shape(cover.box(halves, transform), skin.ellipsoid(halves, transform))
     if kind == mujoco.mjtGeom.mjGEOM_MESH:
         mesh = model.geom_dataid[g]
         start, count = model.mesh_vertadr[mesh], model.mesh_vertnum[mesh]
         vertices = np.asarray(model.mesh_vert[start : start + count], dtype=float)
-        return cover.mesh_box(vertices, transform), False, skin.mesh(vertices, transform)
-    return [], False, np.zeros((0, 3))  # planes and height fields are scenery, not hand
+        first, faces = model.mesh_faceadr[mesh], model.mesh_facenum[mesh]
+        triangles = np.asarray(model.mesh_face[first : first + faces], dtype=np.int64)
+        return mesh_shape(vertices, triangles, transform, link, source)
+    return Shape([], np.zeros((0, 3)))  # planes and height fields are scenery, not hand
 
 
 def _efforts(model) -> dict[int, float]:
@@ -158,11 +161,7 @@ def read_mjcf(source: Path) -> Tree:
     for b in range(1, model.nbody):
         link = TreeLink(body_name[b])
         for g in np.flatnonzero(model.geom_bodyid == b):
-            found, rounded, surface = _geom_spheres(model, int(g), shifts[b])
-            link.spheres += found
-            link.skin.append(surface)
-            if rounded:
-                link.rounded += found
+            link.add(_shape(model, int(g), shifts[b], body_name[b], source))
         links[link.name] = link
         parent = int(model.body_parentid[b])
         if parent == 0:

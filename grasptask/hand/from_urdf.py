@@ -11,7 +11,8 @@ import numpy as np
 from grasptask.errors import BadInputError
 from grasptask.hand import skin
 from grasptask.hand import spheres as cover
-from grasptask.hand.tree import Tree, TreeJoint, TreeLink
+from grasptask.hand.mesh_cover import mesh_shape
+from grasptask.hand.tree import Shape, Tree, TreeJoint, TreeLink
 
 
 def resolve_mesh(filename: str, source: Path) -> Path | None:
@@ -28,20 +29,19 @@ def resolve_mesh(filename: str, source: Path) -> Path | None:
     return next((c for c in candidates if c.is_file()), None)
 
 
-def _geometry_spheres(geometry, transform: np.ndarray, link: str, source: Path) -> tuple[list, bool, np.ndarray]:
-    """The spheres covering one collision geometry, whether it was a sphere (a fingertip's shape), and points
-    on its surface."""
+def _shape(geometry, transform: np.ndarray, link: str, source: Path) -> Shape:
+    """One collision geometry: the spheres covering it, points on its surface, and a mesh's triangles."""
     import trimesh
 
     if geometry.sphere is not None:
         radius = float(geometry.sphere.radius)
-        return [(transform[:3, 3].copy(), radius)], True, skin.sphere(transform[:3, 3], radius)
+        return Shape([(transform[:3, 3].copy(), radius)], skin.sphere(transform[:3, 3], radius), rounded=True)
     if geometry.cylinder is not None:
         radius, length = float(geometry.cylinder.radius), float(geometry.cylinder.length)
-        return cover.cylinder(radius, length, transform), False, skin.cylinder(radius, length, transform)
+        return Shape(cover.cylinder(radius, length, transform), skin.cylinder(radius, length, transform))
     if geometry.box is not None:
         half = np.asarray(geometry.box.size, dtype=float) / 2
-        return cover.box(half, transform), False, skin.box(half, transform)
+        return Shape(cover.box(half, transform), skin.box(half, transform))
     if geometry.mesh is not None:
         path = resolve_mesh(geometry.mesh.filename, source)
         if path is None:
@@ -52,10 +52,9 @@ def _geometry_spheres(geometry, transform: np.ndarray, link: str, source: Path) 
             raise BadInputError(path, f"link '{link}': not a mesh trimesh can read ({type(exc).__name__})") from exc
         scale = np.ones(3) if geometry.mesh.scale is None else np.broadcast_to(geometry.mesh.scale, 3)
         vertices = np.array(getattr(mesh, "vertices", np.zeros((0, 3))), dtype=np.float64) * scale
-        if len(vertices) < 4:
-            raise BadInputError(path, f"link '{link}': the collision mesh has no volume")
-        return cover.mesh_box(vertices, transform), False, skin.mesh(vertices, transform)
-    return [], False, np.zeros((0, 3))
+        faces = np.array(getattr(mesh, "faces", np.zeros((0, 3))), dtype=np.int64)
+        return mesh_shape(vertices, faces, transform, link, path)
+    return Shape([], np.zeros((0, 3)))
 
 
 def read_urdf(source: Path) -> Tree:
@@ -83,11 +82,7 @@ def read_urdf(source: Path) -> Tree:
         tree_link = TreeLink(link.name)
         for collision in link.collisions:
             origin = np.eye(4) if collision.origin is None else np.asarray(collision.origin, dtype=float)
-            found, rounded, surface = _geometry_spheres(collision.geometry, origin, link.name, source)
-            tree_link.spheres += found
-            tree_link.skin.append(surface)
-            if rounded:
-                tree_link.rounded += found
+            tree_link.add(_shape(collision.geometry, origin, link.name, source))
         links[link.name] = tree_link
     joints = []
     for joint in robot.joints:

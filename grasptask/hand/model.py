@@ -46,12 +46,14 @@ class Pad:
     and the direction the first friction-cone edge follows (the finger's own frame, as in eq. 24).
 
     ``radius`` is the fingertip's surface about the pad, a sphere centred ``radius`` behind the point along the
-    normal, over which the contact rolls; 0 keeps the contact at the point (the paper's model)."""
+    normal, over which the contact rolls; 0 keeps the contact at the point (the paper's model). ``fit_error_m``
+    is how far a mesh fingertip's surface lies from that sphere (RMS), 0 for a sphere or capsule tip."""
 
     point: np.ndarray
     normal: np.ndarray
     tangent: np.ndarray
     radius: float = 0.0
+    fit_error_m: float = 0.0
 
     @property
     def centre(self) -> np.ndarray:

@@ -5,11 +5,13 @@ joints (with their origins, axes, limits, efforts and mimic relations). :func:`h
 project's :class:`~grasptask.hand.model.Hand` from it, the same way for both formats:
 
 - the palm is the root link (or ``palm_link``); links fixed to it are the palm's collision geometry;
-- fingertips are the leaf links that carry a sphere or capsule (or the named ``fingertips``); each finger is
-  the chain of revolute joints from the palm to its tip, fixed joints folded into the next joint's origin;
-- the pad is on the tip's sphere, facing the way the tip moves as the last joint closes the finger, and the
-  first friction-cone edge follows the distal link, from its joint to the tip; the sphere that holds the pad
-  is the contact surface, over which the contact rolls, not a collision sphere;
+- fingertips are the last link of each chain from the palm that carries collision geometry, behind at least
+  one revolute joint (or the named ``fingertips``); each finger is the chain of revolute joints from the palm to
+  its tip, fixed joints folded into the next joint's origin;
+- the pad is on the tip's sphere (or, for a mesh tip, a sphere fitted to the surface that faces the way the
+  finger closes: :mod:`grasptask.hand.pad_fit`), facing the way the tip moves as the last joint closes the
+  finger, and the first friction-cone edge follows the distal link, from its joint to the tip; the sphere that
+  holds the pad is the contact surface, over which the contact rolls, not a collision sphere;
 - the approach direction for the starts runs from the palm's origin to the pads' centroid at mid-range;
 - each motor limits ``|tau| <= effort``; a joint that mimics another shares its motor and its limit.
 
@@ -28,6 +30,7 @@ import numpy as np
 from grasptask.errors import BadInputError
 from grasptask.hand.kinematics import forward
 from grasptask.hand.model import DEFAULT_COMPLIANCE_M, Capability, Finger, Hand, Joint, Pad, Palm, Skin, Sphere
+from grasptask.hand.pad_fit import NoPadError, fit_pad
 
 REVOLUTE = ("revolute", "continuous")
 
@@ -39,6 +42,28 @@ class TreeLink:
     spheres: list[tuple[np.ndarray, float]] = field(default_factory=list)
     rounded: list[tuple[np.ndarray, float]] = field(default_factory=list)
     skin: list[np.ndarray] = field(default_factory=list)  # points on each collision shape, in the link's frame
+    meshes: list[tuple[np.ndarray, np.ndarray]] = field(default_factory=list)  # (vertices in its frame, faces)
+    cover_reach_m: float = 0.0  # how far the spheres of its meshes reach outside them
+
+    def add(self, shape: Shape) -> None:
+        self.spheres += shape.spheres
+        self.skin.append(shape.skin)
+        if shape.rounded:
+            self.rounded += shape.spheres
+        if shape.mesh is not None:
+            self.meshes.append(shape.mesh)
+            self.cover_reach_m = max(self.cover_reach_m, shape.reach_m)
+
+
+@dataclass
+class Shape:
+    """One collision geometry of a link, as the loaders read it, in the link's frame."""
+
+    spheres: list[tuple[np.ndarray, float]]
+    skin: np.ndarray  # points on its surface
+    rounded: bool = False  # a sphere or capsule: a fingertip's shape
+    mesh: tuple[np.ndarray, np.ndarray] | None = None  # (vertices, faces) of a mesh
+    reach_m: float = 0.0  # how far its spheres reach outside it
 
 
 @dataclass
@@ -73,6 +98,21 @@ class HandOptions:
     grasping: tuple[str, ...] | None = None
     approach: np.ndarray | None = None  # 3 x 3: the approach frame (z towards the object) in the palm frame
     compliance_m: float = DEFAULT_COMPLIANCE_M  # how far a fingertip gives at a contact
+
+
+def _check_finite(tree: Tree, source: Path) -> None:
+    """No NaN or inf anywhere in the file's numbers, named by the joint or link it came from."""
+    for joint in tree.joints:
+        scalars = [v for v in (joint.lower, joint.upper, joint.effort) if v is not None]
+        if joint.mimic is not None:
+            scalars += [joint.mimic[1], joint.mimic[2]]
+        values: list[np.ndarray] = [joint.origin, joint.axis, np.array(scalars, dtype=float)]
+        if not all(np.isfinite(v).all() for v in values):
+            raise BadInputError(source, f"joint '{joint.name}': its origin, axis, limits or mimic are not finite")
+    for link in tree.links.values():
+        shapes = [c for c, _ in link.spheres] + [np.array([r for _, r in link.spheres])] + link.skin
+        if not all(np.isfinite(v).all() for v in shapes):
+            raise BadInputError(source, f"link '{link.name}': its collision geometry is not finite")
 
 
 def _check(tree: Tree, source: Path) -> dict[str, TreeJoint]:
@@ -115,12 +155,27 @@ def _path(into: dict[str, TreeJoint], palm: str, tip: str, source: Path) -> list
 
 
 def _default_tips(tree: Tree, into: dict[str, TreeJoint], palm: str) -> list[str]:
+    """From each leaf link that hangs from the palm, up to the first link with collision geometry, if a revolute
+    joint lies between it and the palm: a fingertip may carry fixed, empty frames beyond it (a "tip_head")."""
     parents = {j.parent for j in tree.joints}
-    return [
-        name
-        for name, link in tree.links.items()
-        if name not in parents and link.rounded and name != palm and _hangs_from(into, name, palm)
-    ]
+    tips: list[str] = []
+    for leaf in tree.links:
+        if leaf in parents or leaf == palm or not _hangs_from(into, leaf, palm):
+            continue
+        link = leaf
+        while link != palm and not tree.links[link].spheres:
+            link = into[link].parent
+        if link != palm and link not in tips and _moves(into, link, palm):
+            tips.append(link)
+    return tips
+
+
+def _moves(into: dict[str, TreeJoint], link: str, palm: str) -> bool:
+    while link != palm:
+        if into[link].kind in REVOLUTE:
+            return True
+        link = into[link].parent
+    return False
 
 
 def _hangs_from(into: dict[str, TreeJoint], link: str, palm: str) -> bool:
@@ -164,6 +219,7 @@ class _Chain:
     skin: list[Skin]
     tip_frame: np.ndarray
     tip_spheres: list[tuple[np.ndarray, float]]
+    tip_meshes: list[tuple[np.ndarray, np.ndarray]]  # in the last joint's link frame
 
 
 def _fixed_descendants(tree: Tree, link: str, skip: set[str]) -> list[tuple[str, np.ndarray]]:
@@ -227,9 +283,9 @@ def _chain(tree: Tree, path: list[TreeJoint], source: Path, on_path: set[str]) -
     if not joints:
         raise BadInputError(source, f"fingertip '{path[-1].child}': no revolute joint between it and the palm")
     tip = tree.links[path[-1].child]
-    return _Chain(
-        joints, spheres, [s for s in skin if len(s.points)], pending, _transform_spheres(tip.rounded, pending)
-    )
+    meshes = [(v @ pending[:3, :3].T + pending[:3, 3], f) for v, f in tip.meshes]
+    rounded = _transform_spheres(tip.rounded, pending)
+    return _Chain(joints, spheres, [s for s in skin if len(s.points)], pending, rounded, meshes)
 
 
 def _mimic(tree: Tree, chains: dict[str, _Chain], source: Path) -> dict[str, tuple[str, float, float]]:
@@ -273,10 +329,11 @@ def _provisional(fingers: dict[str, Finger]) -> Hand:
 
 
 def _pads(
-    hand_fingers: dict[str, Finger], chains: dict[str, _Chain], tips: list[str], options: HandOptions
+    hand_fingers: dict[str, Finger], chains: dict[str, _Chain], tips: list[str], options: HandOptions, source: Path
 ) -> dict[str, Finger]:
-    """Each pad on its tip's sphere, facing the way the tip moves when the last joint closes it (the flexion
-    side), unless the YAML places it; the first friction-cone edge follows the distal link."""
+    """Each pad on its tip's sphere (for a mesh tip, the sphere fitted to its pad), facing the way the tip moves
+    when the last joint closes it (the flexion side), unless the YAML places it; the first friction-cone edge
+    follows the distal link."""
     out = {}
     for (name, finger), tip in zip(hand_fingers.items(), tips, strict=True):
         chain, last = chains[name], finger.joints[-1]
@@ -285,28 +342,58 @@ def _pads(
             rotation = frame[:3, :3]
             pad = Pad(rotation @ pad.point + frame[:3, 3], rotation @ pad.normal, rotation @ pad.tangent, pad.radius)
         else:
-            centre, radius = chain.tip_spheres[-1] if chain.tip_spheres else (chain.tip_frame[:3, 3], 0.0)
-            along = centre / max(np.linalg.norm(centre), 1e-12)  # from the last joint to the tip, in its frame
             closing = 1.0 if last.upper + last.lower >= 0 else -1.0  # most of the range turns the finger shut
+            error = 0.0
+            if chain.tip_spheres:
+                centre, radius = chain.tip_spheres[-1]
+            elif chain.tip_meshes:
+                centre, radius, error = _mesh_pad(chain.tip_meshes, last.axis, closing, tip, source)
+            else:
+                centre, radius = chain.tip_frame[:3, 3], 0.0
+            along = centre / max(np.linalg.norm(centre), 1e-12)  # from the last joint to the tip, in its frame
             normal = closing * np.cross(last.axis, centre)
             if np.linalg.norm(normal) < 1e-9:  # a tip on the joint's axis: face away from the palm
                 normal = np.cross(along, [0.0, 0.0, 1.0]) if abs(along[2]) < 0.9 else np.cross(along, [1.0, 0.0, 0.0])
             normal = normal / np.linalg.norm(normal)
             tangent = along - (along @ normal) * normal
-            pad = Pad(centre + radius * normal, normal, tangent / max(np.linalg.norm(tangent), 1e-12), radius)
+            tangent = tangent / max(np.linalg.norm(tangent), 1e-12)
+            pad = Pad(centre + radius * normal, normal, tangent, radius, fit_error_m=error)
+        if not all(np.isfinite(v).all() for v in (pad.point, pad.normal, pad.tangent, pad.radius)):
+            raise BadInputError(source, f"fingertip '{tip}': its pad is not finite (point {pad.point})")
         out[name] = replace(finger, spheres=_off_the_pad(finger, pad), pad=pad)
     return out
 
 
+def _mesh_pad(
+    meshes: list[tuple[np.ndarray, np.ndarray]], axis: np.ndarray, closing: float, tip: str, source: Path
+) -> tuple[np.ndarray, float, float]:
+    """The centre, radius and fit error of the sphere fitted to a mesh fingertip's pad."""
+    offsets = np.cumsum([0] + [len(v) for v, _ in meshes])[:-1]
+    vertices = np.vstack([v for v, _ in meshes])
+    faces = np.vstack([f + o for (_, f), o in zip(meshes, offsets, strict=True)])
+    try:
+        fit = fit_pad(vertices, faces, axis, closing)
+    except NoPadError as exc:
+        raise BadInputError(source, f"fingertip '{tip}': {exc}; place its pad under 'pads' in a hand YAML") from exc
+    return fit.centre, fit.radius, fit.error_m
+
+
 def _off_the_pad(finger: Finger, pad: Pad) -> tuple[Sphere, ...]:
-    """The finger's collision spheres without those of the last link that hold the pad point (on or inside
-    them): the pad's own sphere is the contact surface. Kept, eq. 14 would let it touch the object only where
-    the pad does, with its normal exactly the surface's, and the contact and clearance constraints become
-    parallel there (IPOPT then ended locally infeasible or at the time limit on most starts, README)."""
+    """The finger's collision spheres without the pad's own sphere and those of the last link that hold the pad
+    point strictly inside: the pad's sphere is the contact surface. Kept, eq. 14 would let it touch the object only
+    where the pad does, with its normal exactly the surface's, and the contact and clearance constraints become
+    parallel there (IPOPT then ended locally infeasible or at the time limit on most starts). A neighbour whose
+    surface merely passes through the pad point stays: without it a capsule's side beside the pad sagged 0.05 mm
+    past the compliance."""
     last = finger.n_joints - 1
-    return tuple(
-        s for s in finger.spheres if not (s.link == last and np.linalg.norm(pad.point - s.center) <= s.radius + 1e-9)
-    )
+
+    def on_the_pad(s: Sphere) -> bool:
+        if s.link != last:
+            return False
+        own = pad.radius > 0 and np.linalg.norm(s.center - pad.centre) < 1e-9 and abs(s.radius - pad.radius) < 1e-9
+        return own or bool(np.linalg.norm(pad.point - s.center) < s.radius - 1e-9)
+
+    return tuple(s for s in finger.spheres if not on_the_pad(s))
 
 
 def _approach(fingers: dict[str, Finger], options: HandOptions) -> np.ndarray:
@@ -331,6 +418,7 @@ def _coupled(joint: Joint, coupling: tuple[str, float, float] | None) -> Joint:
 
 def hand_from_tree(tree: Tree, source: Path, options: HandOptions = HandOptions()) -> Hand:
     """The hand a parsed file describes (see the module docstring for the rules and the defaults)."""
+    _check_finite(tree, source)
     into = _check(tree, source)
     palm = options.palm_link or _root(tree, into, source)
     if palm not in tree.links:
@@ -339,10 +427,19 @@ def hand_from_tree(tree: Tree, source: Path, options: HandOptions = HandOptions(
     for tip in tips:
         if tip not in tree.links:
             raise BadInputError(source, f"unknown fingertip '{tip}' (no such link)")
+    for tip in tips:
+        for other in tips:
+            if other != tip and _hangs_from(into, other, tip):
+                raise BadInputError(
+                    source, f"fingertips '{tip}' and '{other}' sit on one chain from the palm: each needs its own"
+                )
     if len(tips) < 2:
         found = ", ".join(tips) or "none"
+        why = " (every link with collision geometry hangs on one chain from the palm)" if len(tips) == 1 else ""
         raise BadInputError(
-            source, f"a hand needs at least two fingertips, found {len(tips)} ({found}): name them under 'fingertips'"
+            source,
+            f"a hand needs at least two fingertips, found {len(tips)} ({found}){why}: name them under 'fingertips' "
+            "in a hand YAML with 'model: <this file>'",
         )
     names = list(options.finger_names) if options.finger_names else tips
     if len(names) != len(tips):
@@ -374,7 +471,7 @@ def hand_from_tree(tree: Tree, source: Path, options: HandOptions = HandOptions(
         radius = float(np.median([s.radius for s in chain.spheres])) if chain.spheres else 0.008
         end = chain.tip_frame[:3, 3].copy()
         fingers[name] = Finger(name, joints, tuple(chain.spheres), unset, end, radius, tuple(chain.skin))
-    fingers = _pads(fingers, chains, tips, options)
+    fingers = _pads(fingers, chains, tips, options, source)
     palm_spheres = list(tree.links[palm].spheres)
     palm_skin = [_skin(tree.links[palm], np.eye(4))]
     for link, frame in _fixed_descendants(tree, palm, on_path):

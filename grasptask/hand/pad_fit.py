@@ -1,0 +1,71 @@
+"""The pad of a mesh fingertip: a sphere fitted to the part of its surface that faces the way the finger closes.
+
+A fingertip given as a sphere or capsule carries its pad's surface in its shape. A mesh does not, so the pad is
+fitted: the faces whose outward normal is within :data:`FACING_DEG` of the direction they move in as the last
+joint closes the finger, in the distal end of the tip (within the tip's half-width of its farthest point), and a
+sphere fitted to their vertices by least squares. The contact rolls over that sphere as over a sphere
+fingertip's, and its RMS distance from the faces' vertices is the fit error a user is shown."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+#: a face belongs to the pad when its normal is within this angle of the way it moves as the finger closes
+FACING_DEG = 60.0
+
+
+@dataclass(frozen=True)
+class PadFit:
+    centre: np.ndarray  # the fitted sphere's centre, in the last link's frame
+    radius: float  # m
+    error_m: float  # RMS distance of the pad's faces from the sphere
+    faces: int  # how many faces the pad took
+
+
+class NoPadError(ValueError):
+    """The fingertip has no surface that faces the way the finger closes."""
+
+
+def fit_pad(vertices: np.ndarray, faces: np.ndarray, axis: np.ndarray, closing: float) -> PadFit:
+    """The pad sphere of a fingertip mesh whose ``vertices`` are in its last joint's frame (the joint turning
+    about ``axis`` through the origin; ``closing`` is +1 or -1, the sign of the turn that closes the finger)."""
+    corners = vertices[faces]
+    centres = corners.mean(axis=1)
+    cross = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    areas = np.linalg.norm(cross, axis=1) / 2
+    normals = cross / np.maximum(2 * areas, 1e-300)[:, None]
+    motion = closing * np.cross(axis, centres)
+    speed = np.linalg.norm(motion, axis=1)
+    facing = (speed > 1e-9) & (areas > 0)
+    facing[facing] = np.einsum("ij,ij->i", normals[facing], motion[facing] / speed[facing, None]) >= np.cos(
+        np.radians(FACING_DEG)
+    )
+    along = (areas @ centres) / max(float(areas.sum()), 1e-300)
+    along = along / max(float(np.linalg.norm(along)), 1e-300)  # from the joint to the tip's middle
+    tip = vertices @ along
+    mid_motion = closing * np.cross(axis, vertices.mean(axis=0))
+    across = mid_motion / max(float(np.linalg.norm(mid_motion)), 1e-300)
+    half_width = float(np.ptp(vertices @ across)) / 2
+    pad = facing & (centres @ along >= tip.max() - half_width)
+    if pad.sum() < 4:
+        raise NoPadError(f"no surface faces the way the finger closes ({int(facing.sum())} faces do, none distal)")
+    # the pad's vertices, each weighted by a third of its faces' area: they lie on the surface, where a face's
+    # centre lies inside a curved one by its chord's sag
+    used = faces[pad].ravel()
+    share = np.bincount(used, weights=np.repeat(areas[pad] / 3, 3), minlength=len(vertices))
+    keep = np.flatnonzero(share > 0)
+    points, area_weights = vertices[keep], share[keep]
+    weights = np.sqrt(area_weights)
+    # |x|^2 = 2 c.x + k, with k = R^2 - |c|^2: linear in (c, k)
+    system = np.column_stack([2 * points, np.ones(len(points))]) * weights[:, None]
+    solution, *_ = np.linalg.lstsq(system, (points**2).sum(axis=1) * weights, rcond=None)
+    centre, k = solution[:3], solution[3]
+    squared = k + centre @ centre
+    if not np.isfinite(squared) or squared <= 0:
+        raise NoPadError("the faces that face the way the finger closes fit no sphere")
+    radius = float(np.sqrt(squared))
+    residual = np.linalg.norm(points - centre, axis=1) - radius
+    error = float(np.sqrt(np.average(residual**2, weights=area_weights)))
+    return PadFit(centre, radius, error, int(pad.sum()))
