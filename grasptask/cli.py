@@ -201,6 +201,26 @@ def distances(ellipsoids, out):
     click.echo(f"wrote {out}/distances.parquet, distance_summary.json, distance_heatmap.png, distance_embedding.png")
 
 
+@main.command("hand")
+@click.argument("hand_file", type=click.Path(path_type=Path))
+@click.option(
+    "--out",
+    type=click.Path(file_okay=False, path_type=Path),
+    default=None,
+    help="Write OUT/hand.html, the hand at mid-range joints [default: no page].",
+)
+def hand_command(hand_file, out):
+    """What grasptask understood of HAND_FILE (a URDF, an MJCF file or a hand YAML), before any sweep: its
+    chains, joints with limits and couplings, fingertips, pads with their normals and fit errors, and the
+    collision spheres; with --out, one self-contained HTML view of the hand with its pads and spheres over its
+    true collision surfaces. Start here with a hand of your own."""
+    described = stages.describe_hand(hand_file, out)
+    for line in described.lines:
+        click.echo(line)
+    if described.page is not None:
+        click.echo(f"wrote {described.page}")
+
+
 def _finger_list(ctx, param, value):
     if value is None:
         return None

@@ -3,6 +3,7 @@ through ``package://`` paths, with joints named by number."""
 
 from __future__ import annotations
 
+import itertools
 from pathlib import Path
 
 import numpy as np
@@ -71,6 +72,8 @@ def write_mesh_gripper(root: Path, effort_nm: float = 2.0, inertia: str | None =
 
 
 ALLEGRO_MJCF = Path(__file__).resolve().parents[1] / "configs" / "hands" / "allegro.xml"
+#: the mesh hand's links are the Allegro's boxes with their edges rounded over this radius (m)
+FILLET_M = 0.003
 
 
 def _geom_mesh(model, g: int) -> trimesh.Trimesh:
@@ -82,8 +85,11 @@ def _geom_mesh(model, g: int) -> trimesh.Trimesh:
         mesh = trimesh.creation.capsule(height=2 * size[1], radius=size[0], count=[24, 24])
     elif kind == mujoco.mjtGeom.mjGEOM_SPHERE:
         mesh = trimesh.creation.icosphere(subdivisions=3, radius=size[0])
-    else:
-        mesh = trimesh.creation.box(2 * size[:3])
+    else:  # a printed link's box, its edges rounded over FILLET_M as published hand meshes are
+        corner = trimesh.creation.icosphere(subdivisions=2, radius=FILLET_M)
+        inset = np.maximum(np.asarray(size[:3]) - FILLET_M, 1e-4)
+        corners = [corner.vertices + np.array(s) * inset for s in itertools.product((-1, 1), repeat=3)]
+        mesh = trimesh.convex.convex_hull(np.vstack(corners))
     mesh.apply_transform(trimesh.transformations.quaternion_matrix(model.geom_quat[g]))
     mesh.apply_translation(model.geom_pos[g])
     return mesh

@@ -13,6 +13,7 @@ from grasptask.errors import BadInputError
 from grasptask.hand.loading import load_hand
 from grasptask.hand.mesh_cover import BOUND_M, mesh_spheres
 from grasptask.hand.pad_fit import fit_pad
+from grasptask.report.browser import check_page, find_chromium
 
 
 @pytest.fixture(scope="module")
@@ -133,3 +134,33 @@ def test_a_nan_in_the_urdf_is_refused_with_its_joint(tmp_path):
     path.write_text(text[:origin] + "nan " + text[text.index(" ", origin) + 1 :])
     with pytest.raises(BadInputError, match="joint '5'"):
         load_hand(path)
+
+
+def test_the_hand_command_prints_the_summary_and_writes_a_view(tmp_path):
+    from click.testing import CliRunner
+
+    from grasptask.cli import main
+
+    path = write_mesh_allegro(tmp_path)
+    result = CliRunner().invoke(main, ["hand", str(path), "--out", str(tmp_path / "view")])
+    assert result.exit_code == 0, result.output
+    assert "fingertip link 'th_tip': pad at (12.0, 0.0, 43.0) mm, normal (1.00, 0.00, 0.00)" in result.output
+    assert "16 joints" in result.output and "collision spheres on the fingers" in result.output
+    page = tmp_path / "view" / "hand.html"
+    assert page.is_file() and "view-hand" in page.read_text()
+    if find_chromium() is not None:
+        check = check_page(page)  # a page of one view and no images: its view must draw
+        assert check.views and not check.failed_views and not check.console_errors, check.problems()
+
+
+def test_the_hand_command_refuses_a_bad_hand_with_one_line(tmp_path):
+    from click.testing import CliRunner
+
+    from grasptask.cli import main
+
+    path = write_mesh_allegro(tmp_path)
+    (path.parents[1] / "meshes" / "ff_medial.stl").write_bytes(b"solid broken\nfacet normal\n")
+    result = CliRunner().invoke(main, ["hand", str(path), "--out", str(tmp_path / "view")])
+    assert result.exit_code == 2
+    assert "ff_medial" in result.output and len(result.output.strip().splitlines()) == 1
+    assert not (tmp_path / "view" / "hand.html").exists()

@@ -181,6 +181,10 @@ class Hand:
     #: how far each fingertip may give at a contact (m): its sphere's centre sits its radius minus this from
     #: the object's surface, and no link may sink deeper than this into the object
     compliance_m: float = DEFAULT_COMPLIANCE_M
+    #: each finger's fingertip link in the hand file, and how far the spheres covering each mesh link reach
+    #: outside its mesh (m), by link
+    fingertip_links: dict[str, str] = field(default_factory=dict)
+    cover_reach_m: dict[str, float] = field(default_factory=dict)
 
     def contact_offsets(self, rolling: bool = True) -> np.ndarray:
         """Per finger, the distance from the fingertip sphere's centre to the surface at a contact: its radius

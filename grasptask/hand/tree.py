@@ -360,7 +360,7 @@ def _pads(
             pad = Pad(centre + radius * normal, normal, tangent, radius, fit_error_m=error)
         if not all(np.isfinite(v).all() for v in (pad.point, pad.normal, pad.tangent, pad.radius)):
             raise BadInputError(source, f"fingertip '{tip}': its pad is not finite (point {pad.point})")
-        out[name] = replace(finger, spheres=_off_the_pad(finger, pad), pad=pad)
+        out[name] = replace(finger, spheres=_off_the_pad(finger, pad, options.compliance_m), pad=pad)
     return out
 
 
@@ -378,22 +378,28 @@ def _mesh_pad(
     return fit.centre, fit.radius, fit.error_m
 
 
-def _off_the_pad(finger: Finger, pad: Pad) -> tuple[Sphere, ...]:
-    """The finger's collision spheres without the pad's own sphere and those of the last link that hold the pad
-    point strictly inside: the pad's sphere is the contact surface. Kept, eq. 14 would let it touch the object only
-    where the pad does, with its normal exactly the surface's, and the contact and clearance constraints become
-    parallel there (IPOPT then ended locally infeasible or at the time limit on most starts). A neighbour whose
-    surface merely passes through the pad point stays: without it a capsule's side beside the pad sagged 0.05 mm
-    past the compliance."""
+def _off_the_pad(finger: Finger, pad: Pad, compliance: float) -> tuple[Sphere, ...]:
+    """The finger's collision spheres without the pad's own sphere, and with the last link's spheres that hold
+    the pad point shrunk to pass ``compliance`` inside it: the pad's sphere is the contact surface. Kept whole,
+    eq. 14 would let them touch the object only where the pad does, with their normal the surface's, and the
+    contact and clearance constraints become parallel there (IPOPT then ended locally infeasible or at the time
+    limit on most starts). Dropped, the side of a tip beside its pad went unguarded, and sagged 0.05-0.12 mm past
+    the compliance (the Allegro's capsules, a mesh tip's fitted cover)."""
     last = finger.n_joints - 1
-
-    def on_the_pad(s: Sphere) -> bool:
+    kept = []
+    for s in finger.spheres:
         if s.link != last:
-            return False
+            kept.append(s)
+            continue
         own = pad.radius > 0 and np.linalg.norm(s.center - pad.centre) < 1e-9 and abs(s.radius - pad.radius) < 1e-9
-        return own or bool(np.linalg.norm(pad.point - s.center) < s.radius - 1e-9)
-
-    return tuple(s for s in finger.spheres if not on_the_pad(s))
+        reach = float(np.linalg.norm(pad.point - s.center))
+        if own:
+            continue
+        radius = s.radius if reach >= s.radius - 1e-9 else reach - compliance
+        inside_pad = pad.radius > 0 and np.linalg.norm(s.center - pad.centre) + radius <= pad.radius + 1e-4
+        if radius > 1e-4 and not inside_pad:  # a sphere within the pad's own guards nothing it does not
+            kept.append(replace(s, radius=radius))
+    return tuple(kept)
 
 
 def _approach(fingers: dict[str, Finger], options: HandOptions) -> np.ndarray:
@@ -503,4 +509,6 @@ def hand_from_tree(tree: Tree, source: Path, options: HandOptions = HandOptions(
         model_file=source.resolve(),
         palm_link=palm,
         compliance_m=options.compliance_m,
+        fingertip_links=dict(zip(names, tips, strict=True)),
+        cover_reach_m={name: link.cover_reach_m for name, link in tree.links.items() if link.meshes},
     )

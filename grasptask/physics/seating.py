@@ -20,6 +20,8 @@ from grasptask.physics.sensing import hand_contacts, point_jacobian
 
 #: the depth a seated grasp may keep (m), and the Gauss-Newton steps it may take
 SEATED_DEPTH_M, SEATING_STEPS = 5e-5, 60
+#: the Gauss-Newton step's damping (m: a joint's lever, below which it barely moves a point) and its largest size
+DAMPING, MAX_STEP_RAD = 1e-3, np.radians(2.0)
 
 
 @dataclass(frozen=True)
@@ -56,6 +58,9 @@ def seat(scene: Scene, hand: Hand, joints: np.ndarray) -> Seating:
              for frame, p, b in zip(contacts.frames[deep], contacts.points[deep], contacts.bodies[deep], strict=True)]
         )  # fmt: skip
         wanted = -(contacts.depths[deep] - 0.2 * SEATED_DEPTH_M)  # into the object is +normal: back out
-        step = np.linalg.lstsq(rows, wanted, rcond=1e-6)[0]
+        # damped: a joint that barely moves a deep point (a finger's abduction, on a mesh hull's contact) would
+        # otherwise take a step across its whole range, and did (54 degrees, the LEAP-like hand's base joints)
+        step = np.linalg.solve(rows.T @ rows + DAMPING**2 * np.eye(rows.shape[1]), rows.T @ wanted)
+        step *= min(1.0, MAX_STEP_RAD / max(float(np.abs(step).max()), 1e-12))
         q = hand.apply_coupling(np.clip(q + step, hand.lower, hand.upper))
     return Seating(None, float(first or 0.0), float("nan"))

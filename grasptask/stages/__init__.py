@@ -27,6 +27,7 @@ if TYPE_CHECKING:
     from grasptask.stages.distances import run_distances
     from grasptask.stages.export import run_export
     from grasptask.stages.fit_task import FitOptions, Preprocess, entries_from_inputs, run_fit_task
+    from grasptask.stages.hand import HandDescription, describe_hand
     from grasptask.stages.physics import PhysicsInputs, run_physics
     from grasptask.stages.pipeline import run_pipeline_file
     from grasptask.stages.report import ReportSummary, build_report
@@ -41,6 +42,8 @@ _LAZY = {
     "FitOptions": "grasptask.stages.fit_task",
     "Preprocess": "grasptask.stages.fit_task",
     "run_distances": "grasptask.stages.distances",
+    "describe_hand": "grasptask.stages.hand",
+    "HandDescription": "grasptask.stages.hand",
     "SynthesisOptions": "grasptask.stages.synthesize",
     "run_synthesize": "grasptask.stages.synthesize",
     "summarise": "grasptask.stages.synthesize",
@@ -74,6 +77,8 @@ __all__ = [
     "check_page",
     "entries_from_inputs",
     "run_distances",
+    "describe_hand",
+    "HandDescription",
     "run_export",
     "run_fit_task",
     "run_physics",

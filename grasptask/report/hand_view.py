@@ -1,0 +1,154 @@
+"""What the loader understood of a hand file, before any sweep (``grasptask hand``): its chains, joints, couplings,
+fingertips and pads as text and tables, and one self-contained HTML view of the hand at mid-range joints with its
+pads and collision spheres over its true collision surfaces."""
+
+from __future__ import annotations
+
+import html
+
+import numpy as np
+import pandas as pd
+import plotly.graph_objects as go
+
+from grasptask.grasp.scene import PALM_COLOUR, finger_colour, spheres_mesh
+from grasptask.hand.kinematics import forward
+from grasptask.hand.mesh_cover import BOUND_M, MAX_SPHERES
+from grasptask.hand.model import Hand
+from grasptask.report.interactive import _line, _mesh_trace, figure_json
+from grasptask.report.page import Section, Table, View, render_html
+
+#: the pad normals' drawn length (m)
+NORMAL_M = 0.015
+
+
+def _mm(vector: np.ndarray) -> str:
+    return "(" + ", ".join(f"{1e3 * v + 0.0:.1f}" for v in np.round(vector, 4)) + ")"
+
+
+def _unit(vector: np.ndarray) -> str:
+    return "(" + ", ".join(f"{v + 0.0:.2f}" for v in np.round(vector, 2)) + ")"
+
+
+def hand_lines(hand: Hand) -> list[str]:
+    """The summary a user reads first: the file, the fingers, each finger's chain and pad, and the covers."""
+    source = hand.model_file or "the project's own hand model"
+    lines = [
+        f"hand '{hand.name}' from {source}" + (f", palm link '{hand.palm_link}'" if hand.palm_link else ""),
+        f"{len(hand.fingers)} fingers ({', '.join(hand.grasping)} grasp), {hand.n_joints} joints, "
+        f"{len(hand.capability.actuators)} actuators ({hand.capability.kind}), "
+        f"compliance {1e3 * hand.compliance_m:.2f} mm",
+    ]
+    for name, finger in hand.fingers.items():
+        joints = ", ".join(
+            f"{j.name} [{np.degrees(j.lower):.0f}, {np.degrees(j.upper):.0f}] deg"
+            + (f" = {j.ratio:g} x {j.coupled_to}" if j.coupled_to else "")
+            for j in finger.joints
+        )
+        pad = finger.pad
+        link = hand.fingertip_links.get(name, name)
+        shape = f"sphere radius {1e3 * pad.radius:.1f} mm" if pad.radius > 0 else "a fixed point"
+        fit = f", fit error {1e3 * pad.fit_error_m:.3f} mm" if pad.fit_error_m > 0 else ""
+        lines.append(f"finger {name}: joints {joints}")
+        lines.append(
+            f"  fingertip link '{link}': pad at {_mm(pad.point)} mm, normal {_unit(pad.normal)}, {shape}{fit}; "
+            f"{len(finger.spheres)} collision spheres"
+        )
+    spheres = sum(len(f.spheres) for f in hand.fingers.values())
+    lines.append(f"{spheres} collision spheres on the fingers, {len(hand.palm.radii)} on the palm")
+    if hand.cover_reach_m:
+        worst = max(hand.cover_reach_m, key=lambda link: hand.cover_reach_m[link])
+        wide = [f"{link} {1e3 * r:.1f} mm" for link, r in hand.cover_reach_m.items() if r > BOUND_M + 1e-6]
+        lines.append(
+            f"mesh links' spheres reach at most {1e3 * hand.cover_reach_m[worst]:.1f} mm outside their meshes ({worst})"
+            + (
+                f"; beyond {1e3 * BOUND_M:.1f} mm, where {MAX_SPHERES} spheres could not hold a sharp-edged link "
+                f"closer: {', '.join(wide)}"
+                if wide
+                else f", within the {1e3 * BOUND_M:.1f} mm bound"
+            )
+        )
+    return lines
+
+
+def joint_table(hand: Hand) -> pd.DataFrame:
+    """One row per joint: its finger, limits, what drives it."""
+    rows = []
+    capability = hand.capability  # a motor "J+" pushes joint J with torque_map's entry in its column
+    efforts = {
+        name[:-1]: float(np.abs(capability.torque_map[:, k]).max())
+        for k, name in enumerate(capability.actuators)
+        if capability.kind == "motors" and name.endswith("+")
+    }
+    for name, finger in hand.fingers.items():
+        for joint in finger.joints:
+            rows.append(
+                {
+                    "finger": name,
+                    "joint": joint.name,
+                    "lower (deg)": np.degrees(joint.lower),
+                    "upper (deg)": np.degrees(joint.upper),
+                    "effort (N.m)": efforts.get(joint.name, np.nan),
+                    "coupled to": f"{joint.ratio:g} x {joint.coupled_to}" if joint.coupled_to else "",
+                }
+            )
+    return pd.DataFrame(rows)
+
+
+def hand_figure(hand: Hand) -> go.Figure:
+    """The hand at mid-range joints, in its palm frame: each link's true collision surface as points, its
+    collision spheres, the pads with their normals, and each fingertip's pad sphere."""
+    pose = forward(hand, hand.mid_range())
+    traces: list = []
+    palm_points = pose.palm_skin
+    if len(palm_points):
+        traces.append(_points(palm_points, PALM_COLOUR, "palm surface"))
+    if len(pose.palm_radii):
+        traces.append(
+            _mesh_trace(spheres_mesh(pose.palm_samples[0], pose.palm_radii), PALM_COLOUR, "palm spheres", 0.2)
+        )
+    for k, (name, finger) in enumerate(pose.fingers.items()):
+        colour, label = finger_colour(name, k), html.escape(name)
+        surface = finger.skin()[0]
+        if len(surface):
+            traces.append(_points(surface, colour, f"{label} surface", legendgroup=name))
+        if len(finger.radii):
+            mesh = spheres_mesh(finger.samples[0], finger.radii)
+            traces.append(_mesh_trace(mesh, colour, f"{label} spheres", 0.25, legendgroup=name))
+        traces.append(_line(finger.joint_positions[0], colour, f"{label} chain", showlegend=False, legendgroup=name))
+        pad, normal = finger.contact[0], finger.pad_normal[0]
+        traces.append(_line(np.vstack([pad, pad + NORMAL_M * normal]), "black", f"{label} pad normal", width=6))
+        radius = hand.fingers[name].pad.radius
+        if radius > 0:
+            sphere = spheres_mesh(finger.pad_centre, np.array([radius]), subdivisions=2)
+            traces.append(_mesh_trace(sphere, "#d62728", f"{label} pad sphere", 0.3, legendgroup=name))
+    pads = np.array([f.contact[0] for f in pose.fingers.values()])
+    marker = {"size": 6, "color": "#d62728", "line": {"color": "black", "width": 1}}
+    traces.append(go.Scatter3d(x=pads[:, 0], y=pads[:, 1], z=pads[:, 2], mode="markers", name="pads", marker=marker))
+    figure = go.Figure(traces)
+    axis = {"title": "", "showbackground": False, "gridcolor": "#dddddd"}
+    figure.update_layout(
+        template="none", height=640, margin={"l": 0, "r": 0, "t": 40, "b": 0},
+        title={"text": f"{html.escape(hand.name)} at mid-range joints (palm frame)", "x": 0.02},
+        scene={"aspectmode": "data", "xaxis": axis | {"title": "x (m)"}, "yaxis": axis | {"title": "y (m)"},
+               "zaxis": axis | {"title": "z (m)"}},
+    )  # fmt: skip
+    return figure
+
+
+def _points(points: np.ndarray, colour: str, name: str, **extra) -> go.Scatter3d:
+    p = np.asarray(points, dtype=np.float32)
+    return go.Scatter3d(x=p[:, 0], y=p[:, 1], z=p[:, 2], mode="markers", name=name,
+                        marker={"size": 1.5, "color": colour}, hoverinfo="skip", **extra)  # fmt: skip
+
+
+def hand_page(hand: Hand) -> str:
+    """One self-contained HTML page: the summary, the view, and the joint table."""
+    data, shared = figure_json(hand_figure(hand))
+    view = View("view-hand", data, "Points: the links' true collision surfaces; translucent: the spheres the NLP "
+                "keeps outside the object; red: each pad's sphere, over which the contact rolls; black: pad normals.",
+                height=660, shared=shared)  # fmt: skip
+    sections = [
+        Section("view", "The hand at mid-range joints", blocks=[view]),
+        Section("joints", "Joints", blocks=[Table("joints", "Every joint the fingers move.", joint_table(hand))]),
+    ]
+    return render_html(f"Hand: {hand.name}", str(hand.model_file or ""), hand_lines(hand), sections)

@@ -1,0 +1,29 @@
+"""``grasptask hand``: what the loader understood of a hand file, before any sweep: a summary to read, and one
+self-contained HTML view of the hand with its pads and collision spheres over its true collision surfaces."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+from grasptask.hand.loading import load_hand
+from grasptask.io.artifacts import write_text_atomic
+from grasptask.report.hand_view import hand_lines, hand_page
+
+
+@dataclass(frozen=True)
+class HandDescription:
+    lines: list[str]
+    page: Path | None
+
+
+def describe_hand(path: str | Path, out: str | Path | None = None) -> HandDescription:
+    """Load the hand at ``path`` (a URDF, an MJCF file or a hand YAML) and describe it; with ``out``, write
+    ``out/hand.html`` (written whole or not at all)."""
+    hand = load_hand(path)
+    page = None
+    if out is not None:
+        page = Path(out) / "hand.html"
+        page.parent.mkdir(parents=True, exist_ok=True)
+        write_text_atomic(page, hand_page(hand))
+    return HandDescription(hand_lines(hand), page)
