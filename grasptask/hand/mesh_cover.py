@@ -24,6 +24,8 @@ from grasptask.hand.tree import Shape
 BOUND_M = 0.0025
 #: a link's cover holds at most this many spheres; the greedy's bound climbs a ladder of GROWTH steps to MAX_BOUND_M
 MAX_SPHERES, GROWTH, MAX_BOUND_M = 24, 1.25, 0.016
+#: a box-shaped link's box cover is kept with up to this many spheres (a palm's takes 30)
+MAX_BOX_SPHERES = 64
 #: how far inside the surface candidate centres are placed (multiples of the bound)
 DEPTHS = (0.0, 0.5, 1.0, 1.5, 2.0, 3.0, 4.0, 5.0, 6.0, 8.0, 10.0, 13.0, 16.0, 24.0)
 #: at most this many candidate centres per depth
@@ -59,11 +61,11 @@ def mesh_spheres(
     vertices, faces = np.asarray(vertices, float), np.asarray(faces, int)
     points, normals = surface_samples(vertices, faces, BOUND_M / 2)
     boxed = mesh_box(vertices, np.eye(4))  # a thin plate's box takes thousands of spheres: not measured
-    boxed_reach = reach(boxed, points, normals) if len(boxed) <= MAX_SPHERES else np.inf
+    boxed_reach = reach(boxed, points, normals) if len(boxed) <= MAX_BOX_SPHERES else np.inf
     chosen, chosen_reach = boxed, boxed_reach
     if boxed_reach > BOUND_M:  # a box-shaped link keeps its box's few spheres
         fitted, fitted_reach = _fewest_within(vertices, faces, points, normals)
-        if fitted_reach < boxed_reach:
+        if fitted_reach < boxed_reach - 1e-4:
             chosen, chosen_reach = fitted, fitted_reach
     placed = [(transform[:3, :3] @ c + transform[:3, 3], r) for c, r in chosen]
     return placed, chosen_reach

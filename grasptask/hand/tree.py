@@ -33,6 +33,8 @@ from grasptask.hand.model import DEFAULT_COMPLIANCE_M, Capability, Finger, Hand,
 from grasptask.hand.pad_fit import NoPadError, fit_pad
 
 REVOLUTE = ("revolute", "continuous")
+#: how far over a mesh tip's pad sphere the contact may roll from the pad's home point (the pad-angle limit)
+PAD_ROLL_DEG = 45.0
 
 
 @dataclass
@@ -360,7 +362,12 @@ def _pads(
             pad = Pad(centre + radius * normal, normal, tangent, radius, fit_error_m=error)
         if not all(np.isfinite(v).all() for v in (pad.point, pad.normal, pad.tangent, pad.radius)):
             raise BadInputError(source, f"fingertip '{tip}': its pad is not finite (point {pad.point})")
-        out[name] = replace(finger, spheres=_off_the_pad(finger, pad, options.compliance_m), pad=pad)
+        spheres = _off_the_pad(finger, pad, options.compliance_m)
+        if chain.tip_meshes and not chain.tip_spheres and pad.radius > 0:
+            spheres = _flush_with_the_pad(
+                spheres, finger.n_joints - 1, pad, np.vstack([v for v, _ in chain.tip_meshes])
+            )
+        out[name] = replace(finger, spheres=spheres, pad=pad)
     return out
 
 
@@ -400,6 +407,42 @@ def _off_the_pad(finger: Finger, pad: Pad, compliance: float) -> tuple[Sphere, .
         if radius > 1e-4 and not inside_pad:  # a sphere within the pad's own guards nothing it does not
             kept.append(replace(s, radius=radius))
     return tuple(kept)
+
+
+def _flush_with_the_pad(spheres: tuple[Sphere, ...], last: int, pad: Pad, tip: np.ndarray) -> tuple[Sphere, ...]:
+    """A mesh tip's spheres shrunk so that, over the part of the tip the contact rolls on (directions within
+    :data:`PAD_ROLL_DEG` of the pad normal), none stands proud of both the pad sphere and the tip's own vertices.
+    A fitted cover reaches up to its bound outside the mesh, and eq. 14 lets the tip sink only its compliance:
+    a sphere standing 2.4 mm proud of a mesh Allegro's tip end held the contact off the pad's distal side, and
+    IPOPT ended infeasible on every cutting start (the Allegro's own capsule, a sphere and a cylinder, has
+    none)."""
+    cone = _cone_directions(pad.normal, np.radians(PAD_ROLL_DEG))
+    support = np.maximum((tip - pad.centre) @ cone.T, 0.0).max(axis=0)  # the tip's extent along each direction
+    room = np.maximum(support, pad.radius)
+    out = []
+    for s in spheres:
+        if s.link == last:
+            radius = min(s.radius, float((room - (s.center - pad.centre) @ cone.T).min()))
+            if radius <= 1e-4:
+                continue
+            s = replace(s, radius=radius)
+        out.append(s)
+    return tuple(out)
+
+
+def _cone_directions(axis: np.ndarray, half_angle: float, count: int = 64) -> np.ndarray:
+    """``count`` unit vectors spread over the cone of ``half_angle`` about ``axis``, its edge included."""
+    k = np.arange(count)
+    polar = half_angle * np.sqrt((k + 0.5) / count)
+    polar[-8:] = half_angle
+    azimuth = k * np.pi * (3.0 - np.sqrt(5.0))
+    helper = np.array([1.0, 0.0, 0.0]) if abs(axis[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    e1 = np.cross(axis, helper)
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(axis, e1)
+    return np.cos(polar)[:, None] * axis + np.sin(polar)[:, None] * (
+        np.cos(azimuth)[:, None] * e1 + np.sin(azimuth)[:, None] * e2
+    )
 
 
 def _approach(fingers: dict[str, Finger], options: HandOptions) -> np.ndarray:
