@@ -61,8 +61,8 @@ def hand_lines(hand: Hand) -> list[str]:
         lines.append(
             f"mesh links' spheres reach at most {1e3 * hand.cover_reach_m[worst]:.1f} mm outside their meshes ({worst})"
             + (
-                f"; beyond {1e3 * BOUND_M:.1f} mm, where {MAX_SPHERES} spheres could not hold a sharp-edged link "
-                f"closer: {', '.join(wide)}"
+                f"; beyond the {1e3 * BOUND_M:.1f} mm bound, where {MAX_SPHERES} spheres cannot follow a link's "
+                f"sharp edges: {', '.join(wide)}"
                 if wide
                 else f", within the {1e3 * BOUND_M:.1f} mm bound"
             )
