@@ -169,7 +169,8 @@ def _default_tips(tree: Tree, into: dict[str, TreeJoint], palm: str) -> list[str
             link = into[link].parent
         if link != palm and link not in tips and _moves(into, link, palm):
             tips.append(link)
-    return tips
+    # an empty frame hung off a finger's middle (a sensor's) leads to that link: the finger's own tip is deeper
+    return [tip for tip in tips if not any(other != tip and _hangs_from(into, other, tip) for other in tips)]
 
 
 def _moves(into: dict[str, TreeJoint], link: str, palm: str) -> bool:
