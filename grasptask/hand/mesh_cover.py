@@ -99,10 +99,7 @@ def reach(spheres: list[tuple[np.ndarray, float]], points: np.ndarray, normals: 
     sphere (exact on flat faces; the samples' spacing would add up to half of it)."""
     centre = np.array([c for c, _ in spheres])
     radius = np.array([r for _, r in spheres])
-    k = np.arange(200) + 0.5
-    z = 1.0 - 2.0 * k / 200
-    ring, angle = np.sqrt(1.0 - z**2), np.pi * (1.0 + 5**0.5) * k
-    directions = np.column_stack([ring * np.cos(angle), ring * np.sin(angle), z])
+    directions = skin.sphere_directions(200)
     boundary = (centre[:, None, :] + radius[:, None, None] * directions[None]).reshape(-1, 3)
     inner = np.zeros(len(boundary), dtype=bool)
     for c, r in zip(centre, radius, strict=True):

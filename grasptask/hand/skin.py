@@ -20,7 +20,7 @@ def _count(area: float) -> int:
     return int(np.clip(np.ceil(area / SPACING_M**2), 8, MAX_POINTS))
 
 
-def _directions(count: int) -> np.ndarray:
+def sphere_directions(count: int) -> np.ndarray:
     """``count`` unit vectors spread evenly over the sphere (a Fibonacci lattice)."""
     k = np.arange(count) + 0.5
     z = 1.0 - 2.0 * k / count
@@ -34,12 +34,12 @@ def _placed(points: np.ndarray, transform: np.ndarray) -> np.ndarray:
 
 
 def sphere(centre: np.ndarray, radius: float) -> np.ndarray:
-    return np.asarray(centre, dtype=float) + radius * _directions(_count(4 * np.pi * radius**2))
+    return np.asarray(centre, dtype=float) + radius * sphere_directions(_count(4 * np.pi * radius**2))
 
 
 def capsule(radius: float, half_length: float, transform: np.ndarray) -> np.ndarray:
     """A capsule along the local z axis of ``transform`` (4 x 4): its two caps and its side."""
-    cap = _directions(_count(4 * np.pi * radius**2)) * radius
+    cap = sphere_directions(_count(4 * np.pi * radius**2)) * radius
     caps = np.vstack([cap[cap[:, 2] >= 0] + [0, 0, half_length], cap[cap[:, 2] < 0] - [0, 0, half_length]])
     return _placed(np.vstack([caps, _side(radius, 2 * half_length)]), transform)
 
@@ -92,4 +92,4 @@ def mesh(vertices: np.ndarray, transform: np.ndarray) -> np.ndarray:
 
 def ellipsoid(half_sizes: np.ndarray, transform: np.ndarray) -> np.ndarray:
     half = np.asarray(half_sizes, dtype=float)
-    return _placed(_directions(_count(4 * np.pi * float(np.max(half)) ** 2)) * half, transform)
+    return _placed(sphere_directions(_count(4 * np.pi * float(np.max(half)) ** 2)) * half, transform)
