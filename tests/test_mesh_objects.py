@@ -218,7 +218,7 @@ def test_a_mesh_gives_verified_grasps_end_to_end(cli, simulated, tmp_path):
     pytest.fail(f"no verified grasp on the mug in {len(tried)} starts: {tried}")
 
 
-def test_the_verifiers_feedback_turns_a_narrow_miss_into_a_verified_grasp(simulated):
+def test_the_verifiers_feedback_turns_a_narrow_miss_into_a_verified_grasp(simulated, tmp_path):
     """On the spray bottle a cutting grasp at the NLP's limits fails the verifier by a little under the mesh's own
     normals. Re-solved from itself with the limits tightened by what the verifier measured, it is verified;
     without the feedback the same start is rejected on the torque check or the pad angle alone."""
@@ -236,8 +236,21 @@ def test_the_verifiers_feedback_turns_a_narrow_miss_into_a_verified_grasp(simula
     assert solver.feedback_rounds > 0
     starts = make_starts(load_object(Path("configs/objects/spray_bottle.yaml")).bounds())
     hand, bottle = "configs/hands/human.yaml", "configs/objects/spray_bottle.yaml"
+    # the four-edge cone under which these starts were narrow misses (under the default octagon they are not)
+    settings = tmp_path / "grasp.yaml"
+    settings.write_text(Path("configs/grasp.yaml").read_text().replace("cone_edges: 8", "cone_edges: 4"))
+    assert "cone_edges: 4" in settings.read_text()
     contexts = {
-        rounds: SolverContext(Job(hand, bottle, tasks, "cutting", solver=replace(solver, feedback_rounds=rounds)))
+        rounds: SolverContext(
+            Job(
+                hand,
+                bottle,
+                tasks,
+                "cutting",
+                solver=replace(solver, feedback_rounds=rounds),
+                settings_path=str(settings),
+            )
+        )
         for rounds in (0, solver.feedback_rounds)
     }
     # a mesh skips the geometric phase that the solver config asks for (it lost verified starts on meshes)

@@ -13,7 +13,7 @@ from grasptask.paths import DEFAULT_GRASP_CONFIG
 @dataclass(frozen=True)
 class GraspSettings:
     friction_coefficient: float = 0.5
-    cone_edges: int = 4
+    cone_edges: int = 8
     pad_angle_max_deg: float = 45.0
     force_closure_min_weight: float = 1e-3
     activation_margin: float = 0.02
