@@ -3,8 +3,8 @@ hand, the Allegro and the Barrett on the tool, drawing, cutting and screw drivin
 
 - ``today``: the route before the margin, ``configs/grasp_paper.yaml`` (no margin, a fixed pad point);
 - ``default``: ``configs/grasp.yaml`` (the margin and rolling contacts);
-- the neighbours of the default: ``activation_max`` and ``friction_scale`` each 0.1 either side of it, on every
-  third start (``--neighbour-starts``);
+- the neighbours of the default: ``activation_max``, ``motor_activation_max`` and ``friction_scale`` each 0.1
+  either side of it, on every sixth start (``--neighbour-starts``);
 
 is synthesized from the starts, and every verified grasp is then held in MuJoCo by the grip controller at the
 hand's real strength and friction (the physics judge as shipped). Per route, hand and task: the verified
@@ -53,7 +53,14 @@ HANDS = {
 }
 TODAY, DEFAULT = ROOT / "configs/grasp_paper.yaml", ROOT / "configs/grasp.yaml"
 #: the default's neighbours: (key, change)
-NEIGHBOURS = (("activation_max", -0.1), ("activation_max", 0.1), ("friction_scale", -0.1), ("friction_scale", 0.1))
+NEIGHBOURS = (
+    ("activation_max", -0.1),
+    ("activation_max", 0.1),
+    ("motor_activation_max", -0.1),
+    ("motor_activation_max", 0.1),
+    ("friction_scale", -0.1),
+    ("friction_scale", 0.1),
+)
 
 
 def check_prerequisites(hands: list[str]) -> None:

@@ -79,4 +79,19 @@ def test_the_margin_settings_are_validated(tmp_path):
     assert GraspSettings() == load_grasp_settings("configs/grasp.yaml")
     paper = load_grasp_settings("configs/grasp_paper.yaml")
     assert (paper.activation_max, paper.friction_scale, paper.min_normal_force_n) == (1.0, 1.0, 0.0)
+    assert paper.motor_activation_max == 1.0
     assert not paper.rolling_contacts
+    config.write_text("motor_activation_max: 0.5\nactivation_margin: 0.6\n")
+    with pytest.raises(BadInputError, match="activation_margin"):
+        load_grasp_settings(config)
+
+
+def test_the_activation_cap_follows_the_hand_s_actuators():
+    """Rated motors take the motor cap, estimated muscles the tendon cap, a hand with both the lower."""
+    from grasptask.hand import load_hand
+
+    settings = GraspSettings(activation_max=0.8, motor_activation_max=0.9)
+    assert settings.activation_cap(load_hand("configs/hands/human.yaml").capability.kind) == 0.8
+    assert settings.activation_cap(load_hand("configs/hands/allegro.yaml").capability.kind) == 0.9
+    assert settings.activation_cap(load_hand("configs/hands/barrett_bh8_282.urdf").capability.kind) == 0.9
+    assert settings.activation_cap("mixed") == 0.8

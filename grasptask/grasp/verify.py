@@ -45,7 +45,7 @@ class Tolerances:
     pad_angle_slack_deg: float = 1.0  # on top of the configured bound
     epsilon_min: float = 1e-6  # Ferrari-Canny epsilon (torques divided by the characteristic length)
     rank_rtol: float = 1e-8  # relative singular value threshold for the rank condition of eq. 9
-    effort_slack: float = 1e-6  # how far the activations the task wrenches need may exceed activation_max
+    effort_slack: float = 1e-6  # how far the activations the task wrenches need may exceed the margin's cap
     # how far the hand's true geometry may sink beyond its compliance: a mesh's surrogate, which the NLP holds the
     # fingertips to, misses the triangles by up to half a millimetre (0.2-0.3 mm at the mug's contacts)
     penetration_m: float = 5e-4
@@ -227,7 +227,7 @@ def verify(
         "pad_angle": pad_angle.max() <= settings.pad_angle_max_deg + tol.pad_angle_slack_deg,
         "force_closure": epsilon > tol.epsilon_min,
         "rank_condition": A.size > 0 and rank == A.shape[1],
-        "torque_feasibility": effort <= settings.activation_max + tol.effort_slack,
+        "torque_feasibility": effort <= settings.activation_cap(hand.capability.kind) + tol.effort_slack,
         "quality": bool(np.isfinite(Q)),
     }
     strength = friction = float("nan")

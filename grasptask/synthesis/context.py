@@ -173,7 +173,7 @@ class SolverContext:
             "retry_after_iterations": cap if self.capped is not None else None,
         }
         self.nominal = Limits(
-            self.settings.activation_max - self.settings.activation_margin,
+            self.settings.activation_cap(self.nlp.hand.capability.kind) - self.settings.activation_margin,
             np.full(len(self.nlp.hand.fingers), self.settings.pad_angle_max_deg),
         )
         # what the NLP saw of a mesh's or point cloud's surface, to record its error at each contact

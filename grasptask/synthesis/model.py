@@ -387,7 +387,7 @@ def torque_feasibility(nlp: NLPBuilder) -> None:
         blocks, cells, bounds=(0, nlp.bounds.edge_force_n), doc="cone-edge force magnitudes per task wrench"
     )
     capability = nlp.hand.capability
-    cap = nlp.settings.activation_max - nlp.settings.activation_margin
+    cap = nlp.settings.activation_cap(capability.kind) - nlp.settings.activation_margin
     actuators = range(len(capability.actuators))
     m.act = pyo.Var(blocks, actuators, bounds=(0, cap), doc="tendon or motor activations per task wrench (eq. 1)")
     m.eq10_wrench = pyo.ConstraintList()
