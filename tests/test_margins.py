@@ -95,3 +95,16 @@ def test_the_activation_cap_follows_the_hand_s_actuators():
     assert settings.activation_cap(load_hand("configs/hands/allegro.yaml").capability.kind) == 0.9
     assert settings.activation_cap(load_hand("configs/hands/barrett_bh8_282.urdf").capability.kind) == 0.9
     assert settings.activation_cap("mixed") == 0.8
+
+
+def test_a_fixed_pad_point_is_not_held_off_a_face_by_its_tip_s_cover():
+    """In the paper's model the contact is the pad point itself: a capsule cover's sphere beside it, 0.29 mm proud
+    of the capsule, is clipped at the pad's tangent plane; one that stays inside it is left whole."""
+    from grasptask.hand.model import Pad, Sphere
+    from grasptask.synthesis.model import _under_a_fixed_pad
+
+    pad = Pad(np.array([0.012, 0.0, 0.043]), np.array([1.0, 0.0, 0.0]), np.array([0.0, 0.0, 1.0]), 0.012)
+    proud = Sphere(3, np.array([0.0, 0.0, 0.0403]), 0.01229)
+    inside = Sphere(3, np.array([-0.002, 0.0, 0.03]), 0.009)
+    assert _under_a_fixed_pad(proud, pad) == pytest.approx(0.012)
+    assert _under_a_fixed_pad(inside, pad) == 0.009
