@@ -99,12 +99,15 @@ def test_the_activation_cap_follows_the_hand_s_actuators():
 
 def test_a_fixed_pad_point_is_not_held_off_a_face_by_its_tip_s_cover():
     """In the paper's model the contact is the pad point itself: a capsule cover's sphere beside it, 0.29 mm proud
-    of the capsule, is clipped at the pad's tangent plane; one that stays inside it is left whole."""
+    of the capsule, is clipped at the pad's tangent plane; one inside it, or proud by more than the tip gives, is
+    left whole."""
     from grasptask.hand.model import Pad, Sphere
     from grasptask.synthesis.model import _under_a_fixed_pad
 
     pad = Pad(np.array([0.012, 0.0, 0.043]), np.array([1.0, 0.0, 0.0]), np.array([0.0, 0.0, 1.0]), 0.012)
     proud = Sphere(3, np.array([0.0, 0.0, 0.0403]), 0.01229)
     inside = Sphere(3, np.array([-0.002, 0.0, 0.03]), 0.009)
-    assert _under_a_fixed_pad(proud, pad) == pytest.approx(0.012)
-    assert _under_a_fixed_pad(inside, pad) == 0.009
+    far = Sphere(3, np.array([0.0, 0.0, 0.03]), 0.0132)  # a cylinder cover's, 1.2 mm proud: the real link's bulk
+    assert _under_a_fixed_pad(proud, pad, 0.5e-3) == pytest.approx(0.012)
+    assert _under_a_fixed_pad(inside, pad, 0.5e-3) == 0.009
+    assert _under_a_fixed_pad(far, pad, 0.5e-3) == 0.0132
