@@ -4,7 +4,7 @@ hand, the Allegro and the Barrett on the tool, drawing, cutting and screw drivin
 - ``today``: the route before the margin, ``configs/grasp_paper.yaml`` (no margin, a fixed pad point);
 - ``default``: ``configs/grasp.yaml`` (the margin and rolling contacts);
 - the neighbours of the default: ``activation_max``, ``motor_activation_max`` and ``friction_scale`` each 0.1
-  either side of it, on every sixth start (``--neighbour-starts``);
+  either side of it, on every third start (``--neighbour-starts``);
 
 is synthesized from the starts, and every verified grasp is then held in MuJoCo by the grip controller at the
 hand's real strength and friction (the physics judge as shipped). Per route, hand and task: the verified

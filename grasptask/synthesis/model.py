@@ -191,8 +191,8 @@ def _finger_chain(nlp: NLPBuilder, j: int, finger: Finger, first_column: int) ->
     m = nlp.model
     previous = nlp.palm_rotation
     # a rolling fingertip sinks by the compliance, and so may the rest of its tip (a capsule's other spheres)
-    allowance = nlp.hand.compliance_m if nlp.contact_offsets[j] > 0 else 0.0
     last, fixed = finger.n_joints - 1, nlp.contact_offsets[j] <= 0
+    allowance = 0.0 if fixed else nlp.hand.compliance_m
     axes_j: list[Vector] = []
     positions_j: list[Vector] = []
     position: Vector = []
