@@ -191,3 +191,43 @@ def test_a_frame_outside_is_taken_when_the_yaml_says_so(tmp_path):
     )
     obj = load_object(tmp_path / "bottle.yaml", say=lambda _: None)
     assert obj.bounds()[0, 2] == pytest.approx(0.0) and os.path.basename(obj.name) == "bottle"
+
+
+@settings(max_examples=25, deadline=None)
+@given(st.floats(0.2e-3, 20e-3), st.floats(1e-3, 8e-3))
+def test_a_box_face_keeps_its_own_normal_up_to_its_edge(from_edge, height):
+    """Normals are not averaged across a crease: a point over a box's face, however near its edge, has the
+    face's normal (averaged across the edge, 1 mm from it was 27 degrees off)."""
+    from grasptask.objects.mesh_object import MeshObject
+
+    obj = MeshObject(box())  # 9 x 4 x 17.5 cm, the +x face at x = 0.045, its edge with +y at y = 0.02
+    _, normal = obj.closest_point(np.array([[0.045 + height, 0.02 - from_edge, 0.09]]))
+    np.testing.assert_allclose(normal[0], [1.0, 0.0, 0.0], atol=1e-9)
+
+
+@pytest.mark.parametrize(
+    ("point", "expected"),
+    [
+        ([0.051, 0.026, 0.09], [1, 1, 0]),  # a ball beside the edge, on its bisector
+        ([0.051, 0.022, 0.09], [3, 1, 0]),  # beside it, nearer the +x face's side
+        ([0.05, 0.025, 0.18], [1, 1, 1]),  # beside a corner
+    ],
+)
+def test_a_ball_touching_an_edge_or_corner_gets_the_direction_to_its_centre(point, expected):
+    from grasptask.objects.mesh_object import MeshObject
+
+    _, normal = MeshObject(box()).closest_point(np.array([point]))
+    np.testing.assert_allclose(normal[0], np.array(expected) / np.linalg.norm(expected), atol=1e-9)
+
+
+def test_a_smooth_scan_keeps_smoothly_turning_normals():
+    """The bottle's side (7.5 degrees between neighbouring faces) is no crease: normals 0.2 mm apart across a
+    face's edge differ by well under the faces' own 7.5 degrees."""
+    from grasptask.objects.mesh_object import MeshObject
+
+    obj = MeshObject(bottle())
+    angles = np.linspace(0, 2 * np.pi, 400, endpoint=False)
+    ring = np.column_stack([0.04 * np.cos(angles), 0.04 * np.sin(angles), np.full(400, 0.07)])
+    _, normals = obj.closest_point(ring)
+    turn = np.degrees(np.arccos(np.clip((normals * np.roll(normals, -1, axis=0)).sum(axis=1), -1, 1)))
+    assert turn.max() < 2.0  # 0.9 degrees of angle between neighbours, 7.5 between faces

@@ -1,9 +1,13 @@
 """Objects given as a closed triangle mesh or a point cloud with normals, in their task frame, judged against
 the mesh or the points themselves.
 
-The verifier's distances, closest points and normals here are trimesh's exact ones on the triangles (normals
-interpolated from the vertex normals, so that they turn smoothly across a finely tessellated curve). The NLP
-never sees this class's numbers: synthesis constrains a surrogate of the surface built from the mesh.
+The verifier's distances, closest points and normals here are trimesh's exact ones on the triangles. Normals
+are interpolated from each face's corner normals, so that they turn smoothly across a finely tessellated curve,
+but not across a crease: a corner averages only the faces within :data:`CREASE_DEG` of its own. A box's face
+then has its own normal up to its edge (averaged across the edge, it was 27 degrees off 1 mm from it). A point
+whose nearest point is on a crease gets the direction from there to the point, the contact normal of a ball
+that touches the edge. The NLP never sees this class's numbers: synthesis constrains a surrogate of the surface
+built from the mesh.
 """
 
 from __future__ import annotations
@@ -20,6 +24,9 @@ from grasptask.objects.surface import ImplicitObject, SurfaceIndex, Symmetry, su
 
 #: the default spacing of the synthesis surrogate's grid (m): its zero set within 0.7 mm of the mug's triangles
 GRID_SPACING_M = 0.0025
+#: faces meeting at more than this angle form a crease, across which normals are not averaged (30 degrees:
+#: the usual auto-smooth angle of 3D modelling tools)
+CREASE_DEG = 30.0
 
 
 @dataclass(eq=False)
@@ -43,12 +50,52 @@ class MeshObject(ImplicitObject):
         return -trimesh.proximity.signed_distance(self.mesh, np.atleast_2d(p))
 
     def closest_point(self, p: np.ndarray, exact: bool = False) -> tuple[np.ndarray, np.ndarray]:
-        """The closest point on the triangles, and the outward normal there (always exact)."""
-        closest, _, triangle = self.mesh.nearest.on_surface(np.atleast_2d(p))
+        """The closest point on the triangles, and the outward normal there (always exact): interpolated from the
+        face's corner normals, or the direction to ``p`` where the nearest point is on a crease and ``p`` is off
+        the surface."""
+        p = np.atleast_2d(np.asarray(p, dtype=float))
+        closest, distance, triangle = self.mesh.nearest.on_surface(p)
         corners = self.mesh.triangles[triangle]
         weights = trimesh.triangles.points_to_barycentric(corners, closest)
-        normal = np.einsum("nk,nki->ni", weights, self.mesh.vertex_normals[self.mesh.faces[triangle]])
-        return closest, normal / np.linalg.norm(normal, axis=1, keepdims=True)
+        normal = np.einsum("nk,nki->ni", weights, self.corner_normals[triangle])
+        normal /= np.linalg.norm(normal, axis=1, keepdims=True)
+        # on a crease (a corner's weight ~0: the point is on the edge opposite it), the normal is the offset to p
+        # itself, turned outward when p is inside
+        on_crease = ((weights < 1e-6) & self.creases[triangle]).any(axis=1) & (distance > 1e-6)
+        direction = (p - closest)[on_crease] / distance[on_crease, None]
+        outward = np.sign((direction * normal[on_crease]).sum(axis=1, keepdims=True))
+        normal[on_crease] = direction * np.where(outward == 0, 1.0, outward)
+        return closest, normal
+
+    @cached_property
+    def creases(self) -> np.ndarray:
+        """``(faces, 3)``: whether the edge opposite each face corner is a crease (its faces more than
+        :data:`CREASE_DEG` apart)."""
+        mesh = self.mesh
+        n = len(mesh.vertices)
+        sharp = np.sort(mesh.face_adjacency_edges[mesh.face_adjacency_angles > np.radians(CREASE_DEG)], axis=1)
+        codes = sharp[:, 0] * n + sharp[:, 1]
+        faces = mesh.faces
+        opposite = np.stack([faces[:, [1, 2]], faces[:, [2, 0]], faces[:, [0, 1]]], axis=1)  # (faces, 3, 2)
+        opposite = np.sort(opposite, axis=2)
+        return np.isin(opposite[:, :, 0] * n + opposite[:, :, 1], codes)
+
+    @cached_property
+    def corner_normals(self) -> np.ndarray:
+        """``(faces, 3, 3)``: at each face's corners, the area-weighted mean normal of the faces around that
+        vertex that lie within :data:`CREASE_DEG` of this face."""
+        mesh = self.mesh
+        normals, areas = mesh.face_normals, mesh.area_faces
+        around = mesh.vertex_faces[mesh.faces]  # (faces, 3, k), padded with -1
+        cosine = np.cos(np.radians(CREASE_DEG))
+        total = np.zeros((len(mesh.faces), 3, 3))
+        for k in range(around.shape[2]):
+            other = around[:, :, k]
+            valid = other >= 0
+            n = normals[np.where(valid, other, 0)]
+            smooth = valid & ((n * normals[:, None, :]).sum(axis=2) >= cosine)
+            total += (smooth * areas[np.where(valid, other, 0)])[:, :, None] * n
+        return total / np.linalg.norm(total, axis=2, keepdims=True)
 
     def g(self, p: np.ndarray) -> np.ndarray:
         return self.signed_distance(p)
