@@ -20,6 +20,7 @@ from grasptask.errors import BadInputError
 from grasptask.objects import load_object
 from grasptask.objects.loading import FRAME_DEPTH_M
 from grasptask.objects.mesh_file import holes, non_manifold_edges, open_edges
+from grasptask.objects.mesh_object import MeshObject
 from tests.scan_files import bottle, box, with_fin, with_hole, write_scene_glb, write_textured_obj
 from tests.test_bad_input import assert_rejected
 
@@ -198,8 +199,6 @@ def test_a_frame_outside_is_taken_when_the_yaml_says_so(tmp_path):
 def test_a_box_face_keeps_its_own_normal_up_to_its_edge(from_edge, height):
     """Normals are not averaged across a crease: a point over a box's face, however near its edge, has the
     face's normal (averaged across the edge, 1 mm from it was 27 degrees off)."""
-    from grasptask.objects.mesh_object import MeshObject
-
     obj = MeshObject(box())  # 9 x 4 x 17.5 cm, the +x face at x = 0.045, its edge with +y at y = 0.02
     _, normal = obj.closest_point(np.array([[0.045 + height, 0.02 - from_edge, 0.09]]))
     np.testing.assert_allclose(normal[0], [1.0, 0.0, 0.0], atol=1e-9)
@@ -214,17 +213,13 @@ def test_a_box_face_keeps_its_own_normal_up_to_its_edge(from_edge, height):
     ],
 )
 def test_a_ball_touching_an_edge_or_corner_gets_the_direction_to_its_centre(point, expected):
-    from grasptask.objects.mesh_object import MeshObject
-
     _, normal = MeshObject(box()).closest_point(np.array([point]))
     np.testing.assert_allclose(normal[0], np.array(expected) / np.linalg.norm(expected), atol=1e-9)
 
 
 def test_a_smooth_scan_keeps_smoothly_turning_normals():
-    """The bottle's side (7.5 degrees between neighbouring faces) is no crease: normals 0.2 mm apart across a
-    face's edge differ by well under the faces' own 7.5 degrees."""
-    from grasptask.objects.mesh_object import MeshObject
-
+    """The bottle's side (7.5 degrees between neighbouring faces) is no crease: the normals of points 0.6 mm
+    apart round it turn by under 2 degrees, where the faces' own normals jump 7.5 degrees."""
     obj = MeshObject(bottle())
     angles = np.linspace(0, 2 * np.pi, 400, endpoint=False)
     ring = np.column_stack([0.04 * np.cos(angles), 0.04 * np.sin(angles), np.full(400, 0.07)])
