@@ -90,11 +90,11 @@ class MeshObject(ImplicitObject):
         cosine = np.cos(np.radians(CREASE_DEG))
         total = np.zeros((len(mesh.faces), 3, 3))
         for k in range(around.shape[2]):
-            other = around[:, :, k]
-            valid = other >= 0
-            n = normals[np.where(valid, other, 0)]
+            valid = around[:, :, k] >= 0
+            other = np.where(valid, around[:, :, k], 0)
+            n = normals[other]
             smooth = valid & ((n * normals[:, None, :]).sum(axis=2) >= cosine)
-            total += (smooth * areas[np.where(valid, other, 0)])[:, :, None] * n
+            total += (smooth * areas[other])[:, :, None] * n
         return total / np.linalg.norm(total, axis=2, keepdims=True)
 
     def g(self, p: np.ndarray) -> np.ndarray:
