@@ -16,7 +16,7 @@ core); for ``grip`` also the 2x2 agreement with the analytic verifier, and the g
 activation and friction use.
 
     python benchmarks/hands.py --keep DIR --hands human3,allegro,barrett     # the sweeps, kept
-    python benchmarks/physics.py --sweeps DIR [--hands human3,...] [--workers 2]
+    python benchmarks/physics.py --sweeps DIR [--hands human3,...] [--workers 2]  # other hands' figures kept
     python benchmarks/physics.py --table                                      # the saved results as a table
 
 Targets: strong >= 95% per hand x task, weak 0%, grip's median at most 1.5 s per grasp. Results are saved after
@@ -25,6 +25,7 @@ every sweep (benchmarks/results/physics.json), so an interrupted run keeps what 
 
 from __future__ import annotations
 
+import json
 import sys
 import tempfile
 import time
@@ -35,7 +36,7 @@ import pandas as pd
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT / "benchmarks"), str(ROOT)]
-from common import print_saved, save, save_and_print, sweep_parser  # noqa: E402
+from common import RESULTS, print_saved, save, save_and_print, sweep_parser  # noqa: E402
 
 TASKS = ("drawing", "cutting", "screwdriving")
 #: (controller, strength, friction scale) of each protocol
@@ -120,6 +121,12 @@ def main(folder: Path, found: list[tuple[str, str, Path]], workers: int, name: s
     from grasptask.stages import PhysicsInputs, run_physics
 
     results: dict = {"sweeps": str(folder), "workers": workers, "protocols": PROTOCOLS, "hands": {}}
+    saved = RESULTS / f"{name}.json"
+    if saved.is_file():  # the hands not judged again keep their figures, when they came from the same sweeps
+        before = json.loads(saved.read_text())
+        if before.get("sweeps") == str(folder):
+            judged = {hand for hand, _, _ in found}
+            results["hands"] = {h: v for h, v in before.get("hands", {}).items() if h not in judged}
     tasks_file = folder / "tasks" / "task_models.json"
     with tempfile.TemporaryDirectory() as scratch:
         for hand, task, sweep in found:

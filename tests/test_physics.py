@@ -71,11 +71,17 @@ def test_the_scene_puts_every_joint_where_the_hands_kinematics_does(path):
     ours = np.concatenate([placed.joint_positions[0, :-1] for placed in pose.fingers.values()])
     np.testing.assert_allclose(data.xanchor[scene.model.dof_jntid[scene.hand_dof]], ours, atol=1e-9)
     np.testing.assert_allclose(data.qfrc_actuator[scene.hand_dof], scene.actuation @ data.ctrl, atol=1e-12)
-    if not from_file:  # every collision sphere of the project's model has its geom
-        centres, _ = forward(hand, grasp.joint_angles, grasp.palm_rotation, grasp.palm_position).collision_spheres()
+    if not from_file:  # every collision sphere of the project's model has its geom, a fingertip's less its pulp
+        centres, radii = forward(hand, grasp.joint_angles, grasp.palm_rotation, grasp.palm_position).collision_spheres()
         spheres = [g for g in range(scene.model.ngeom) if scene.model.geom_type[g] == mujoco.mjtGeom.mjGEOM_SPHERE]
-        gaps = np.linalg.norm(data.geom_xpos[spheres][:, None, :] - centres[0][None], axis=2).min(axis=0)
-        assert gaps.max() < 1e-9
+        gaps = np.linalg.norm(data.geom_xpos[spheres][:, None, :] - centres[0][None], axis=2)
+        assert gaps.min(axis=0).max() < 1e-9
+        tips = np.concatenate(
+            [[s.link == f.n_joints - 1 for s in f.spheres] for f in hand.fingers.values()]
+            + [[False] * len(hand.palm.radii)]
+        )
+        sizes = scene.model.geom_size[np.array(spheres)[gaps.argmin(axis=0)], 0]
+        np.testing.assert_allclose(sizes, radii - np.where(tips, hand.compliance_m, 0.0), atol=1e-12)
 
 
 def test_the_allegro_scene_holds_the_mjcf_files_own_collision_geoms():
