@@ -558,6 +558,14 @@ def report(results_dir, out, check_browser, screenshot, view_screenshot):
     ellipsoid figures, distances, synthesis statistics, every distinct optimum (interactive and as two fixed
     views) and the physics check. Parts whose inputs are missing become notes."""
     out = out or results_dir / "report"
+    # what the browser check needs is checked before the report is built, not after
+    for option, path in (("--screenshot", screenshot), ("--view-screenshot", view_screenshot)):
+        if path is not None:
+            if not check_browser:
+                raise BadInputError(option, "needs --check-browser (the screenshot is the browser's)")
+            stages.check_screenshot_path(path)
+    if check_browser and stages.find_chromium() is None:
+        raise BadInputError("chromium", "not installed (apt-get install chromium chromium-driver)")
     summary = stages.build_report(results_dir, out)
     for note in summary.notes:
         click.echo(f"note: {note}")
@@ -601,8 +609,12 @@ def pipeline_run(pipeline_file, force, dry_run):
 
 
 def run_stage(stage) -> int:
-    """Run one pipeline stage's command in this process; its exit code."""
-    code = main.main(args=[*stage.run, *stage.args], prog_name="grasptask", standalone_mode=False)
+    """Run one pipeline stage's command in this process; its exit code. A command line Click refuses (an
+    unknown command or option) is one line naming the stage, not Click's usage block."""
+    try:
+        code = main.main(args=[*stage.run, *stage.args], prog_name="grasptask", standalone_mode=False)
+    except click.UsageError as exc:
+        raise BadInputError(stage.name, f"grasptask {' '.join(stage.run)}: {exc.format_message()}") from None
     return code if isinstance(code, int) else 0
 
 

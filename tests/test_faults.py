@@ -271,6 +271,7 @@ def test_a_stage_commit_is_all_or_nothing(tmp_path, monkeypatch):
     with StagedOutput(out, Provenance.of("t", {})) as staged:
         staged.write_with("a.txt", lambda p: p.write_text("old a"))
         staged.write_with("b.txt", lambda p: p.write_text("old b"))
+    with StagedOutput(out, Provenance.of("other", {})) as staged:
         staged.write_with("keep.txt", lambda p: p.write_text("other stage"))
     import grasptask.io.artifacts as artifacts
 

@@ -4,6 +4,7 @@ controller's QP and the exact actuator mapping, and the protocol's verdicts on g
 from __future__ import annotations
 
 import json
+import time
 from dataclasses import replace
 from pathlib import Path
 
@@ -397,3 +398,59 @@ def test_fingertips_sunk_by_the_compliance_are_seated_at_rest_before_the_hold(tm
     record = hold_grasp(hand, ball, body, grasp, 0.5, drawing_like_task(0.2), SETTINGS).record()
     assert record["physics_passed"] and record["physics_seat_deg"] == pytest.approx(seating.moved_deg)
     assert record["physics_initial_penetration_mm"] == pytest.approx(0.5, abs=0.1)
+
+
+@pytest.mark.parametrize(
+    "change, message",
+    [
+        (lambda t: t.assign(verified=t["verified"].map({True: "True", False: "False"})), "column 'verified'"),
+        (lambda t: t.iloc[0:0], "holds no starts"),
+        (lambda t: pd.concat([t, t.iloc[[0]]], ignore_index=True), "column 'start_id'"),
+    ],
+    ids=["verdicts-as-text", "no-rows", "a-start-twice"],
+)
+def test_a_solutions_table_physics_would_misread_is_one_line(cli, sweep, tmp_path, change, message):
+    """ "False" as text counted as verified; no rows were a KeyError; a start twice gave two rows."""
+    tasks, folder = sweep
+    bad = tmp_path / "sweep" / "solutions.parquet"
+    bad.parent.mkdir()
+    change(pd.read_parquet(folder / "solutions.parquet")).to_parquet(bad)
+    (bad.parent / "run.json").write_text((folder / "run.json").read_text())
+    result = cli("physics", bad, "--tasks", tasks, "--task", "drawing", "--out", tmp_path / "o")
+    assert result.exit_code == 2 and message in result.output
+    assert len(result.output.strip().splitlines()) == 1 and not (tmp_path / "o").exists()
+
+
+def test_a_second_physics_run_into_one_folder_is_refused_at_its_start(sweep, tmp_path):
+    """The lock is taken before the grasps are held, as synthesize does: the second run does no work and
+    exits 2, where both used to exit 0 and the last writer won."""
+    import subprocess
+    import sys
+    import textwrap
+
+    tasks, folder = sweep
+    out = tmp_path / "out"
+    holder = subprocess.Popen(
+        [sys.executable, "-c", textwrap.dedent(f"""
+            import time
+            from grasptask.io.locking import folder_lock
+            with folder_lock({str(out)!r}, "physics drawing"):
+                print("held", flush=True)
+                time.sleep(60)
+        """)],
+        stdout=subprocess.PIPE, text=True,
+    )  # fmt: skip
+    try:
+        assert holder.stdout is not None and holder.stdout.readline().strip() == "held"
+        began = time.perf_counter()
+        result = subprocess.run(
+            [sys.executable, "-m", "grasptask.cli", "physics", str(folder / "solutions.parquet"), "--tasks",
+             str(tasks), "--task", "drawing", "--out", str(out)],
+            capture_output=True, text=True, timeout=120,
+        )  # fmt: skip
+    finally:
+        holder.kill()
+        holder.wait()
+    assert result.returncode == 2 and "physics drawing" in result.stderr
+    assert "physics drawing:" not in result.stderr  # no progress: refused before any grasp was held
+    assert time.perf_counter() - began < 60 and not out.exists()

@@ -159,3 +159,40 @@ def test_the_browser_check_fails_an_empty_view(tmp_path):
     view = check.views[0]
     assert view.drawn and view.canvases and not view.ok and not check.ok
     assert "view-empty" in " ".join(check.problems())
+
+
+def _renamed_fingers(table: pd.DataFrame) -> pd.DataFrame:
+    """The same grasps with another hand's finger names (a BarrettHand's table under a human run.json)."""
+    return table.rename(columns=lambda c: c.replace("_thumb_", "_finger3_"))
+
+
+@pytest.mark.parametrize(
+    "table, change, message",
+    [
+        ("solutions", lambda t: t.assign(seconds=t["seconds"].astype(str)), "column 'seconds'"),
+        ("solutions", lambda t: t.assign(seconds=float("inf")), "column 'seconds'"),
+        ("optima", lambda t: t.assign(palm_x=float("inf")), "column 'palm_x'"),
+        ("optima", _renamed_fingers, "not a table of hand"),
+    ],
+    ids=["seconds-as-text", "infinite-seconds", "infinite-palm", "another-hands-table"],
+)
+def test_a_sweep_the_report_would_choke_on_is_one_line(cli, simulated, tmp_path, table, change, message):
+    """A TypeError, a ValueError from the renderer, 8 RuntimeWarnings or 'need at least one array to stack'
+    before; now one line naming the file and column, and no report."""
+    results = results_with_tasks(simulated, tmp_path / "results")
+    ball_sweep(results)
+    path = results / "grasps" / "drawing" / f"{table}.parquet"
+    change(pd.read_parquet(path)).to_parquet(path)
+    result = cli("report", "--results", results)
+    assert result.exit_code == 2 and message in result.output and str(path) in result.output, result.output
+    assert len(result.output.strip().splitlines()) == 1 and not (results / "report").exists()
+
+
+def test_screenshots_are_checked_before_the_report_is_built(cli, simulated, tmp_path):
+    results = results_with_tasks(simulated, tmp_path / "results")
+    result = cli("report", "--results", results, "--screenshot", tmp_path / "top.png")
+    assert result.exit_code == 2 and "needs --check-browser" in result.output
+    if find_chromium() is not None:
+        result = cli("report", "--results", results, "--check-browser", "--screenshot", tmp_path)
+        assert result.exit_code == 2 and "is a folder" in result.output
+    assert not (results / "report").exists()

@@ -26,7 +26,7 @@ import pyarrow.parquet as pq
 
 from grasptask import __version__
 from grasptask.errors import BadInputError
-from grasptask.io.locking import folder_lock, make_owned_folder, remove_stale_folders
+from grasptask.io.locking import check_writable, folder_lock, make_owned_folder, remove_stale_folders
 
 PROVENANCE_FILE = "provenance.json"
 _CHUNK = 1 << 20
@@ -153,6 +153,7 @@ class StagedOutput:
         self._lock = folder_lock(self.out, f"writing {self.out.name}")
         self._lock.__enter__()
         try:
+            check_writable(self.out)
             _recover(self.out)
             remove_stale_folders(parent, self._prefix)
             self._tmp = make_owned_folder(parent, self._prefix)
@@ -165,9 +166,15 @@ class StagedOutput:
         try:
             if exc_type is None:
                 self._commit()
+        except OSError as error:
+            if error.filename:
+                raise
+            raise _naming(error, self.out) from error
         finally:
             shutil.rmtree(self._tmp, ignore_errors=True)
             self._lock.__exit__(None, None, None)
+        if isinstance(exc, OSError) and not exc.filename:
+            raise _naming(exc, self.out) from exc
 
     def path(self, name: str) -> Path:
         """Where to write artifact ``name`` (a path relative to ``out``) while staging. A name that would leave
@@ -199,15 +206,24 @@ class StagedOutput:
 
     def _commit(self) -> None:
         staged = set(self._staged)
+        gone = _superseded(self.out, self.provenance.command, staged) if self.out.is_dir() else set()
         if self.out.is_dir():
-            _link_tree(self.out, self._tmp, keep=staged)
-        _record_provenance(self.out, self._tmp, self._staged, self.provenance)
+            _link_tree(self.out, self._tmp, skip=staged | gone)
+        _record_provenance(self.out, self._tmp, self._staged, self.provenance, gone)
         _sync_tree(self._tmp)
         if not self.out.exists():
             os.rename(self._tmp, self.out)
         else:
             exchange(self._tmp, self.out)
         _fsync_folder(self.out.absolute().parent)
+
+
+def _naming(error: OSError, out: Path) -> OSError:
+    """``error`` with the output folder as its file when it names none: a full disk's ``write`` does not, and
+    the user was told ``export: No space left on device``."""
+    if error.filename:
+        return error
+    return OSError(error.errno, error.strerror or str(error), str(out))
 
 
 def _old_prefix(out: Path) -> str:
@@ -240,11 +256,42 @@ def _recover(out: Path) -> None:
     remove_stale_folders(parent, _old_prefix(out))
 
 
-def _link_tree(source: Path, target: Path, keep: set[str]) -> None:
+def _read_ledger(out: Path) -> dict:
+    """``out``'s ``provenance.json``: each artifact's provenance ({} when missing or unreadable)."""
+    try:
+        ledger = json.loads((out / PROVENANCE_FILE).read_text())
+    except (OSError, ValueError):
+        return {}
+    return ledger if isinstance(ledger, dict) else {}
+
+
+def _superseded(out: Path, command: str, staged: set[str]) -> set[str]:
+    """The files of ``out`` that ``command`` made before and did not make now: the artifacts its ledger gives to
+    ``command``, and whatever lies in a subfolder it wrote into. They go, so that an export of one optimum does
+    not leave an earlier export's others beside it. Another command's artifacts (``distances`` beside
+    ``fit-task``) and files no stage staged (a sweep's log) stay."""
+    ledger = _read_ledger(out)
+    folders = {name.split("/", 1)[0] for name in staged if "/" in name}
+    gone = set()
+    for path in out.rglob("*"):
+        name = path.relative_to(out).as_posix()
+        if path.is_dir() or name in staged:
+            continue
+        if "/" in name:
+            mine = name.split("/", 1)[0] in folders
+        else:
+            owner = ledger.get(name)
+            mine = isinstance(owner, dict) and owner.get("command") == command
+        if mine:
+            gone.add(name)
+    return gone
+
+
+def _link_tree(source: Path, target: Path, skip: set[str]) -> None:
     """Hard-link (or, across devices, copy) every file under ``source`` into ``target`` unless its relative
-    name is in ``keep``: the new folder keeps what the stage did not rewrite."""
+    name is in ``skip``: the new folder keeps what the stage did not rewrite or supersede."""
     for path in source.rglob("*"):
-        if path.is_dir() or path.relative_to(source).as_posix() in keep:
+        if path.is_dir() or path.relative_to(source).as_posix() in skip:
             continue
         destination = target / path.relative_to(source)
         if destination.exists():
@@ -273,15 +320,12 @@ def _fsync_folder(folder: Path) -> None:
         os.close(descriptor)
 
 
-def _record_provenance(out: Path, staging: Path, names: list[str], provenance: Provenance) -> None:
-    """The new ``provenance.json`` in the staging folder: the old ledger with this stage's artifacts updated."""
-    ledger_path = out / PROVENANCE_FILE
-    try:
-        ledger = json.loads(ledger_path.read_text()) if ledger_path.exists() else {}
-    except (OSError, ValueError):
-        ledger = {}  # an unreadable ledger is rebuilt from this stage on
-    if not isinstance(ledger, dict):
-        ledger = {}
+def _record_provenance(
+    out: Path, staging: Path, names: list[str], provenance: Provenance, gone: frozenset[str] | set[str] = frozenset()
+) -> None:
+    """The new ``provenance.json`` in the staging folder: the old ledger (rebuilt from this stage on when
+    unreadable) with this stage's artifacts updated and those it superseded removed."""
+    ledger = {name: record for name, record in _read_ledger(out).items() if name not in gone}
     record = provenance.to_dict()
     for name in names:
         if "/" not in name:  # per-recording files are covered by their manifest's entry

@@ -136,3 +136,17 @@ def remove_stale_folders(parent: Path, prefix: str) -> list[Path]:
             shutil.rmtree(folder, ignore_errors=True)
             removed.append(folder)
     return removed
+
+
+def check_writable(folder: str | Path) -> None:
+    """One line now, before any work, when ``folder`` cannot take a new file, nor its parent (where a stage
+    stages its artifacts and takes its lock): a read-only file system, an immutable folder. Found only at the
+    commit, it cost the user the whole run."""
+    folder = Path(folder).absolute()
+    for target in (folder.parent, folder) if folder.is_dir() else (folder.parent,):
+        try:
+            descriptor, probe = tempfile.mkstemp(prefix=".grasptask-probe-", dir=target)
+            os.close(descriptor)
+            os.unlink(probe)
+        except OSError as exc:
+            raise BadInputError(target, f"cannot be written ({exc.strerror or exc})") from None

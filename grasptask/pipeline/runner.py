@@ -32,6 +32,7 @@ from typing import Any
 from grasptask.errors import BadInputError
 from grasptask.io.artifacts import config_hash, path_hash, write_json_atomic
 from grasptask.io.config import load_yaml, reject_unknown, require
+from grasptask.io.locking import folder_lock
 
 
 @dataclass(frozen=True)
@@ -148,17 +149,39 @@ def _outputs_hash(stage: Stage) -> str:
     return config_hash({str(o): path_hash(o) if o.exists() else "missing" for o in stage.outputs})
 
 
+def _finished_unrecorded(stage: Stage, record: dict) -> bool:
+    """Whether a stage this pipeline started, and that was stopped before its record was saved (a Ctrl-C after
+    its commit, a full disk at the save), left its outputs whole: every one is there, made since it started,
+    from the inputs it started with."""
+    started = record.get("started")
+    if not record.get("running") or not isinstance(started, (int, float)) or record.get("key") != stage.key():
+        return False
+    return all(o.exists() and _newest_mtime(o) >= started for o in stage.outputs)
+
+
+def _newest_mtime(path: Path) -> float:
+    """A file's modification time; a folder's is the newest of its files' (a staged folder is swapped in
+    whole, so any of them will do; the newest is robust to one kept unchanged)."""
+    if path.is_dir():
+        return max((p.stat().st_mtime for p in path.rglob("*") if p.is_file()), default=path.stat().st_mtime)
+    return path.stat().st_mtime
+
+
 def _foreign_outputs(stage: Stage, record: dict) -> str | None:
     """Why the stage's existing outputs are not what this pipeline last made (so that running it would
-    overwrite someone's files), or None."""
+    overwrite someone's files), or None. A stage this pipeline was running when it stopped owns them."""
     existing = [o for o in stage.outputs if o.exists()]
-    if not existing:
+    if not existing or record.get("running"):
         return None
     if not record:
         return f"{existing[0]} exists but this pipeline did not make it"
     if "outputs" in record and record["outputs"] != _outputs_hash(stage):
         return f"its outputs ({', '.join(map(str, existing))}) changed since this pipeline made them"
     return None
+
+
+#: the pipeline files running in this process (a stage that runs its own pipeline would recurse for ever)
+_RUNNING: set[Path] = set()
 
 
 def run_pipeline(
@@ -169,14 +192,35 @@ def run_pipeline(
     echo: Callable[[str], Any] = print,
 ) -> Outcome:
     """Run ``spec``'s stages in order with ``runner`` (a stage in, its exit code out), skipping fresh ones.
-    A stage whose outputs someone else made or edited is not overwritten without ``force``."""
+    A stage whose outputs someone else made or edited is not overwritten without ``force``. The state is
+    locked for the run: a second run of the same pipeline is refused with one line."""
+    running = spec.path.resolve()
+    if running in _RUNNING:
+        raise BadInputError(spec.path, "a stage runs this pipeline again: a pipeline cannot run itself")
+    _RUNNING.add(running)
+    try:
+        with folder_lock(spec.state_path, f"pipeline run {spec.path}"):
+            return _run_locked(spec, runner, force, dry_run, echo)
+    finally:
+        _RUNNING.discard(running)
+
+
+def _run_locked(
+    spec: PipelineSpec, runner: Callable[[Stage], int], force: bool, dry_run: bool, echo: Callable[[str], Any]
+) -> Outcome:
     state = _load_state(spec.state_path, force)
     outcome = Outcome()
     for number, stage in enumerate(spec.stages, start=1):
         label = f"[{number}/{len(spec.stages)}] {stage.name}"
         record = state.get(stage.name, {})
+        if not force and _finished_unrecorded(stage, record):
+            record = state[stage.name] = {"key": record["key"], "outputs": _outputs_hash(stage), "seconds": None}
+            if not dry_run:
+                _save_state(spec.state_path, state)
+            echo(f"{label}: finished before the last run stopped; recorded")
         fresh = (
-            record.get("key") == stage.key()
+            not record.get("running")
+            and record.get("key") == stage.key()
             and all(o.exists() for o in stage.outputs)
             and record.get("outputs", _outputs_hash(stage)) == _outputs_hash(stage)
         )
@@ -191,8 +235,18 @@ def run_pipeline(
         if dry_run:
             outcome.ran.append(stage.name)
             continue
+        missing = next((p for p in stage.inputs if not p.exists()), None)
+        if missing is not None:
+            raise BadInputError(spec.path, f"stage '{stage.name}': its input {missing} does not exist")
         start = time.perf_counter()
-        code = runner(stage)
+        # recorded as running before it runs: should the run stop between the stage's commit and the save
+        # below, the next run knows these outputs for its own
+        state[stage.name] = {"key": stage.key(), "running": True, "started": time.time()}
+        _save_state(spec.state_path, state)
+        try:
+            code = runner(stage)
+        except BadInputError as exc:  # the command line itself is wrong (an unknown command or option)
+            raise BadInputError(spec.path, f"stage '{stage.name}': {exc.problem}") from None
         if code != 0:
             echo(f"{label}: failed with exit code {code}; later stages not run")
             outcome.failed, outcome.exit_code = stage.name, code

@@ -14,6 +14,8 @@ from pathlib import Path
 from typing import Any
 
 from grasptask.errors import BadInputError
+from grasptask.io.locking import make_owned_folder, remove_stale_folders
+from grasptask.io.orphans import Reaper
 
 #: without the background-networking flags Chromium keeps trying to reach Google's hosts on a closed network;
 #: WebGL runs on SwiftShader, Chromium's software GL, which it no longer falls back to unasked
@@ -34,6 +36,8 @@ FLAGS = (
 
 #: the longest a page may take to be ready, and a view to draw once in sight (s)
 READY_S = 5.0
+#: the browser profiles' folder names in the temporary folder, followed by their owner's identity
+PROFILE_PREFIX = "grasptask-chromium-"
 #: a drawn view must colour at least this many pixels of its WebGL scene (the hand, cones, task axes or
 #: ellipsoids; the legend, which is not WebGL, is hidden first): grey axes alone are an empty scene
 MIN_COLOURED_PIXELS = 400
@@ -82,6 +86,8 @@ class BrowserCheck:
     def problems(self) -> list[str]:
         """One line per thing that failed."""
         lines = [f"image did not load: {alt}" for alt in self.broken_images] + list(self.console_errors)
+        if self.images == 0:
+            lines.append("the page shows no image: its results folder holds nothing to report")
         if self.ready_s > READY_S:
             lines.append(f"page took {self.ready_s:.1f} s to load (limit {READY_S:g} s)")
         for view in self.failed_views:
@@ -97,6 +103,21 @@ def find_chromium() -> tuple[str, str] | None:
     browser = shutil.which("chromium") or shutil.which("chromium-browser")
     driver = shutil.which("chromedriver")
     return (browser, driver) if browser and driver else None
+
+
+def check_screenshot_path(path: str | Path) -> None:
+    """One line, before any work, when a screenshot cannot be saved at ``path``: a folder, or a place that
+    cannot take a file (the check found it only after the browser had run, and exited 0 with no file)."""
+    path = Path(path).absolute()
+    if path.is_dir():
+        raise BadInputError(path, "is a folder: a screenshot needs a file name (.png)")
+    folder = next(p for p in path.parents if p.exists())  # made when the screenshot is saved
+    try:
+        descriptor, probe = tempfile.mkstemp(prefix=".grasptask-probe-", dir=folder)
+        os.close(descriptor)
+        os.unlink(probe)
+    except OSError as exc:
+        raise BadInputError(path, f"cannot be written ({exc.strerror or exc})") from None
 
 
 def _coloured_pixels(png: bytes) -> int:
@@ -155,13 +176,32 @@ def check_page(
         )
     os.environ.setdefault("SE_OFFLINE", "true")  # selenium must not try to download a driver
     browser, driver_path = found
-    with tempfile.TemporaryDirectory(prefix="grasptask-chromium-") as profile:
+    temporary = Path(tempfile.gettempdir())
+    remove_stale_folders(temporary, PROFILE_PREFIX)  # the folders of checks that were killed
+    scratch = make_owned_folder(temporary, PROFILE_PREFIX)
+    profile, own_tmp = scratch / "profile", scratch / "tmp"  # the browser's profile, and its temporary files
+    own_tmp.mkdir()
+    # the driver and the browser in a group of their own, which the reaper kills, and whose folder it removes,
+    # however this process ends (a kill -9 left chromedriver, 11 Chromium processes and the profile behind)
+    with Reaper((scratch,)) as reaper:
         options = webdriver.ChromeOptions()
         options.binary_location = browser
         for flag in (*FLAGS, f"--user-data-dir={profile}", f"--window-size={width},{height}"):
             options.add_argument(flag)
         options.set_capability("goog:loggingPrefs", {"browser": "ALL"})
-        driver = webdriver.Chrome(service=Service(executable_path=driver_path), options=options)
+        service = Service(
+            executable_path=driver_path,
+            env={**os.environ, "TMPDIR": str(own_tmp)},
+            popen_kw={"start_new_session": True},
+        )
+        started = service.start
+
+        def start_and_arm() -> None:  # armed as soon as the driver runs, before it starts the browser
+            started()
+            reaper.arm(service.process.pid)
+
+        service.start = start_and_arm  # type: ignore[method-assign]
+        driver = webdriver.Chrome(service=service, options=options)
         try:
             driver.set_script_timeout(30)
             driver.get(Path(page).resolve().as_uri())

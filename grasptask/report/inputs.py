@@ -118,8 +118,26 @@ def read_sweep(folder: Path) -> SweepResult:
     if not all(isinstance(size.get(k), int) for k in ("variables", "constraints")) and size:
         raise BadInputError(folder / "run.json", f"field 'model_size' must hold two counts, got {size!r}")
     solutions = read_table(folder / "solutions.parquet", ("start_id", "status", "seconds", "verified"))
+    _check_numbers(folder / "solutions.parquet", solutions, ["seconds"], missing_ok=True)
     optima = read_table(folder / "optima.parquet")
+    numeric = [c for c in optima.columns if c.startswith(("palm_", "q_", "contact_", "normal_")) or c == "Q"]
+    _check_numbers(folder / "optima.parquet", optima, numeric, missing_ok=False)
     return SweepResult(str(run.get("task", folder.name)), folder, run, solutions, optima)
+
+
+def _check_numbers(path: Path, table: pd.DataFrame, columns: list[str], missing_ok: bool) -> None:
+    """One line naming the row and column of the first value in ``columns`` that is not a finite number (a
+    missing one allowed where ``missing_ok``: a start that failed has no time)."""
+    for column in columns:
+        if not pd.api.types.is_numeric_dtype(table[column]) or pd.api.types.is_bool_dtype(table[column]):
+            raise BadInputError(path, f"must hold numbers, not {table[column].dtype} values", column=column)
+        values = table[column].astype(float)
+        bad = values.isin([float("inf"), float("-inf")])
+        if not missing_ok:
+            bad |= values.isna()
+        if bad.any():
+            row = int(bad.to_numpy().argmax())
+            raise BadInputError(path, f"not a finite number: {table[column].iloc[row]!r}", row=row + 1, column=column)
 
 
 @dataclass(frozen=True)

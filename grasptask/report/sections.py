@@ -197,6 +197,29 @@ def _reference_path(path: str, fallback: Path) -> Path:
     return fallback
 
 
+def sweep_hand(sweep: SweepResult, hands: dict[Path, Hand]) -> tuple[Hand, list[str]]:
+    """The grasping hand of ``sweep`` (its ``run.json``'s hand and fingers) and its fingers; a table that is
+    not that hand's (a BarrettHand's optima under a human ``run.json``) is one line. ``hands`` caches loads."""
+    from grasptask.errors import BadInputError
+    from grasptask.hand import load_hand
+    from grasptask.io.solutions import fingers_in, joint_columns
+
+    hand_path = _reference_path(sweep.run.get("hand", ""), DEFAULT_HAND)
+    whole = hands.get(hand_path) or hands.setdefault(hand_path, load_hand(hand_path))
+    fingers = sweep.run.get("fingers") or fingers_in(list(sweep.optima.columns), list(whole.fingers))
+    known = len(fingers) >= 2 and all(f in whole.fingers for f in fingers)
+    hand = whole.with_grasping(fingers if known else list(whole.fingers)).grasping_hand()
+    wanted = [*joint_columns(hand.joint_names), *(f"contact_{f}_x" for f in fingers)]
+    absent = next((c for c in wanted if c not in sweep.optima.columns), None)
+    if not sweep.optima.empty and (absent is not None or not known):
+        raise BadInputError(
+            sweep.folder / "optima.parquet",
+            f"not a table of hand '{whole.name}' ({hand_path}, named by run.json): fingers {fingers}, "
+            f"no column '{absent or 'contact_<finger>_x'}'",
+        )
+    return hand, fingers
+
+
 def _no_sweeps(results: ResultsFolder) -> Note:
     return _run_missing(f"synthesis results under {results.grasps}", "grasptask synthesize ... --out DIR/grasps")
 
@@ -248,8 +271,7 @@ def grasps_section(
     from grasptask.grasp.scene import grasp_scene
     from grasptask.grasp.settings import load_grasp_settings
     from grasptask.grasp.verify import verify
-    from grasptask.hand import load_hand
-    from grasptask.io.solutions import contacts_from_row, fingers_in, grasp_from_row, normals_from_row
+    from grasptask.io.solutions import contacts_from_row, grasp_from_row, normals_from_row
     from grasptask.objects import load_object
     from grasptask.report.interactive import HEIGHT, grasp_view
     from grasptask.report.render import display_mesh, render_grasp
@@ -281,12 +303,9 @@ def grasps_section(
             section.blocks.append(Note(f"{task}: no verified grasp among {len(sweep.solutions)} starts"))
             continue
         run = sweep.run
-        hand_path = _reference_path(run.get("hand", ""), DEFAULT_HAND)
         object_path = _reference_path(run.get("object", ""), DEFAULT_OBJECT)
         settings = load_grasp_settings(_reference_path(run.get("grasp_config", ""), DEFAULT_GRASP_CONFIG))
-        whole = hands.get(hand_path) or hands.setdefault(hand_path, load_hand(hand_path))
-        fingers = run.get("fingers") or fingers_in(list(sweep.optima.columns), list(whole.fingers))
-        hand = whole.with_grasping(fingers).grasping_hand()
+        hand, fingers = sweep_hand(sweep, hands)
         if object_path not in objects:
             obj = load_object(object_path)
             objects[object_path] = obj, display_mesh(obj), display_mesh(obj, VIEW_FACES)

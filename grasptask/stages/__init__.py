@@ -23,7 +23,7 @@ from grasptask.paths import (
 )
 
 if TYPE_CHECKING:
-    from grasptask.report.browser import check_page
+    from grasptask.report.browser import check_page, check_screenshot_path, find_chromium
     from grasptask.stages.distances import run_distances
     from grasptask.stages.export import run_export
     from grasptask.stages.fit_task import FitOptions, Preprocess, entries_from_inputs, run_fit_task
@@ -51,6 +51,8 @@ _LAZY = {
     "build_report": "grasptask.stages.report",
     "ReportSummary": "grasptask.stages.report",
     "check_page": "grasptask.report.browser",
+    "check_screenshot_path": "grasptask.report.browser",
+    "find_chromium": "grasptask.report.browser",
     "run_pipeline_file": "grasptask.stages.pipeline",
     "PhysicsInputs": "grasptask.stages.physics",
     "run_physics": "grasptask.stages.physics",
@@ -75,6 +77,8 @@ __all__ = [
     "SynthesisOptions",
     "build_report",
     "check_page",
+    "check_screenshot_path",
+    "find_chromium",
     "entries_from_inputs",
     "run_distances",
     "describe_hand",

@@ -12,6 +12,7 @@ import pandas as pd
 
 from grasptask.errors import BadInputError
 from grasptask.io.artifacts import Provenance, StagedOutput
+from grasptask.io.locking import check_writable, folder_lock
 from grasptask.io.manifest import RecordingEntry, default_id, is_manifest, read_manifest
 from grasptask.io.rosbag import is_bag
 from grasptask.progress import progress
@@ -69,6 +70,20 @@ def run_fit_task(
 ) -> tuple[FitResult, pd.DataFrame]:
     """Fit ellipsoids and write ``ellipsoids.parquet``, ``task_models.json`` and ``stats.csv``."""
     entries = entries_from_inputs(inputs, **labels)
+    # --out held, and known to be writable, from the start: a second run into it is refused, not overwritten
+    with folder_lock(out, "fit-task"):
+        check_writable(out)
+        return _fit_and_write(entries, inputs, out, options, skip_bad, labels)
+
+
+def _fit_and_write(
+    entries: list[RecordingEntry],
+    inputs: Sequence[str | Path],
+    out: str | Path,
+    options: FitOptions,
+    skip_bad: bool,
+    labels: dict,
+) -> tuple[FitResult, pd.DataFrame]:
     result = fit_recordings(entries, options, skip_bad, partial(progress, desc="fit-task", unit="rec"))
     stats = statistics_table(result.ellipsoids)
     recorded = [e.path for e in entries if e.path.is_file()]

@@ -18,6 +18,7 @@ import pandas as pd
 from grasptask.errors import BadInputError
 from grasptask.grasp.grasp import Grasp
 from grasptask.io.artifacts import Provenance, StagedOutput
+from grasptask.io.locking import check_writable, folder_lock
 from grasptask.paths import DEFAULT_PHYSICS_CONFIG
 
 if TYPE_CHECKING:
@@ -136,6 +137,9 @@ _worker: Judge | None = None
 
 def _start_worker(judge: Judge) -> None:
     global _worker
+    from grasptask.io.orphans import die_with_parent
+
+    die_with_parent()  # a physics run killed outright left its pool workers running for minutes
     os.environ["OPENBLAS_NUM_THREADS"] = "1"
     _worker = judge
 
@@ -248,7 +252,6 @@ def run_physics(
     """Check every solved grasp of ``inputs.solutions``; writes ``out/physics.parquet`` (one row per start),
     ``out/physics_summary.json`` and ``out/physics_trace.parquet`` (the best verified grasp's motion over the
     protocol), and returns the table."""
-    from grasptask.progress import Progress
 
     inputs = inputs.resolved()
     if workers < 1:
@@ -256,6 +259,17 @@ def run_physics(
     if inputs.strength <= 0 or inputs.friction_scale <= 0:
         raise BadInputError("physics", "--strength and --friction-scale must be positive")
     judge = Judge.for_inputs(inputs)  # every input checked here, before any work
+    # --out held, and known to be writable, from the start: a second run into it is refused, not overwritten
+    with folder_lock(out, f"physics {inputs.task}"):
+        check_writable(out)
+        return _judge_all(judge, inputs, out, workers, echo)
+
+
+def _judge_all(
+    judge: Judge, inputs: PhysicsInputs, out: str | Path, workers: int, echo: Callable[[str], Any]
+) -> pd.DataFrame:
+    from grasptask.progress import Progress
+
     indices = list(range(len(judge.solved.rows)))
     counts = {"held": 0, "dropped": 0}
     with Progress(len(indices), f"physics {inputs.task}", "grasps") as shown:

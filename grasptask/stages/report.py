@@ -8,6 +8,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from grasptask import __version__
+from grasptask.hand.model import Hand
 from grasptask.io.artifacts import Provenance, StagedOutput
 from grasptask.io.reference import PaperSynthesis, read_paper_synthesis
 from grasptask.report.inputs import SweepResult, find_results, read_sweep
@@ -19,6 +20,7 @@ from grasptask.report.sections import (
     ellipsoid_tables_section,
     grasps_section,
     physics_section,
+    sweep_hand,
     sweeps_section,
 )
 from grasptask.report.style import task_order
@@ -40,8 +42,10 @@ def build_report(results_dir: str | Path, out: str | Path) -> ReportSummary:
     start = time.perf_counter()
     results = find_results(results_dir)
     sweeps: dict[str, SweepResult] = {}
+    hands: dict[Path, Hand] = {}
     for folder in results.sweep_folders():
         sweep = read_sweep(folder)
+        sweep_hand(sweep, hands)  # a table of another hand is one line now, not after minutes of figures
         sweeps[sweep.task] = sweep
     sweeps = {task: sweeps[task] for task in sorted(sweeps, key=task_order)}
     inputs = [

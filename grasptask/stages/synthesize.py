@@ -8,6 +8,7 @@ solver versions and model size (as the workers report it) to ``run.json``.
 
 from __future__ import annotations
 
+import os
 import time
 from collections.abc import Callable
 from dataclasses import asdict, dataclass
@@ -175,16 +176,17 @@ def _prepare(options: SynthesisOptions) -> _Prepared:
     }
     if options.physics is not None:  # a sweep with the physics check is another run than one without
         definition["physics config"] = path_hash(options.physics)
+    # absolute: a Dask worker resolves a relative path against its own working directory
     job = Job(
-        hand_path=str(options.hand),
-        object_path=str(options.object),
-        tasks_path=str(options.tasks),
+        hand_path=os.path.abspath(options.hand),
+        object_path=os.path.abspath(options.object),
+        tasks_path=os.path.abspath(options.tasks),
         task=options.task,
         backend=options.backend,
         solver=solver,
-        settings_path=str(options.grasp_config),
+        settings_path=os.path.abspath(options.grasp_config),
         fingers=hand.grasping,
-        physics_path=str(options.physics) if options.physics is not None else "",
+        physics_path=os.path.abspath(options.physics) if options.physics is not None else "",
         object_overrides=tuple(options.object_overrides.items()),
     )
     return _Prepared(
@@ -275,7 +277,9 @@ def run_synthesize(options: SynthesisOptions, echo: Callable[[str], Any] = print
         echo(f"{options.task}: {len(prepared.starts)} starts, {len(finished)} already done")
         model_size = None if todo else _previous_run(folder).get("model_size")
         workers = max(1, min(options.workers, len(todo)))
-        executor = make_executor(prepared.job, options.executor, workers, prepared.hang_after_s, options.scheduler)
+        executor = make_executor(
+            prepared.job, options.executor, workers, prepared.hang_after_s, options.scheduler, notify=echo
+        )
         wall_start = time.perf_counter()
         with graceful_stop(notify=echo):
             try:
@@ -363,20 +367,20 @@ def summarise(
     seconds = solutions["seconds"].astype(float)
     again = retried(solutions)
     status_counts = {s: int((solutions["status"] == s).sum()) for s in STATUSES}
-    run = {
+    run = {  # paths absolute: export, report and physics read them from any working directory
         "task": options.task,
-        "object": str(options.object_used),
+        "object": os.path.abspath(options.object_used),
         # the object's task frame in its file's coordinates and how it was chosen, its unit and its mass (None:
         # not given; the physics check then assumes its config's object_mass_kg)
         **(object_facts or {}),
         "object_options": options.object_overrides,
-        "hand": str(options.hand),
-        "grasp_config": str(options.grasp_config),
-        "tasks": str(options.tasks),
+        "hand": os.path.abspath(options.hand),
+        "grasp_config": os.path.abspath(options.grasp_config),
+        "tasks": os.path.abspath(options.tasks),
         "fingers": fingers,
         # the physics config of synthesize --physics (None: not checked; a physics_summary.json beside this
         # run.json is then an earlier run's)
-        "physics_config": str(options.physics) if options.physics is not None else None,
+        "physics_config": os.path.abspath(options.physics) if options.physics is not None else None,
         "backend": options.backend,
         "executor": options.executor,
         "workers": options.workers,

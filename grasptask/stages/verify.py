@@ -50,10 +50,12 @@ class SweepFiles:
         used = read_json(run_file) if run_file.is_file() else {}
 
         def pick(given: str | Path | None, key: str, default: Path | None) -> Path | None:
-            chosen = given if given is not None else used.get(key, default)
+            if given is not None:
+                return Path(given)
+            chosen = used.get(key, default)
             if chosen is not None and not isinstance(chosen, (str, Path)):
                 raise BadInputError(run_file, f"field '{key}' must be a path, got {chosen!r}")
-            return None if chosen is None else Path(chosen)
+            return None if chosen is None else _recorded(Path(chosen), run_file.parent)
 
         recorded = used.get("fingers")
         if recorded is not None and not (isinstance(recorded, list) and all(isinstance(f, str) for f in recorded)):
@@ -72,6 +74,17 @@ class SweepFiles:
             tasks=pick(tasks, "tasks", None),
             task=task if task is not None else used.get("task"),
         )
+
+
+def _recorded(path: Path, beside: Path) -> Path:
+    """A path a sweep's ``run.json`` recorded. Older sweeps recorded them relative to where they ran: such a path
+    is taken from the working directory when it is there, else from the ``run.json``'s folder and its parents."""
+    if path.is_absolute() or path.exists():
+        return path
+    for folder in (beside.resolve(), *beside.resolve().parents):
+        if (folder / path).exists():
+            return folder / path
+    return path
 
 
 @dataclass(frozen=True)
@@ -104,6 +117,21 @@ def read_grasps(
             raise BadInputError(solutions_path, "missing column", column=column)
     if not pd.api.types.is_integer_dtype(solutions["start_id"]):
         raise BadInputError(solutions_path, "must hold whole numbers", column="start_id")
+    if solutions.empty:
+        raise BadInputError(solutions_path, "holds no starts")
+    repeated = solutions["start_id"].duplicated()
+    if repeated.any():
+        number = int(repeated.to_numpy().argmax()) + 1
+        raise BadInputError(
+            solutions_path, f"start {solutions['start_id'].iloc[number - 1]} again", row=number, column="start_id"
+        )
+    # "False" as text is a true value to Python: a verdict column must be booleans (missing: not verified)
+    if "verified" in solutions.columns and not (
+        pd.api.types.is_bool_dtype(solutions["verified"]) or solutions["verified"].isna().all()
+    ):
+        raise BadInputError(
+            solutions_path, f"must hold true or false, not {solutions['verified'].dtype} values", column="verified"
+        )
     rows: list[tuple[dict, Grasp | None]] = []
     for number, row in enumerate(solutions.to_dict("records"), start=1):
         if pd.isna(row["palm_x"]):

@@ -104,6 +104,9 @@ class SerialExecutor:
 
 
 def _worker(job: Job, tasks: Any, results: Any, worker_id: int) -> None:
+    from grasptask.io.orphans import die_with_parent
+
+    die_with_parent()  # at once, rather than at its next poll of the parent (_next_start)
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     # the parent decides when to stop and ends its workers: a Ctrl-C or SIGTERM to the process group must not
     # kill a start half-way (it would be recorded as crashed)
@@ -238,36 +241,87 @@ class PoolExecutor:
 
 
 _DASK_CONTEXTS: dict = {}
+#: one build or solve at a time in a Dask worker process. A worker runs a task on each of its threads (one per
+#: core by default): two threads solving one shared model crashed it (``free(): invalid next size``, then signal
+#: 11), and with a model each they took turns on the GIL, so that a solve's wall-clock limit counted the other's
+#: time (half of 4 starts ended "time-limit" that solve in a process of their own)
+_DASK_LOCK = threading.Lock()
 
 
 def _dask_context(job: Job) -> SolverContext:
-    """Runs on a Dask worker: the context is built once per worker process and job."""
+    """Runs on a Dask worker, under :data:`_DASK_LOCK`: the context is built once per worker process and job."""
     key = (os.getpid(), repr(job))
     if key not in _DASK_CONTEXTS:
+        from threadpoolctl import threadpool_limits
+
+        threadpool_limits(1)  # a worker's environment is not ours: one BLAS thread per solve, as in the pool
         _DASK_CONTEXTS[key] = SolverContext(job)
     return _DASK_CONTEXTS[key]
 
 
 def _dask_size(job: Job) -> dict[str, int]:
-    return _dask_context(job).size
+    with _DASK_LOCK:
+        return _dask_context(job).size
 
 
 def _dask_solve(job: Job, start: Start) -> dict:
-    return solve_guarded(_dask_context(job), start)
+    with _DASK_LOCK:  # the time a start waits here is not its solve's: its clock starts inside
+        return solve_guarded(_dask_context(job), start)
 
 
 class DaskExecutor:
-    """Starts on a Dask cluster. The scheduler exchanges pickles, so its address is trusted to run code."""
+    """Starts on a Dask cluster. The scheduler exchanges pickles, so its address is trusted to run code.
 
-    def __init__(self, job: Job, scheduler: str, timeout_s: float, connect_timeout_s: float = 5.0):
+    A cluster cannot say which starts are in progress: the first Ctrl-C cancels the rest, and ``--resume``
+    solves what was not recorded. While the scheduler has no worker the sweep waits, and says so."""
+
+    #: how long (s) the scheduler may go without a worker before the sweep says so, and how often it asks
+    SAY_NO_WORKER_AFTER_S, WORKERS_EVERY_S = 5.0, 1.0
+
+    def __init__(
+        self,
+        job: Job,
+        scheduler: str,
+        timeout_s: float,
+        connect_timeout_s: float = 5.0,
+        notify: Callable[[str], Any] = print,
+    ):
         self.job, self.scheduler, self.timeout_s, self.connect_timeout_s = job, scheduler, timeout_s, connect_timeout_s
+        self.notify = notify
         self.client: Any = None
+        self._alone_since: float | None = None
+        self._asked = 0.0
+        self._said = False
+
+    def _watch_workers(self) -> None:
+        """Say once when the scheduler has had no worker for a while, and again when one is back."""
+        now = time.monotonic()
+        if now - self._asked < self.WORKERS_EVERY_S:
+            return
+        self._asked = now
+        try:
+            alive = len(self.client.nthreads())
+        except Exception:  # noqa: BLE001 - the scheduler itself gone: the futures will say so
+            return
+        if alive:
+            if self._said:
+                self.notify(f"{self.scheduler}: {alive} Dask worker(s) back, the sweep goes on")
+            self._alone_since, self._said = None, False
+            return
+        self._alone_since = self._alone_since or now
+        if not self._said and now - self._alone_since >= self.SAY_NO_WORKER_AFTER_S:
+            self._said = True
+            self.notify(
+                f"{self.scheduler}: no Dask worker alive; waiting for one (start one with `dask worker "
+                f"{self.scheduler}`), or Ctrl-C to stop and --resume later"
+            )
 
     def _wait(self, future: Any) -> Any:
         from dask.distributed import TimeoutError as DaskTimeout
 
         while True:
             _check_stop()
+            self._watch_workers()
             try:
                 return future.result(timeout=0.5)
             except (DaskTimeout, TimeoutError):
@@ -283,11 +337,18 @@ class DaskExecutor:
                 self.scheduler, f"no Dask scheduler answered within {self.connect_timeout_s:g} s ({type(exc).__name__})"
             ) from exc
         try:
-            return self._wait(self.client.submit(_dask_size, self.job, pure=False))
+            size = self._wait(self.client.submit(_dask_size, self.job, pure=False))
         except KeyboardInterrupt:
             raise
         except Exception as exc:  # noqa: BLE001
             raise BadInputError("synthesize", f"a Dask worker could not build the model: {build_failure(exc)}") from exc
+        threads = max(self.client.nthreads().values(), default=1)
+        if threads > 1:
+            self.notify(
+                f"{self.scheduler}: Dask workers with {threads} threads solve one start at a time each; to use "
+                f"every core, start them as `dask worker {self.scheduler} --nworkers N --nthreads 1`"
+            )
+        return size
 
     def run(self, starts: list[Start], on_result: OnResult) -> None:
         from dask.distributed import as_completed
@@ -298,15 +359,22 @@ class DaskExecutor:
             ): s
             for s in starts
         }
+        finished = as_completed(futures)
         try:
-            for future in as_completed(futures):
-                start = futures[future]
-                try:
-                    row = future.result(timeout=self.timeout_s)
-                except Exception as exc:  # noqa: BLE001
-                    row = failed_row(start, "crashed", 0.0, f"{type(exc).__name__}: {exc}"[:300])
-                on_result(row)
-                _check_stop()  # a cluster cannot say which starts are in progress: stopping cancels the rest
+            while not finished.is_empty():
+                _check_stop()
+                batch = finished.next_batch(block=False)
+                if not batch:  # polled, so that a signal or a cluster without workers is seen at once
+                    self._watch_workers()
+                    time.sleep(0.1)
+                    continue
+                for future in batch:
+                    start = futures[future]
+                    try:
+                        row = future.result(timeout=self.timeout_s)
+                    except Exception as exc:  # noqa: BLE001
+                        row = failed_row(start, "crashed", 0.0, f"{type(exc).__name__}: {exc}"[:300])
+                    on_result(row)
         finally:
             self.client.cancel([f for f in futures if not f.done()])
 
@@ -316,10 +384,17 @@ class DaskExecutor:
             self.client = None
 
 
-def make_executor(job: Job, kind: str, workers: int, hang_after_s: float, scheduler: str | None = None) -> Executor:
+def make_executor(
+    job: Job,
+    kind: str,
+    workers: int,
+    hang_after_s: float,
+    scheduler: str | None = None,
+    notify: Callable[[str], Any] = print,
+) -> Executor:
     if kind == "serial":
         return SerialExecutor(job)
     if kind == "dask":
         assert scheduler is not None, "checked by SynthesisOptions"
-        return DaskExecutor(job, scheduler, hang_after_s)
+        return DaskExecutor(job, scheduler, hang_after_s, notify=notify)
     return PoolExecutor(job, workers, hang_after_s)
