@@ -266,6 +266,24 @@ def test_a_read_only_output_folder_is_one_line(tasks, small_disk, cli):
     assert "Read-only file system" in one_error_line(result)
 
 
+def test_a_read_only_folder_is_found_before_the_work(simulated, small_disk, cli):
+    """fit-task on a read-only --out: one line, before a recording is read (it was found at the commit)."""
+    subprocess.run(["mount", "-o", "remount,ro", str(small_disk)], check=True)
+    result = cli("fit-task", simulated[0] / "recordings" / "manifest.csv", "--out", small_disk / "tasks")
+    assert result.exit_code == 2 and "Read-only file system" in result.output
+    assert "fit-task:" not in result.output and len(result.output.strip().splitlines()) == 1
+
+
+def test_a_full_disk_names_the_folder_it_was_writing(simulated, small_disk, cli):
+    filler = fill(small_disk)
+    result = cli("fit-task", simulated[0] / "recordings" / "manifest.csv", "--out", small_disk / "tasks")
+    filler.unlink()
+    error = [line for line in result.output.splitlines() if line.startswith("error:")]
+    assert result.exit_code == 2 and len(error) == 1 and "No space left on device" in error[0]
+    assert str(small_disk) in error[0] and not error[0].startswith("error: fit-task:")
+    assert not (small_disk / "tasks").exists()
+
+
 def test_a_stage_commit_is_all_or_nothing(tmp_path, monkeypatch):
     out = tmp_path / "out"
     with StagedOutput(out, Provenance.of("t", {})) as staged:

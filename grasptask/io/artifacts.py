@@ -97,6 +97,10 @@ def write_text_atomic(path: Path, text: str) -> None:
             handle.flush()
             os.fsync(handle.fileno())
         os.replace(tmp, path)
+    except OSError as error:
+        if error.filename:
+            raise
+        raise _naming(error, path) from error
     finally:
         tmp.unlink(missing_ok=True)
 
@@ -219,8 +223,8 @@ class StagedOutput:
 
 
 def _naming(error: OSError, out: Path) -> OSError:
-    """``error`` with the output folder as its file when it names none: a full disk's ``write`` does not, and
-    the user was told ``export: No space left on device``."""
+    """``error`` with ``out`` (the file or folder being written) as its file when it names none: a full disk's
+    ``write`` does not, and the user was told ``export: No space left on device``."""
     if error.filename:
         return error
     return OSError(error.errno, error.strerror or str(error), str(out))

@@ -100,8 +100,12 @@ def folder_lock(folder: str | Path, purpose: str = "grasptask") -> Iterator[Path
                 ) from None
             path.unlink(missing_ok=True)  # its owner died: the lock is stale
             continue
-        with os.fdopen(descriptor, "w") as handle:
-            handle.write(record)
+        try:
+            with os.fdopen(descriptor, "w") as handle:
+                handle.write(record)
+        except OSError as exc:  # a full disk: the lock is not taken, and the error names it
+            path.unlink(missing_ok=True)
+            raise OSError(exc.errno, exc.strerror or str(exc), str(path)) from exc
         break
     else:
         raise BadInputError(folder, f"could not take the lock {path}")
