@@ -284,6 +284,19 @@ def test_a_full_disk_names_the_folder_it_was_writing(simulated, small_disk, cli)
     assert not (small_disk / "tasks").exists()
 
 
+@pytest.mark.parametrize("mask, mode", [(0o022, 0o755), (0o077, 0o700), (0o002, 0o775)])
+def test_an_output_folder_is_made_as_the_umask_says(tmp_path, mask, mode):
+    """Colleagues on a shared server read the results when the umask lets them: the staged folder that becomes
+    --out was 0700 whatever the umask."""
+    before = os.umask(mask)
+    try:
+        with StagedOutput(tmp_path / "out", Provenance.of("t", {})) as staged:
+            staged.write_with("a.txt", lambda p: p.write_text("a"))
+    finally:
+        os.umask(before)
+    assert (tmp_path / "out").stat().st_mode & 0o777 == mode
+
+
 def test_a_stage_commit_is_all_or_nothing(tmp_path, monkeypatch):
     out = tmp_path / "out"
     with StagedOutput(out, Provenance.of("t", {})) as staged:

@@ -196,3 +196,20 @@ def test_screenshots_are_checked_before_the_report_is_built(cli, simulated, tmp_
         result = cli("report", "--results", results, "--check-browser", "--screenshot", tmp_path)
         assert result.exit_code == 2 and "is a folder" in result.output
     assert not (results / "report").exists()
+
+
+def test_a_browser_check_says_why_an_empty_page_fails():
+    from grasptask.report.browser import BrowserCheck
+
+    empty = BrowserCheck(images=0)
+    assert not empty.ok and any("no image" in line for line in empty.problems())
+
+
+def test_a_missing_chromium_is_said_before_the_report_is_built(cli, simulated, tmp_path, monkeypatch):
+    import grasptask.report.browser as browser
+
+    monkeypatch.setattr(browser, "find_chromium", lambda: None)
+    results = results_with_tasks(simulated, tmp_path / "results")
+    result = cli("report", "--results", results, "--check-browser")
+    assert result.exit_code == 2 and "chromium" in result.output and "not installed" in result.output
+    assert not (results / "report").exists()

@@ -161,6 +161,8 @@ class StagedOutput:
             _recover(self.out)
             remove_stale_folders(parent, self._prefix)
             self._tmp = make_owned_folder(parent, self._prefix)
+            # it becomes --out: readable as the umask allows, as mkdir makes it (mkdtemp's 0700 kept colleagues out)
+            self._tmp.chmod(0o777 & ~_umask())
         except BaseException:
             self._lock.__exit__(None, None, None)
             raise
@@ -220,6 +222,19 @@ class StagedOutput:
         else:
             exchange(self._tmp, self.out)
         _fsync_folder(self.out.absolute().parent)
+
+
+def _umask() -> int:
+    """This process's umask, read without setting it (``os.umask`` can only swap, a race with other threads)."""
+    try:
+        for line in Path("/proc/self/status").read_text().splitlines():
+            if line.startswith("Umask:"):
+                return int(line.split()[1], 8)
+    except (OSError, ValueError):
+        pass
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
 
 
 def _naming(error: OSError, out: Path) -> OSError:
