@@ -57,8 +57,13 @@ class _Group(click.Group):
 def main():
     """Task-oriented grasps for a multi-fingered hand, from sensorized-tool demonstrations.
 
-    Stages read and write files: simulate -> fit-task -> distances. Run `grasptask COMMAND --help` for each,
-    or `grasptask pipeline run pipelines/demo.yaml` for a whole pipeline.
+    \b
+    Stages read and write files:
+      simulate (or your recordings) -> fit-task -> distances   the tasks' ellipsoids, compared
+      synthesize -> verify, physics                            grasps, and their two judges
+      export, report                                           for other tools, and for people
+      hand FILE                                                what grasptask reads in your hand
+    Run `grasptask COMMAND --help` for each, or `grasptask pipeline run pipelines/demo.yaml` for them all.
     """
 
 
@@ -179,7 +184,8 @@ def _fit_summary(ellipsoids, stats) -> str:
 
 
 def _number(value) -> str:
-    return "n/a" if value is None else f"{value:.3f}"
+    """Three significant digits: a Q of 0.00074 is not 0.001."""
+    return "n/a" if value is None else f"{value:.3g}"
 
 
 @main.command()
@@ -407,9 +413,14 @@ def synthesize(
     try:
         run = stages.run_synthesize(options, echo=click.echo)
     except KeyboardInterrupt:
-        click.echo(
-            f"interrupted: finished starts are kept in {out}/{task}/solutions.jsonl; rerun with --resume", err=True
+        log = out / task / "solutions.jsonl"
+        kept = sum(1 for line in log.read_text().splitlines() if line.strip()) if log.is_file() else 0
+        said = (
+            f"{kept} finished starts are kept in {log}; rerun with --resume"
+            if kept
+            else "stopped before any start was solved; nothing of this run was kept"
         )
+        click.echo(f"interrupted: {said}", err=True)
         raise click.exceptions.Exit(130) from None
     seconds = run["seconds_per_start"]
     click.echo(

@@ -194,3 +194,14 @@ def test_export_refuses_a_run_json_with_wrong_types(cli, simulated, tmp_path):
         result = cli("export", run_file.parent / "solutions.parquet", "--out", tmp_path / "out")
         assert result.exit_code == 2 and "run.json" in result.output and f"'{field}'" in result.output, result.output
         assert len(result.output.strip().splitlines()) == 1 and not (tmp_path / "out").exists()
+
+
+def test_export_of_a_sweep_with_no_verified_start_says_so(cli, simulated, tmp_path):
+    """It said 'wrote 0 grasps' and exited 0."""
+    results = results_with_tasks(simulated, tmp_path / "results")
+    ball_sweep(results)
+    folder = results / "grasps" / "drawing"
+    pd.read_parquet(folder / "optima.parquet").iloc[0:0].to_parquet(folder / "optima.parquet")
+    result = cli("export", folder / "solutions.parquet", "--out", tmp_path / "out")
+    assert result.exit_code == 2 and "no verified start" in result.output
+    assert len(result.output.strip().splitlines()) == 1 and not (tmp_path / "out").exists()

@@ -348,3 +348,14 @@ def test_artifact_names_from_inputs_stay_inside_the_output_folder(tmp_path):
     with pytest.raises(Exception, match="must stay inside"), StagedOutput(tmp_path / "o", Provenance.of("t", {})) as s:
         s.path("x/../../../escaped.png")
     assert not (tmp_path / "escaped.png").exists() and not (tmp_path / "o").exists()
+
+
+def test_a_ctrl_c_before_any_start_is_solved_says_nothing_was_kept(tasks, tmp_path):
+    """It said 'finished starts are kept in .../solutions.jsonl' of a folder that was never made."""
+    sweep = start_sweep(tasks, tmp_path, "--executor", "serial")
+    assert sweep.stdout is not None
+    assert "already done" in sweep.stdout.readline()  # the inputs are read; the model is being built
+    sweep.send_signal(signal.SIGINT)
+    _, err = sweep.communicate(timeout=120)
+    assert sweep.returncode == 130 and "nothing of this run was kept" in err and "--resume" not in err, err
+    assert not (tmp_path / "drawing" / "solutions.jsonl").exists()

@@ -84,3 +84,25 @@ def test_executor_options_that_contradict_each_other_are_refused(cli, simulated,
         assert result.exit_code == 2 and expected in result.output, result.output
         assert len(result.output.strip().splitlines()) == 1
     assert not (tmp_path / "drawing").exists()
+
+
+def test_the_top_level_help_names_the_whole_pipeline(cli):
+    shown = cli("--help").output
+    for command in ("simulate", "fit-task", "distances", "synthesize", "verify", "physics", "export", "report"):
+        assert command in shown.split("Options:")[0], command
+
+
+def test_q_is_printed_with_three_significant_digits():
+    from grasptask.cli import _number
+
+    assert _number(0.00074) == "0.00074" and _number(0.0018) == "0.0018" and _number(None) == "n/a"
+
+
+def test_a_mesh_given_as_a_hand_names_the_kinds_of_hand_file(cli, tmp_path, tasks):
+    import trimesh
+
+    mesh = tmp_path / "sugar_box.stl"
+    trimesh.creation.box((0.09, 0.04, 0.175)).export(mesh)
+    result = cli("synthesize", "--tasks", tasks, "--task", "drawing", "--out", tmp_path / "o", "--hand", mesh)
+    assert result.exit_code == 2 and "URDF" in result.output and "MJCF" in result.output and "YAML" in result.output
+    assert not (tmp_path / "o").exists()

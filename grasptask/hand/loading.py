@@ -137,10 +137,18 @@ def _with_base(data: dict, path: Path, seen: tuple[Path, ...] = ()) -> dict:
     return merged
 
 
+#: a hand YAML's suffixes (anything else that is not a URDF or MJCF is refused with the kinds it may be)
+YAML_SUFFIXES = (".yaml", ".yml")
+
+
 def load_hand(path: str | Path = DEFAULT_HAND) -> Hand:
     """The hand described by ``path``; a one-line error names the file and the field, link or joint at fault."""
     path = existing_file(path, "hand file")
     if path.suffix.lower() in URDF_SUFFIXES + MJCF_SUFFIXES:
         return hand_from_tree(_read_model(path, path), path)
+    if path.suffix.lower() not in YAML_SUFFIXES:  # a mesh given as a hand said "not a text file"
+        raise BadInputError(
+            path, "not a hand file: give a URDF (.urdf), an MJCF (.xml) or a hand YAML (.yaml, with model: FILE)"
+        )
     data = _with_base(load_yaml(path), path)
     return _with_model(data, path) if "model" in data else hand_from_yaml(data, path)

@@ -121,7 +121,7 @@ def ellipsoid_figures_section(results: ResultsFolder, writer: Writer) -> Section
     if note:
         section.blocks.append(Note(note))
     tasks = list(models)
-    for task in progress(tasks, desc="report: ellipsoid figures", unit="task"):
+    for task in progress(tasks, desc="report: ellipsoid figures", unit="tasks"):
         members = ellipsoids[ellipsoids["task"] == task]
         if members.empty:
             continue
@@ -312,7 +312,7 @@ def grasps_section(
         obj, mesh, view_mesh = objects[object_path]
         task_axis = task_models[task].axes[0] if task in task_models else None
         rows = list(sweep.optima.iterrows())
-        for _, optimum in progress(rows, desc=f"report: {task} grasps", unit="grasp"):
+        for _, optimum in progress(rows, desc=f"report: {task} grasps", unit="grasps"):
             grasp = grasp_from_row(optimum, hand.joint_names)
             number = int(optimum["optimum_id"])
             path = writer.figure(f"grasp_{file_stem(task)}_{number:02d}")

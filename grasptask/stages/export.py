@@ -77,6 +77,8 @@ def run_export(
     model = load_task_model(files.tasks, files.task)
     solved = read_grasps(solutions, files.hand, files.fingers)
     chosen, kind = _chosen(solved, solutions, every_start)
+    if not chosen:  # "wrote 0 grasps", exit 0, told the user nothing
+        raise BadInputError(solutions, f"no verified start among its {len(solved.rows)}: nothing to export")
     obj = load_object(files.object, say=lambda _: None)
     settings = load_grasp_settings(files.grasp_config)
     mesh = obj.picture(GLB_OBJECT_FACES)
@@ -86,7 +88,7 @@ def run_export(
     listing: list[dict[str, Any]] = []
     verified = 0
     with StagedOutput(out, Provenance.of("export", config, inputs)) as staged:
-        for row, grasp in progress(chosen, desc=f"export: {files.task}", unit="grasp"):
+        for row, grasp in progress(chosen, desc=f"export: {files.task}", unit="grasps"):
             check = verify(grasp, solved.hand, obj, model, settings)
             scene = grasp_scene(solved.hand, mesh, grasp, check.contacts, check.normals, settings.friction_coefficient)
             record = grasp_record(
