@@ -467,8 +467,11 @@ def verify_command(
 
 @main.command()
 @click.argument("solutions", type=click.Path(path_type=Path))
-@click.option("--tasks", "tasks_path", required=True, type=click.Path(path_type=Path), help="task_models.json.")
-@click.option("--task", required=True, help="The task the solutions were made for.")
+@click.option(
+    "--tasks", "tasks_path", type=click.Path(path_type=Path), default=None,
+    help="task_models.json [default: the sweep's, from its run.json].",
+)  # fmt: skip
+@click.option("--task", default=None, help="The task the solutions were made for [default: the sweep's].")
 @_out_option
 @_sweep_model_options
 @_physics_config_option("Scene, controller, protocol and pass thresholds (YAML).")

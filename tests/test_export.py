@@ -181,7 +181,7 @@ def test_export_bad_input(cli, simulated, tmp_path):
     assert result.exit_code == 2 and "optima.parquet" in result.output and "--all" in result.output
     assert not (tmp_path / "out").exists()
     result = cli("export", solutions, "--out", tmp_path / "out", "--task", "juggling")
-    assert result.exit_code == 2 and "no task 'juggling'" in result.output
+    assert result.exit_code == 2 and "the sweep is of task 'drawing', not 'juggling'" in result.output
 
 
 def test_export_refuses_a_run_json_with_wrong_types(cli, simulated, tmp_path):

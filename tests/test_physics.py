@@ -454,3 +454,15 @@ def test_a_second_physics_run_into_one_folder_is_refused_at_its_start(sweep, tmp
     assert result.returncode == 2 and "physics drawing" in result.stderr
     assert "physics drawing:" not in result.stderr  # no progress: refused before any grasp was held
     assert time.perf_counter() - began < 60 and not out.exists()
+
+
+def test_physics_takes_the_task_from_the_sweep_and_refuses_another(cli, sweep, tmp_path):
+    """A drawing sweep judged with --task cutting exited 0 with '0% held'; --tasks was required where export
+    took it from run.json."""
+    tasks, folder = sweep
+    result = cli("physics", folder / "solutions.parquet", "--task", "cutting", "--out", tmp_path / "o")
+    assert result.exit_code == 2 and "the sweep is of task 'drawing', not 'cutting'" in result.output
+    assert len(result.output.strip().splitlines()) == 1 and not (tmp_path / "o").exists()
+    result = cli("physics", folder / "solutions.parquet", "--out", tmp_path / "o")
+    assert result.exit_code == 0, result.output
+    assert json.loads((tmp_path / "o" / "physics_summary.json").read_text())["task"] == "drawing"

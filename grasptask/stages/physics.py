@@ -36,8 +36,9 @@ class PhysicsInputs:
     ``run.json``), else the package defaults."""
 
     solutions: Path
-    tasks: Path
-    task: str
+    #: None: what the sweep's run.json names
+    tasks: Path | None = None
+    task: str | None = None
     hand: Path | None = None
     object: Path | None = None
     grasp_config: Path | None = None
@@ -52,11 +53,18 @@ class PhysicsInputs:
     def resolved(self) -> PhysicsInputs:
         from grasptask.stages.verify import SweepFiles
 
-        used = SweepFiles.of(self.solutions, self.hand, self.object, self.grasp_config, self.fingers)
+        used = SweepFiles.of(
+            self.solutions, self.hand, self.object, self.grasp_config, self.fingers, self.tasks, self.task
+        )
+        if used.tasks is None or used.task is None:
+            raise BadInputError(
+                self.solutions, "no run.json beside it names the task models and the task: give --tasks, --task"
+            )
         return replace(
             self,
             solutions=Path(self.solutions),
-            tasks=Path(self.tasks),
+            tasks=used.tasks,
+            task=used.task,
             hand=used.hand,
             object=used.object,
             grasp_config=used.grasp_config,
@@ -96,8 +104,9 @@ class Judge:
         from grasptask.stages.verify import read_grasps
         from grasptask.task.model import load_task_model
 
-        model = load_task_model(inputs.tasks, inputs.task)
         assert inputs.hand is not None and inputs.object is not None and inputs.grasp_config is not None
+        assert inputs.tasks is not None and inputs.task is not None, "resolved() first"
+        model = load_task_model(inputs.tasks, inputs.task)
         solved = read_grasps(inputs.solutions, inputs.hand, inputs.fingers)
         judge = cls.of(solved, model, inputs.object, inputs.grasp_config, inputs.physics_config)
         controller = inputs.controller or judge.settings.controller
@@ -295,7 +304,7 @@ def _judge_all(
     }
     provenance = Provenance.of("physics", parameters, [f for f in files if f is not None])
     with StagedOutput(out, provenance) as staged:
-        result = write_physics_results(staged, table, inputs.task, judge.settings, trace, judge=judge)
+        result = write_physics_results(staged, table, judge.task.name, judge.settings, trace, judge=judge)
     echo(physics_line(result))
     return table
 

@@ -62,6 +62,9 @@ class SweepFiles:
             raise BadInputError(run_file, f"field 'fingers' must be a list of finger names, got {recorded!r}")
         if task is None and not isinstance(used.get("task", ""), str):
             raise BadInputError(run_file, f"field 'task' must be a name, got {used['task']!r}")
+        swept = used.get("task")
+        if task is not None and isinstance(swept, str) and swept != task:  # judged under another task's wrenches
+            raise BadInputError(run_file, f"the sweep is of task '{swept}', not '{task}' (--task)")
 
         hand_path, object_path = pick(hand, "hand", DEFAULT_HAND), pick(object, "object", DEFAULT_OBJECT)
         config = pick(grasp_config, "grasp_config", DEFAULT_GRASP_CONFIG)
