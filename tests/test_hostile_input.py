@@ -216,3 +216,25 @@ def test_recordings_outside_the_manifest_folder_are_read_and_their_resolved_path
     assert cli("fit-task", tmp_path / "sub" / "manifest.csv", "--out", tmp_path / "o").exit_code == 0
     ledger = json.loads((tmp_path / "o" / "provenance.json").read_text())
     assert str(recording.resolve()) in ledger["ellipsoids.parquet"]["inputs"]
+
+
+def test_a_recording_with_capitalised_columns_says_what_the_file_has(tmp_path, recording_factory, cli):
+    """'column fx: missing column' left the user guessing; the line now names the file's 'Fx' and the mapping."""
+    path = recording_factory("rec.csv")
+    lines = path.read_text().splitlines()
+    path.write_text("\n".join([lines[0].replace("fx", "Fx"), *lines[1:]]) + "\n")
+    result = cli("fit-task", path, "--out", tmp_path / "out")
+    assert result.exit_code == 2 and "the file has 'Fx'" in result.output and "columns: {fx: Fx}" in result.output
+    assert not (tmp_path / "out").exists()
+
+
+def test_a_finite_value_too_large_to_compute_with_is_one_line(tmp_path, recording_factory, cli):
+    """1e308 is finite, and ended in numpy's 'Eigenvalues did not converge' inside fit-task."""
+    from tests.conftest import wrench_samples
+
+    data = wrench_samples()
+    data[4, 2] = 1e308
+    path = recording_factory("rec.csv", data)
+    result = cli("fit-task", path, "--out", tmp_path / "out")
+    assert result.exit_code == 2 and "row 5" in result.output and "column 'fy'" in result.output
+    assert "too large" in result.output and len(result.output.strip().splitlines()) == 1

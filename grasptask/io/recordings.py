@@ -76,7 +76,15 @@ def _check_columns(path: Path, names: list[str], rename: Mapping[str, str]) -> N
     inverse = {v: k for k, v in rename.items()}
     for name in CANONICAL_COLUMNS:
         if name not in seen:
-            raise BadInputError(path, "missing column", column=inverse.get(name, name))
+            wanted = inverse.get(name, name)
+            near = next((n for n in names if n.lower() == wanted.lower()), None)
+            hint = (
+                f"; the file has '{near}': name the file's columns in a tool config (--tool), e.g. "
+                f"columns: {{{name}: {near}}}"
+                if near is not None
+                else ""
+            )
+            raise BadInputError(path, f"missing column{hint}", column=wanted)
     for name in names:
         if name not in CANONICAL_COLUMNS:
             raise BadInputError(
@@ -149,6 +157,15 @@ def check_values(path: str | Path, data: np.ndarray) -> None:
         row, col = np.argwhere(~finite)[0]
         what = "NaN (or empty)" if np.isnan(data[row, col]) else "infinite value"
         raise BadInputError(path, what, row=int(row) + 1, column=CANONICAL_COLUMNS[col])
+    # finite, yet too large to square and sum over the samples (1e308 ended in a LinAlgError in fit-task)
+    limit = np.sqrt(np.finfo(float).max / max(len(data), 1))
+    huge = np.abs(data[:, 1:]) > limit
+    if huge.any():
+        row, col = np.argwhere(huge)[0]
+        value = data[row, col + 1]
+        raise BadInputError(
+            path, f"value {value:.3g} too large to compute with", row=int(row) + 1, column=CANONICAL_COLUMNS[col + 1]
+        )
     if len(data) < MIN_SAMPLES:
         raise BadInputError(path, f"only {len(data)} samples (at least {MIN_SAMPLES} are needed)")
     steps = np.diff(data[:, 0])
