@@ -11,7 +11,8 @@ export OPENBLAS_NUM_THREADS ?= 1
 demo: $(INSTALLED)
 	$(BIN)/grasptask pipeline run pipelines/demo.yaml
 
-# the paper reproduction: 3 x 126 synthesis starts, their physics check and export (12 min on 2 cores), report checked in Chromium
+# the paper reproduction: 3 x 126 synthesis starts, their physics check and export, report checked in Chromium
+# (the runner prints the time it took at the end; README: Two commands)
 paper: $(INSTALLED) setup-browser
 	$(BIN)/grasptask pipeline run pipelines/paper.yaml
 

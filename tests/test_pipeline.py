@@ -92,3 +92,12 @@ def test_bundled_pipelines_parse_and_end_with_the_report(name, cli):
             grasp = "grasp_paper.yaml" if name == "paper" else "grasp.yaml"  # the paper's model has no margin
             for config in [*read[stage.run[0]], grasp, "hands/human.yaml", "objects/tool.yaml"]:
                 assert f"configs/{config}" in names, (stage.name, config)
+
+
+def test_a_run_ends_with_the_time_it_took(tmp_path, recording_factory):
+    """`make demo` and `make paper` print their time, so that the docs need quote none that goes stale."""
+    recording_factory("rec.csv")
+    spec = load_pipeline(write_pipeline(tmp_path, tmp_path))
+    messages: list[str] = []
+    run_pipeline(spec, run_stage, echo=messages.append)
+    assert messages[-1].startswith("pipeline t: 2 stages ran, 0 skipped, in ") and messages[-1].endswith(" min")

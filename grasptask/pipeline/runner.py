@@ -198,11 +198,19 @@ def run_pipeline(
     if running in _RUNNING:
         raise BadInputError(spec.path, "a stage runs this pipeline again: a pipeline cannot run itself")
     _RUNNING.add(running)
+    began = time.perf_counter()
     try:
         with folder_lock(spec.state_path, f"pipeline run {spec.path}"):
-            return _run_locked(spec, runner, force, dry_run, echo)
+            outcome = _run_locked(spec, runner, force, dry_run, echo)
     finally:
         _RUNNING.discard(running)
+    if not dry_run:  # the one place a run's time is stated (the docs quote none)
+        minutes = (time.perf_counter() - began) / 60
+        echo(
+            f"pipeline {spec.name}: {len(outcome.ran)} stages ran, {len(outcome.skipped)} skipped, "
+            f"in {minutes:.1f} min" + (f"; stopped at '{outcome.failed}'" if outcome.failed else "")
+        )
+    return outcome
 
 
 def _run_locked(
