@@ -581,6 +581,8 @@ def report(results_dir, out, check_browser, screenshot, view_screenshot):
     if check_browser and stages.find_chromium() is None:
         raise BadInputError("chromium", "not installed (apt-get install chromium chromium-driver)")
     summary = stages.build_report(results_dir, out)
+    for line in summary.found:
+        click.echo(f"found {line}")
     for note in summary.notes:
         click.echo(f"note: {note}")
     size = summary.index.stat().st_size / 1e6

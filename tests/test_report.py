@@ -213,3 +213,28 @@ def test_a_missing_chromium_is_said_before_the_report_is_built(cli, simulated, t
     result = cli("report", "--results", results, "--check-browser")
     assert result.exit_code == 2 and "chromium" in result.output and "not installed" in result.output
     assert not (results / "report").exists()
+
+
+def test_a_report_on_a_bare_synthesize_folder_names_the_hand_and_the_object(cli, simulated, tmp_path):
+    """`synthesize --out X` writes X/<task>/: the report found nothing there ('0 figures', exit 0)."""
+    import shutil
+
+    results = results_with_tasks(simulated, tmp_path / "results")
+    ball_sweep(results)
+    bare = tmp_path / "bare"
+    shutil.copytree(results / "grasps", bare)
+    result = cli("report", "--results", bare)
+    assert result.exit_code == 0, result.output
+    assert f"found sweep of drawing: {bare / 'drawing'}" in result.output
+    assert f"found task models: {results / 'tasks' / 'task_models.json'}" in result.output
+    page = (bare / "report" / "index.html").read_text()
+    assert "Hand human" in page and "on object ball" in page and "drawing: synthesized" in page
+    report = json.loads((bare / "report" / "report.json").read_text())
+    assert any(name.startswith("grasp_drawing") for name in report["figures"])
+
+
+def test_a_folder_with_nothing_to_report_is_one_line(cli, tmp_path):
+    (tmp_path / "empty" / "notes").mkdir(parents=True)
+    result = cli("report", "--results", tmp_path / "empty")
+    assert result.exit_code == 2 and "holds nothing to report" in result.output
+    assert len(result.output.strip().splitlines()) == 1 and not (tmp_path / "empty" / "report").exists()

@@ -37,7 +37,13 @@ class SweepResult:
 
 @dataclass(frozen=True)
 class ResultsFolder:
+    """A folder of results as the pipelines lay it out (``recordings/``, ``tasks/``, ``grasps/<task>/``,
+    ``physics/<task>/``), or any folder holding sweeps at any depth (``synthesize --out X`` writes ``X/<task>/``):
+    the task models are then the ones the sweeps' ``run.json`` names."""
+
     root: Path
+    #: the task models when ``tasks/task_models.json`` is not there (None: that path, missing)
+    models: Path | None = None
 
     @property
     def manifest(self) -> Path:
@@ -53,7 +59,8 @@ class ResultsFolder:
 
     @property
     def task_models(self) -> Path:
-        return self.root / "tasks" / "task_models.json"
+        laid_out = self.root / "tasks" / "task_models.json"
+        return laid_out if laid_out.is_file() or self.models is None else self.models
 
     @property
     def distances(self) -> Path:
@@ -72,11 +79,29 @@ class ResultsFolder:
         return self.root / "physics"
 
     def _task_folders_with(self, name: str) -> list[Path]:
-        return sorted(p.parent for p in self.grasps.glob(f"*/{name}")) if self.grasps.is_dir() else []
+        """The folders under the root holding ``name`` beside a sweep's log or table, at any depth (not in hidden
+        folders: a stage's staging folder)."""
+        found = []
+        for path in self.root.rglob(name):
+            inside = path.parent.relative_to(self.root).parts
+            if any(part.startswith(".") for part in inside):
+                continue
+            if any((path.parent / kept).is_file() for kept in ("solutions.parquet", "solutions.jsonl")):
+                found.append(path.parent)
+        return sorted(found)
 
     def sweep_folders(self) -> list[Path]:
-        """Task folders under ``grasps/`` that a sweep has finished (they have ``run.json``)."""
+        """The folders that a sweep has finished (``run.json`` beside its solutions), at any depth."""
         return self._task_folders_with("run.json")
+
+    def physics_folders(self) -> list[Path]:
+        """Folders of ``grasptask physics`` under the root (``physics_summary.json`` not beside a sweep)."""
+        found = [p.parent for p in self.root.rglob("physics_summary.json")]
+        return sorted(f for f in found if not (f / "run.json").is_file() and not _hidden(f, self.root))
+
+    def holds_anything(self) -> bool:
+        laid_out = (self.manifest, self.stats, self.ellipsoids, self.task_models, self.distances)
+        return bool(self.sweep_folders() or self.unfinished_sweeps() or any(p.is_file() for p in laid_out))
 
     def unfinished_sweeps(self) -> list[Path]:
         """Task folders whose per-start log holds rows that no summary includes: a sweep interrupted or still
@@ -92,11 +117,29 @@ class ResultsFolder:
         return unfinished
 
 
+def _hidden(folder: Path, root: Path) -> bool:
+    return any(part.startswith(".") for part in folder.relative_to(root).parts)
+
+
 def find_results(root: str | Path) -> ResultsFolder:
+    """``root`` as results; a folder that holds nothing a report shows is one line."""
     root = Path(root)
     if not root.is_dir():
         raise BadInputError(root, "results folder not found")
-    return ResultsFolder(root)
+    results = ResultsFolder(root)
+    if not results.task_models.is_file():  # a synthesize --out folder: the models its sweeps were made for
+        for folder in results.sweep_folders():
+            named = read_json(folder / "run.json").get("tasks")
+            if isinstance(named, str) and Path(named).is_file():
+                results = ResultsFolder(root, Path(named))
+                break
+    if not results.holds_anything():
+        raise BadInputError(
+            root,
+            "holds nothing to report: no sweep (<task>/run.json beside solutions.parquet, at any depth), task "
+            "models, ellipsoids or recordings",
+        )
+    return results
 
 
 #: what the report reads of run.json, and the types it must have
@@ -157,6 +200,13 @@ def read_physics(results: ResultsFolder, sweep: SweepResult) -> PhysicsOutcome |
     from grasptask.stages.physics import TRACE_COLUMNS
 
     folders = [results.physics / sweep.folder.name]
+    for folder in results.physics_folders():  # wherever `grasptask physics --out` put it, for this task
+        try:
+            task = json.loads((folder / "physics_summary.json").read_text()).get("task")
+        except (OSError, ValueError, AttributeError):
+            task = None
+        if task == sweep.task and folder not in folders:
+            folders.append(folder)
     if sweep.run.get("physics_config"):  # this sweep ran synthesize --physics, not an earlier one
         folders.append(sweep.folder)
     for folder in folders:

@@ -4,14 +4,15 @@ results folder, each beside the paper's figures, written all at once or not at a
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 from grasptask import __version__
+from grasptask.errors import BadInputError
 from grasptask.hand.model import Hand
 from grasptask.io.artifacts import Provenance, StagedOutput
 from grasptask.io.reference import PaperSynthesis, read_paper_synthesis
-from grasptask.report.inputs import SweepResult, find_results, read_sweep
+from grasptask.report.inputs import ResultsFolder, SweepResult, find_results, read_sweep
 from grasptask.report.page import Section, render_html
 from grasptask.report.sections import (
     Writer,
@@ -34,6 +35,8 @@ class ReportSummary:
     tables: int
     notes: list[str]
     seconds: float
+    #: what the report was made from, one line each
+    found: list[str] = field(default_factory=list)
 
 
 def build_report(results_dir: str | Path, out: str | Path) -> ReportSummary:
@@ -43,18 +46,26 @@ def build_report(results_dir: str | Path, out: str | Path) -> ReportSummary:
     results = find_results(results_dir)
     sweeps: dict[str, SweepResult] = {}
     hands: dict[Path, Hand] = {}
+    who: dict[str, str] = {}
     for folder in results.sweep_folders():
         sweep = read_sweep(folder)
-        sweep_hand(sweep, hands)  # a table of another hand is one line now, not after minutes of figures
+        hand, _ = sweep_hand(sweep, hands)  # a table of another hand is one line now, not after minutes of figures
+        if sweep.task in sweeps:
+            raise BadInputError(
+                folder / "run.json",
+                f"a second sweep of task '{sweep.task}' (the first: {sweeps[sweep.task].folder}); report one folder",
+            )
         sweeps[sweep.task] = sweep
+        who[sweep.task] = hand.name
     sweeps = {task: sweeps[task] for task in sorted(sweeps, key=task_order)}
+    found = _found(results, sweeps)
     inputs = [
         p
         for p in (results.stats, results.ellipsoids, results.task_models, results.distances, results.distance_summary)
         if p.is_file()
     ]
     inputs += [s.folder / "run.json" for s in sweeps.values()]
-    inputs += sorted(results.physics.glob("*/physics_summary.json")) if results.physics.is_dir() else []
+    inputs += [folder / "physics_summary.json" for folder in results.physics_folders()]
     provenance = Provenance.of("report", {"results": str(results_dir)}, inputs)
     with StagedOutput(out, provenance) as staged:
         writer = Writer(staged)
@@ -66,7 +77,7 @@ def build_report(results_dir: str | Path, out: str | Path) -> ReportSummary:
         sections.append(grasps_section(results, sweeps, paper, writer))
         sections.append(physics_section(results, sweeps, writer))
         notes = [f"{s.title}: {n}" for s in sections for n in s.notes]
-        summary_lines = _summary_lines(sweeps, sections, paper)
+        summary_lines = _identity_lines(sweeps, who) + _summary_lines(sweeps, sections, paper)
         page = render_html(
             "grasptask report",
             f"results: {Path(results_dir).resolve()}; grasptask {__version__}; built {time.strftime('%Y-%m-%d %H:%M')}",
@@ -86,7 +97,35 @@ def build_report(results_dir: str | Path, out: str | Path) -> ReportSummary:
         )
     index = Path(out) / "index.html"
     seconds = time.perf_counter() - start
-    return ReportSummary(index, len(writer.figures), len(writer.views), len(writer.tables), notes, seconds)
+    return ReportSummary(index, len(writer.figures), len(writer.views), len(writer.tables), notes, seconds, found)
+
+
+def _found(results: ResultsFolder, sweeps: dict[str, SweepResult]) -> list[str]:
+    """What the report is made of, one line each, as the command says it."""
+    lines = [f"sweep of {task}: {sweep.folder}" for task, sweep in sweeps.items()]
+    lines += [f"unfinished sweep: {folder}" for folder in results.unfinished_sweeps()]
+    for label, path in (("task models", results.task_models), ("ellipsoids", results.ellipsoids)):
+        if path.is_file():
+            lines.append(f"{label}: {path}")
+    lines += [f"physics: {folder}" for folder in results.physics_folders()]
+    return lines
+
+
+def _identity_lines(sweeps: dict[str, SweepResult], hands: dict[str, str]) -> list[str]:
+    """The top of the page: which hand grasped which object for which tasks, and when and how each was run."""
+    groups: dict[tuple[str, str], list[str]] = {}
+    for task, sweep in sweeps.items():
+        obj = Path(str(sweep.run.get("object", "?")))
+        groups.setdefault((f"{hands[task]} ({sweep.run.get('hand', '?')})", f"{obj.stem} ({obj})"), []).append(task)
+    lines = [f"Hand {hand} on object {obj}: {', '.join(tasks)}" for (hand, obj), tasks in groups.items()]
+    for task, sweep in sweeps.items():
+        run, made = sweep.run, (sweep.folder / "run.json").stat().st_mtime
+        lines.append(
+            f"{task}: synthesized {time.strftime('%Y-%m-%d %H:%M', time.localtime(made))}, {run.get('starts', '?')} "
+            f"starts, {run.get('backend', '?')} on {run.get('executor', '?')} x {run.get('workers', '?')}, grasp "
+            f"config {Path(str(run.get('grasp_config', '?'))).name}, in {sweep.folder}"
+        )
+    return lines
 
 
 def _summary_lines(sweeps: dict[str, SweepResult], sections: list[Section], paper: PaperSynthesis) -> list[str]:
