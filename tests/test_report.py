@@ -74,9 +74,9 @@ def test_report_with_a_sweep_renders_every_optimum(full_report):
     figures = {p.name for p in (out / "figures").iterdir()}
     assert {"grasp_drawing_00.png", "synthesis_sweeps.png"} <= figures
     quality = (out / "tables" / "grasp_quality.md").read_text()
-    assert "drawing" in quality and "0.37, 9.7" in quality  # the paper's Table 11 values beside ours
+    assert "drawing" in quality and "0.37, 9.7" not in quality  # a ball is not the paper's tool: no Table 11
     sweeps = (out / "tables" / "synthesis_sweeps.md").read_text()
-    assert "459 +- 186" in sweeps and "2 (67%; 0 on a retry)" in sweeps
+    assert "459 +- 186" not in sweeps and "2 (67%; 0 on a retry)" in sweeps
     assert any("cutting" in note and "--resume" in note for note in summary.notes)
     report = json.loads((out / "report.json").read_text())
     assert len(report["figures"]) == summary.figures == len(figures)
@@ -238,3 +238,19 @@ def test_a_folder_with_nothing_to_report_is_one_line(cli, tmp_path):
     result = cli("report", "--results", tmp_path / "empty")
     assert result.exit_code == 2 and "holds nothing to report" in result.output
     assert len(result.output.strip().splitlines()) == 1 and not (tmp_path / "empty" / "report").exists()
+
+
+def test_the_paper_is_compared_only_on_its_own_setup(full_report):
+    """A ball's Q beside the paper's tool's said nothing: no paper column for another object."""
+    from grasptask.paths import DEFAULT_HAND, DEFAULT_OBJECT
+    from grasptask.report.inputs import SweepResult
+
+    results, summary = full_report
+    tables = results / "report" / "tables"
+    header = [(tables / f"{name}.md").read_text().splitlines()[2] for name in ("grasp_quality", "synthesis_sweeps")]
+    assert all("|" in line and "paper" not in line for line in header)
+    run = {"hand": str(DEFAULT_HAND), "object": str(DEFAULT_OBJECT)}
+    empty = pd.DataFrame()
+    assert SweepResult("drawing", results, run, empty, empty).paper_setup
+    assert not SweepResult("juggling", results, run, empty, empty).paper_setup
+    assert not SweepResult("drawing", results, {**run, "object": "ball.yaml"}, empty, empty).paper_setup

@@ -34,6 +34,17 @@ class SweepResult:
     solutions: pd.DataFrame
     optima: pd.DataFrame
 
+    @property
+    def paper_setup(self) -> bool:
+        """Whether the paper's figures apply: one of its tasks, by the human hand, on its tool. A sugar box's Q
+        beside the paper's tool's says nothing."""
+        from grasptask.paths import DEFAULT_HAND, DEFAULT_OBJECT
+
+        hand, obj = Path(str(self.run.get("hand", ""))), Path(str(self.run.get("object", "")))
+        human = hand.parent.resolve() == DEFAULT_HAND.parent.resolve() and hand.name.startswith("human")
+        tool = obj.is_file() and obj.resolve() == DEFAULT_OBJECT.resolve()
+        return self.task in ("drawing", "cutting", "screwdriving") and human and tool
+
 
 @dataclass(frozen=True)
 class ResultsFolder:

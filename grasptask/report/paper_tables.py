@@ -126,24 +126,32 @@ def sweep_table(sweeps: dict, paper: PaperSynthesis) -> pd.DataFrame:
                 "statuses": ", ".join(f"{s} {n}" for s, n in statuses.items()),
                 "verified": f"{int(verified.sum())} ({verified.mean():.0%}; {on_retry} on a retry)",
                 "distinct optima": len(sweep.optima),
-                "paper optima": paper.optima.get(task),
+                "paper optima": paper.optima.get(task) if sweep.paper_setup else None,
                 "median strength margin": _median(sweep.solutions, verified, "verify_strength_margin"),
                 "median friction needed": _median(sweep.solutions, verified, "verify_friction_margin"),
                 "median s/start": round(float(seconds.median()), 2),
                 "p90 s/start": round(float(np.percentile(seconds, 90)), 2),
                 "mean +- sd s/start": f"{seconds.mean():.1f} +- {seconds.std(ddof=1) if len(seconds) > 1 else 0:.1f}",
-                "paper s/solution": f"{paper.mean_s:.0f} +- {paper.sd_s:.0f}",
-                "paper mean / our median": round(paper.mean_s / float(seconds.median()), 1),
+                "paper s/solution": f"{paper.mean_s:.0f} +- {paper.sd_s:.0f}" if sweep.paper_setup else None,
+                "paper mean / our median": round(paper.mean_s / float(seconds.median()), 1)
+                if sweep.paper_setup
+                else None,
             }
         )
-    return pd.DataFrame(rows)
+    return _without_empty_paper_columns(pd.DataFrame(rows))
+
+
+def _without_empty_paper_columns(table: pd.DataFrame) -> pd.DataFrame:
+    """The paper's columns only where a row is of the paper's own setup (the human hand, its tool, its tasks)."""
+    empty = [c for c in table.columns if "paper" in c and table[c].isna().all()]
+    return table.drop(columns=empty).fillna({c: "-" for c in table.columns if "paper" in c and c not in empty})
 
 
 def quality_table(sweeps: dict, paper: PaperSynthesis) -> pd.DataFrame:
     """Tables 11-12: the Q of every distinct optimum (best first), with the values the paper shows."""
     rows = []
     for task, sweep in sweeps.items():
-        shown = ", ".join(f"{v:g}" for v in paper.quality_shown.get(task, [])) or "-"
+        shown = ", ".join(f"{v:g}" for v in paper.quality_shown.get(task, [])) or "-" if sweep.paper_setup else None
         for _, optimum in sweep.optima.iterrows():
             rows.append(
                 {
@@ -158,4 +166,4 @@ def quality_table(sweeps: dict, paper: PaperSynthesis) -> pd.DataFrame:
                     "Q shown in the paper": shown,
                 }
             )
-    return pd.DataFrame(rows)
+    return _without_empty_paper_columns(pd.DataFrame(rows))

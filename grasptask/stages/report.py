@@ -135,7 +135,8 @@ def _summary_lines(sweeps: dict[str, SweepResult], sections: list[Section], pape
         best = f"best Q {sweep.optima['Q'].min():.4g}" if len(sweep.optima) else "no grasp found"
         lines.append(
             f"{task}: {int(solutions['verified'].sum())}/{len(solutions)} starts verified, {len(sweep.optima)} "
-            f"distinct optima, {best}, median {solutions['seconds'].median():.1f} s per start (paper: {paper.seconds})"
+            f"distinct optima, {best}, median {solutions['seconds'].median():.1f} s per start"
+            + (f" (paper: {paper.seconds})" if sweep.paper_setup else "")
         )
     missing = [s.title for s in sections if not s.made]
     if missing:
