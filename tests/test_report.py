@@ -254,3 +254,14 @@ def test_the_paper_is_compared_only_on_its_own_setup(full_report):
     assert SweepResult("drawing", results, run, empty, empty).paper_setup
     assert not SweepResult("juggling", results, run, empty, empty).paper_setup
     assert not SweepResult("drawing", results, {**run, "object": "ball.yaml"}, empty, empty).paper_setup
+
+
+def test_a_grasp_has_one_q_in_its_view_and_its_table(full_report):
+    """A view's title said Q = 0.01007 (the NLP's) and its subtitle Q 0.005094 (the verifier's)."""
+    results, _ = full_report
+    page = (results / "report" / "index.html").read_text()
+    shown = set(re.findall(r"optimum 0: Q = ([0-9.e-]+)", page)) | set(re.findall(r"Q ([0-9.e-]+), epsilon", page))
+    table = (results / "report" / "tables" / "grasp_quality.md").read_text().splitlines()
+    row = next(line for line in table if line.startswith("| drawing"))
+    assert shown == {row.split("|")[3].strip()}, (shown, row)
+    assert "lower is better" in page

@@ -15,7 +15,9 @@ from __future__ import annotations
 import json
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
+import numpy as np
 import pandas as pd
 
 from grasptask.errors import BadInputError
@@ -175,8 +177,17 @@ def read_sweep(folder: Path) -> SweepResult:
     _check_numbers(folder / "solutions.parquet", solutions, ["seconds"], missing_ok=True)
     optima = read_table(folder / "optima.parquet")
     numeric = [c for c in optima.columns if c.startswith(("palm_", "q_", "contact_", "normal_")) or c == "Q"]
+    numeric += ["verify_Q"] if "verify_Q" in optima.columns else []
     _check_numbers(folder / "optima.parquet", optima, numeric, missing_ok=False)
     return SweepResult(str(run.get("task", folder.name)), folder, run, solutions, optima)
+
+
+def verifier_q(optimum: Any) -> float:
+    """The verifier's Q of an optimum (a row of ``optima.parquet``) as synthesis recorded it, the NLP's own where
+    an older table has no ``verify_Q``: one Q in every title and table, not the NLP's in one and the verifier's
+    in another."""
+    value = optimum.get("verify_Q")
+    return float(value) if value is not None and np.isfinite(value) else float(optimum["Q"])
 
 
 def _check_numbers(path: Path, table: pd.DataFrame, columns: list[str], missing_ok: bool) -> None:

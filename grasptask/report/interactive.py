@@ -94,7 +94,7 @@ def grasp_view(
         traces.append(_mesh_trace(finger.mesh, finger.colour, name, 0.55, hoverinfo="skip", legendgroup=group))
         traces.append(_line(finger.chain, finger.colour, f"{name} links", showlegend=False, legendgroup=group))
     summary = (
-        f"Q {verification.Q:.4g}, epsilon {verification.epsilon:.3g}, peak activation "
+        f"Q {verification.Q:.3g}, epsilon {verification.epsilon:.3g}, peak activation "
         f"{verification.torque_effort:.3g}, strength margin {verification.strength_margin:.3g}, friction needed "
         f"{verification.friction_margin:.3g}, clearance {verification.min_clearance_m * 1e3:.2f} mm, penetration "
         f"{verification.penetration_m * 1e3:.2f} mm, "

@@ -10,6 +10,7 @@ import pandas as pd
 
 from grasptask.io.reference import PaperSynthesis
 from grasptask.io.solutions import retried
+from grasptask.report.inputs import verifier_q
 from grasptask.task.stats import compare_with_reference
 
 DRAWING_GROUPS = ("drawing_tripod", "drawing_cylindrical", "drawing_power")
@@ -147,8 +148,9 @@ def _without_empty_paper_columns(table: pd.DataFrame) -> pd.DataFrame:
     return table.drop(columns=empty).fillna({c: "-" for c in table.columns if "paper" in c and c not in empty})
 
 
-def quality_table(sweeps: dict, paper: PaperSynthesis) -> pd.DataFrame:
-    """Tables 11-12: the Q of every distinct optimum (best first), with the values the paper shows."""
+def quality_table(sweeps: dict, paper: PaperSynthesis, shown_q: dict | None = None) -> pd.DataFrame:
+    """Tables 11-12: the Q of every distinct optimum (best first), with the values the paper shows. ``shown_q``:
+    the Q the report's views show, by (task, optimum), where the verifier was run again."""
     rows = []
     for task, sweep in sweeps.items():
         shown = ", ".join(f"{v:g}" for v in paper.quality_shown.get(task, [])) or "-" if sweep.paper_setup else None
@@ -157,7 +159,7 @@ def quality_table(sweeps: dict, paper: PaperSynthesis) -> pd.DataFrame:
                 {
                     "task": task,
                     "optimum": int(optimum["optimum_id"]),
-                    "Q": round(float(optimum["Q"]), 4),
+                    "Q": (shown_q or {}).get((task, int(optimum["optimum_id"])), verifier_q(optimum)),
                     "starts reaching it": int(optimum["members"]),
                     "epsilon": round(float(optimum.get("verify_epsilon", np.nan)), 4),
                     "torque effort": round(float(optimum.get("verify_torque_effort", np.nan)), 3),

@@ -16,7 +16,7 @@ from grasptask.io.reference import PaperSynthesis
 from grasptask.paths import DEFAULT_GRASP_CONFIG, DEFAULT_HAND, DEFAULT_OBJECT, PAPER_ELLIPSOID_TABLES, ROOT
 from grasptask.progress import progress
 from grasptask.report import paper_tables
-from grasptask.report.inputs import PhysicsOutcome, ResultsFolder, SweepResult
+from grasptask.report.inputs import PhysicsOutcome, ResultsFolder, SweepResult, verifier_q
 from grasptask.report.page import Figure, Note, Section, Table, View, markdown
 
 
@@ -197,6 +197,13 @@ def _reference_path(path: str, fallback: Path) -> Path:
     return fallback
 
 
+#: the one sentence that says what the report's Q is
+Q_MEANING = (
+    "Q (eq. 12) is the sum, over the task's wrench axes, of the squared joint torques each asks of the hand at "
+    "this grasp, as the verifier computes it: lower is better."
+)
+
+
 def sweep_hand(sweep: SweepResult, hands: dict[Path, Hand]) -> tuple[Hand, list[str]]:
     """The grasping hand of ``sweep`` (its ``run.json``'s hand and fingers) and its fingers; a table that is
     not that hand's (a BarrettHand's optima under a human ``run.json``) is one line. ``hands`` caches loads."""
@@ -285,19 +292,12 @@ def grasps_section(
         "Synthesized grasps: every distinct optimum (Tables 11-12, Figure 11)",
         "Each distinct verified optimum from two viewpoints: thumb orange, index green, middle purple; red crosses "
         "and lines are the contact points and their friction cones; the arrows from the task frame's origin (where "
-        "the task's torques act) show its main wrench axis (force magenta, torque black). Q is eq. 12 (lower is "
-        "better).",
+        "the task's torques act) show its main wrench axis (force magenta, torque black). " + Q_MEANING,
     )
     if not sweeps:
         section.blocks.append(_no_sweeps(results))
         return section
-    section.blocks.append(
-        writer.table(
-            "grasp_quality",
-            "Q of every distinct optimum (beside the values the paper's Tables 11-12 show, for its own setup)",
-            paper_tables.quality_table(sweeps, paper),
-        )
-    )
+    shown_q: dict[tuple[str, int], float] = {}  # the Q each view shows, so that the table shows the same
     task_models = load_task_models(results.task_models) if results.task_models.is_file() else {}
     objects: dict[Path, tuple] = {}
     hands: dict[Path, Hand] = {}
@@ -321,9 +321,11 @@ def grasps_section(
             path = writer.figure(f"grasp_{file_stem(task)}_{number:02d}")
             contacts = contacts_from_row(optimum, fingers)
             normals = normals_from_row(optimum, fingers)
-            title = f"{task}, optimum {number}: Q = {optimum['Q']:.4g} ({int(optimum['members'])} starts)"
-            if task in task_models:
-                check = verify(grasp, hand, obj, task_models[task], settings)
+            check = verify(grasp, hand, obj, task_models[task], settings) if task in task_models else None
+            quality = check.Q if check is not None else verifier_q(optimum)
+            shown_q[task, number] = quality
+            title = f"{task}, optimum {number}: Q = {quality:.3g} ({int(optimum['members'])} starts)"  # as tables
+            if check is not None:
                 scene = grasp_scene(
                     hand, view_mesh, grasp, check.contacts, check.normals, settings.friction_coefficient
                 )
@@ -350,6 +352,12 @@ def grasps_section(
             section.blocks.append(Figure(path, f"{title}: two fixed viewpoints (for print)"))
     if not task_models:
         section.blocks.append(Note(f"no task models at {results.task_models}: the grasps have no interactive views"))
+    table = writer.table(
+        "grasp_quality",
+        "Q of every distinct optimum (beside the values the paper's Tables 11-12 show, for its own setup)",
+        paper_tables.quality_table(sweeps, paper, shown_q),
+    )
+    section.blocks.insert(0, table)
     return section
 
 

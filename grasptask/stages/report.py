@@ -12,7 +12,7 @@ from grasptask.errors import BadInputError
 from grasptask.hand.model import Hand
 from grasptask.io.artifacts import Provenance, StagedOutput
 from grasptask.io.reference import PaperSynthesis, read_paper_synthesis
-from grasptask.report.inputs import ResultsFolder, SweepResult, find_results, read_sweep
+from grasptask.report.inputs import ResultsFolder, SweepResult, find_results, read_sweep, verifier_q
 from grasptask.report.page import Section, render_html
 from grasptask.report.sections import (
     Writer,
@@ -132,7 +132,8 @@ def _summary_lines(sweeps: dict[str, SweepResult], sections: list[Section], pape
     lines = [s.summary for s in sections if s.summary]
     for task, sweep in sweeps.items():
         solutions = sweep.solutions
-        best = f"best Q {sweep.optima['Q'].min():.4g}" if len(sweep.optima) else "no grasp found"
+        quality = [verifier_q(row) for _, row in sweep.optima.iterrows()]
+        best = f"best Q {min(quality):.4g}" if quality else "no grasp found"
         lines.append(
             f"{task}: {int(solutions['verified'].sum())}/{len(solutions)} starts verified, {len(sweep.optima)} "
             f"distinct optima, {best}, median {solutions['seconds'].median():.1f} s per start"
