@@ -90,8 +90,8 @@ def test_report_views_are_inlined_once_and_share_the_object(full_report):
     results, summary = full_report
     page = (results / "report" / "index.html").read_text()
     report = json.loads((results / "report" / "report.json").read_text())
-    assert report["views"] == [f"view-ellipsoids_{t}" for t in ("drawing", "cutting", "screwdriving")] + [
-        "view-grasp_drawing_00"
+    assert report["views"] == ["view-grasp_drawing_00"] + [  # the user's grasps first
+        f"view-ellipsoids_{t}" for t in ("drawing", "cutting", "screwdriving")
     ]
     assert summary.views == 4 and page.count('<div class="view"') == 4
     assert page.count(get_plotlyjs()[:200]) == 1
@@ -265,3 +265,13 @@ def test_a_grasp_has_one_q_in_its_view_and_its_table(full_report):
     row = next(line for line in table if line.startswith("| drawing"))
     assert shown == {row.split("|")[3].strip()}, (shown, row)
     assert "lower is better" in page
+
+
+def test_the_page_opens_with_the_users_grasps_and_ends_with_the_papers_tables(full_report):
+    """The grasps came 10,000 px down, after the paper's Tables 1-10."""
+    results, _ = full_report
+    page = (results / "report" / "index.html").read_text()
+    headings = re.findall(r'<section id="([a-z_-]+)"', page)
+    assert headings[0] == "grasps" and headings[-1] == "tables", headings
+    card = page.index("DRAWING: 2 of 3 starts verified")
+    assert card < page.index('id="view-grasp_drawing_00"') < page.index('<section id="tables"')

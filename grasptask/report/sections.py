@@ -283,14 +283,16 @@ def grasps_section(
     from grasptask.grasp.verify import verify
     from grasptask.io.solutions import contacts_from_row, grasp_from_row, normals_from_row
     from grasptask.objects import load_object
+    from grasptask.report.inputs import read_physics
     from grasptask.report.interactive import HEIGHT, grasp_view
     from grasptask.report.render import display_mesh, render_grasp
     from grasptask.task.model import load_task_models
 
     section = Section(
         "grasps",
-        "Synthesized grasps: every distinct optimum (Tables 11-12, Figure 11)",
-        "Each distinct verified optimum from two viewpoints: thumb orange, index green, middle purple; red crosses "
+        "Your grasps: per task, its best grasp first, then every other distinct optimum",
+        "Per task, a line of its figures, then each distinct verified optimum, best first, as an interactive view "
+        "and from two viewpoints: thumb orange, index green, middle purple; red crosses "
         "and lines are the contact points and their friction cones; the arrows from the task frame's origin (where "
         "the task's torques act) show its main wrench axis (force magenta, torque black). " + Q_MEANING,
     )
@@ -305,6 +307,7 @@ def grasps_section(
         if sweep.optima.empty:
             section.blocks.append(Note(f"{task}: no verified grasp among {len(sweep.solutions)} starts"))
             continue
+        section.blocks.append(Note(_task_card(task, sweep, read_physics(results, sweep))))
         run = sweep.run
         object_path = _reference_path(run.get("object", ""), DEFAULT_OBJECT)
         settings = load_grasp_settings(_reference_path(run.get("grasp_config", ""), DEFAULT_GRASP_CONFIG))
@@ -357,8 +360,24 @@ def grasps_section(
         "Q of every distinct optimum (beside the values the paper's Tables 11-12 show, for its own setup)",
         paper_tables.quality_table(sweeps, paper, shown_q),
     )
-    section.blocks.insert(0, table)
+    section.blocks.append(table)
     return section
+
+
+def _task_card(task: str, sweep: SweepResult, physics: PhysicsOutcome | None) -> str:
+    """One line of a task's results, at the head of its grasps: what a colleague asks first."""
+    solutions = sweep.solutions
+    verified = int(solutions["verified"].sum())
+    held = "not checked in physics"
+    if physics is not None:
+        both, checked = physics.summary["agreement"]["verified_and_held"], int(physics.summary["verified"])
+        held = f"{both} of {checked} verified held in physics"
+    best = min(verifier_q(row) for _, row in sweep.optima.iterrows())
+    seconds = solutions["seconds"].astype(float).median()
+    return (
+        f"{task.upper()}: {verified} of {len(solutions)} starts verified, {len(sweep.optima)} distinct optima, "
+        f"{held}; best Q {best:.3g}; {seconds:.2f} s per start (median)"
+    )
 
 
 #: the object's picture in an interactive view, in triangles: smooth enough to turn, small enough that 40 views

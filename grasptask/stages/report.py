@@ -69,13 +69,17 @@ def build_report(results_dir: str | Path, out: str | Path) -> ReportSummary:
     provenance = Provenance.of("report", {"results": str(results_dir)}, inputs)
     with StagedOutput(out, provenance) as staged:
         writer = Writer(staged)
-        sections = [
-            make(results, writer) for make in (ellipsoid_tables_section, ellipsoid_figures_section, distances_section)
-        ]
         paper = read_paper_synthesis()
-        sections.append(sweeps_section(results, sweeps, paper, writer))
-        sections.append(grasps_section(results, sweeps, paper, writer))
-        sections.append(physics_section(results, sweeps, writer))
+        # the user's results first: their grasps, how they held, how the sweeps went; the tasks' ellipsoids
+        # next, and the paper's Tables 1-10 last
+        sections = [
+            grasps_section(results, sweeps, paper, writer),
+            physics_section(results, sweeps, writer),
+            sweeps_section(results, sweeps, paper, writer),
+        ]
+        sections += [
+            make(results, writer) for make in (ellipsoid_figures_section, distances_section, ellipsoid_tables_section)
+        ]
         notes = [f"{s.title}: {n}" for s in sections for n in s.notes]
         summary_lines = _identity_lines(sweeps, who) + _summary_lines(sweeps, sections, paper)
         page = render_html(
