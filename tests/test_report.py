@@ -275,3 +275,36 @@ def test_the_page_opens_with_the_users_grasps_and_ends_with_the_papers_tables(fu
     assert headings[0] == "grasps" and headings[-1] == "tables", headings
     card = page.index("DRAWING: 2 of 3 starts verified")
     assert card < page.index('id="view-grasp_drawing_00"') < page.index('<section id="tables"')
+
+
+def test_the_browser_check_finds_a_scene_the_camera_crops():
+    """A view whose object runs into the plot area's border fails the check (a sugar box's top was cut off)."""
+    import io
+
+    import matplotlib.pyplot as plt
+    import numpy as np
+
+    from grasptask.report.browser import MAX_EDGE_PIXELS, _edge_pixels
+
+    def png(top: int) -> bytes:
+        image = np.ones((200, 300, 3))
+        image[top:150, 100:200] = 0.6  # the object's grey
+        image[120:140, 120:140] = (0.9, 0.5, 0.1)  # a finger
+        buffer = io.BytesIO()
+        plt.imsave(buffer, image, format="png")
+        return buffer.getvalue()
+
+    area = {"l": 0, "t": 20, "w": 300, "h": 180}
+    assert _edge_pixels(png(60), area) == 0
+    assert _edge_pixels(png(0), area) > MAX_EDGE_PIXELS
+
+
+def test_a_view_fits_a_tall_scene_with_the_camera_farther_away():
+    import numpy as np
+
+    from grasptask.report.interactive import DEFAULT_EYE, fitted_camera
+
+    cube = np.array([[0, 0, 0], [1, 1, 1]], dtype=float)
+    tall = np.array([[0, 0, 0], [0.4, 0.4, 2.0]])
+    assert fitted_camera(cube)["eye"]["z"] == DEFAULT_EYE[2]
+    assert fitted_camera(tall)["eye"]["z"] > 1.3 * DEFAULT_EYE[2]

@@ -13,6 +13,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from grasptask.errors import BadInputError
 from grasptask.io.locking import make_owned_folder, remove_stale_folders
 from grasptask.io.orphans import Reaper
@@ -36,6 +38,9 @@ FLAGS = (
 
 #: the longest a page may take to be ready, and a view to draw once in sight (s)
 READY_S = 5.0
+#: a view's border band (px) that its scene must stay out of, and the drawn pixels tolerated there (an axis
+#: label's anti-aliasing gave up to 27 in views that were whole; a cropped one, 150 and more)
+EDGE_BAND_PX, MAX_EDGE_PIXELS = 4, 60
 #: the browser profiles' folder names in the temporary folder, followed by their owner's identity
 PROFILE_PREFIX = "grasptask-chromium-"
 #: a drawn view must colour at least this many pixels of its WebGL scene (the hand, cones, task axes or
@@ -50,12 +55,13 @@ class ViewCheck:
     draw_s: float
     coloured_pixels: int
     canvases: int
+    #: coloured pixels at the view's border: more than a few, and the camera crops the scene
+    edge_pixels: int = 0
 
     @property
     def ok(self) -> bool:
-        return (
-            self.drawn and self.draw_s <= READY_S and self.canvases > 0 and self.coloured_pixels >= MIN_COLOURED_PIXELS
-        )
+        drew = self.drawn and self.draw_s <= READY_S and self.canvases > 0
+        return drew and self.coloured_pixels >= MIN_COLOURED_PIXELS and self.edge_pixels <= MAX_EDGE_PIXELS
 
 
 @dataclass(frozen=True)
@@ -93,7 +99,8 @@ class BrowserCheck:
         for view in self.failed_views:
             lines.append(
                 f"view {view.key}: drawn {view.drawn} in {view.draw_s:.1f} s, {view.canvases} canvases, "
-                f"{view.coloured_pixels} coloured pixels (needs {MIN_COLOURED_PIXELS})"
+                f"{view.coloured_pixels} coloured pixels (needs {MIN_COLOURED_PIXELS}), {view.edge_pixels} at its "
+                f"border (the camera crops it beyond {MAX_EDGE_PIXELS})"
             )
         return lines + self.view_errors
 
@@ -120,14 +127,36 @@ def check_screenshot_path(path: str | Path) -> None:
         raise BadInputError(path, f"cannot be written ({exc.strerror or exc})") from None
 
 
-def _coloured_pixels(png: bytes) -> int:
-    """Pixels whose colour is not a grey (white background, grey grid and object, black text)."""
+def _coloured(png: bytes) -> np.ndarray:
+    """Which pixels are not a grey (white background, grey grid and object, black text): the hand, the contacts,
+    the cones and the task's axes."""
     import io
 
     from matplotlib.image import imread
 
     rgb = imread(io.BytesIO(png), format="png")[..., :3]
-    return int(((rgb.max(axis=-1) - rgb.min(axis=-1)) > 0.2).sum())
+    return (rgb.max(axis=-1) - rgb.min(axis=-1)) > 0.2
+
+
+def _coloured_pixels(png: bytes) -> int:
+    return int(_coloured(png).sum())
+
+
+def _edge_pixels(png: bytes, area: dict, band: int = EDGE_BAND_PX) -> int:
+    """Drawn pixels (coloured, or the object's mid grey) within ``band`` of the plot area's border (``area``:
+    plotly's ``l, t, w, h`` in pixels): a scene the camera crops runs into it."""
+    import io
+
+    from matplotlib.image import imread
+
+    rgb = imread(io.BytesIO(png), format="png")[..., :3]
+    left, top = int(area["l"]), int(area["t"])
+    rgb = rgb[top : top + int(area["h"]), left : left + int(area["w"])]
+    light = rgb.mean(axis=-1)
+    drawn = ((rgb.max(axis=-1) - rgb.min(axis=-1)) > 0.2) | ((light > 0.4) & (light < 0.8))
+    inner = np.zeros_like(drawn)
+    inner[band:-band, band:-band] = True
+    return int((drawn & ~inner).sum())
 
 
 def _check_view(driver: Any, element: Any, save: Path | None) -> ViewCheck:
@@ -153,7 +182,9 @@ def _check_view(driver: Any, element: Any, save: Path | None) -> ViewCheck:
         "Plotly.relayout(arguments[0], {showlegend: false, title: {text: ''}}).then(function () { done(); });",
         element,
     )
-    return ViewCheck(key, True, seconds, _coloured_pixels(element.screenshot_as_png), canvases)
+    png = element.screenshot_as_png
+    area = driver.execute_script("return arguments[0]._fullLayout._size;", element)
+    return ViewCheck(key, True, seconds, _coloured_pixels(png), canvases, _edge_pixels(png, area))
 
 
 def check_page(

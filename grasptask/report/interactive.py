@@ -76,6 +76,12 @@ def _contact_text(scene: GraspScene, verification: Verification) -> list[str]:
     return texts
 
 
+def _scene_points(scene: GraspScene) -> np.ndarray:
+    """Every vertex a grasp's view draws: the object, the palm and the fingers."""
+    meshes = [scene.object_mesh, scene.palm, *(finger.mesh for finger in scene.fingers)]
+    return np.vstack([np.asarray(m.vertices) for m in meshes] + [np.asarray(scene.contacts, dtype=float)])
+
+
 def grasp_view(
     scene: GraspScene,
     verification: Verification,
@@ -128,10 +134,29 @@ def grasp_view(
         template="none", height=HEIGHT, margin={"l": 0, "r": 0, "t": 50, "b": 0},
         title={"text": f"{title}<br><sup>{summary}</sup>", "x": 0.02, "font": {"size": 14}},
         scene={"aspectmode": "data", "xaxis": axis | {"title": "x (m)"}, "yaxis": axis | {"title": "y (m)"},
-               "zaxis": axis | {"title": "z (m)"}},
+               "zaxis": axis | {"title": "z (m)"}, "camera": fitted_camera(_scene_points(scene))},
         legend={"itemclick": "toggle", "x": 0.0, "y": 0.95, "bgcolor": "rgba(255,255,255,0.6)"},
     )  # fmt: skip
     return figure
+
+
+#: plotly's default camera, and how much farther it must stand per unit of a scene's longest side (the scene's
+#: sides in plotly's 'data' aspect, scaled so that their product is 1): a sugar box's 1.8 cropped the box's top
+#: at the default, and 1.5 times farther showed it whole
+DEFAULT_EYE, EYE_PER_ASPECT = np.array([1.25, 1.25, 1.25]), 0.85
+#: farther still for the ellipsoids' two side-by-side scenes, each half the width (at the default, the drawing
+#: task's spread of recordings ran 3,385 pixels into its view's border)
+SUBPLOT_EYE_SCALE = 1.4
+
+
+def fitted_camera(points: np.ndarray, scale: float = 1.0) -> dict:
+    """A camera on plotly's default diagonal, as far as the scene's longest side needs (times ``scale``): the
+    whole of the hand and the object in the view, not cut at the canvas's edge."""
+    points = np.asarray(points, dtype=float).reshape(-1, 3)
+    extents = np.maximum(np.ptp(points, axis=0), 1e-9)
+    aspect = extents / np.cbrt(np.prod(extents))
+    eye = DEFAULT_EYE * scale * max(1.0, EYE_PER_ASPECT * float(aspect.max()))
+    return {"eye": dict(zip("xyz", map(float, eye), strict=True))}
 
 
 def ellipsoid_mesh(blocks: list[np.ndarray], subdivisions: int) -> trimesh.Trimesh:
@@ -150,9 +175,11 @@ def ellipsoid_view(task: str, model: np.ndarray, recordings: list[np.ndarray], c
     torque_factor = 1.0 / TORQUE_UNITS[PAPER_TORQUE_UNIT]
     titles = (f"force (N), {html.escape(task)}", f"torque ({PAPER_TORQUE_UNIT}), {html.escape(task)}")
     figure = make_subplots(rows=1, cols=2, specs=[[{"type": "scene"}, {"type": "scene"}]], subplot_titles=titles)
+    cameras = {}
     for col, (block, factor) in enumerate(((FORCE, 1.0), (TORQUE, torque_factor)), start=1):
         scale, first = factor**2, col == 1
         trials = ellipsoid_mesh([m[block, block] * scale for m in recordings], subdivisions=1)
+        cameras["scene" if col == 1 else "scene2"] = fitted_camera(trials.vertices, SUBPLOT_EYE_SCALE)
         model_block = model[block, block] * scale
         values, vectors = np.linalg.eigh(model_block)
         axis = vectors[:, -1] * np.sqrt(max(values[-1], 0.0))
@@ -167,7 +194,13 @@ def ellipsoid_view(task: str, model: np.ndarray, recordings: list[np.ndarray], c
     axis_style = {"showbackground": False, "gridcolor": "#dddddd", "zerolinecolor": "#999999"}
     for name, unit in (("scene", "N"), ("scene2", PAPER_TORQUE_UNIT)):
         figure.update_layout(
-            {name: {"aspectmode": "data", **{f"{a}axis": axis_style | {"title": f"{a} ({unit})"} for a in "xyz"}}}
+            {
+                name: {
+                    "aspectmode": "data",
+                    "camera": cameras[name],
+                    **{f"{a}axis": axis_style | {"title": f"{a} ({unit})"} for a in "xyz"},
+                }
+            }
         )
     figure.update_layout(
         template="none", height=480, margin={"l": 0, "r": 0, "t": 40, "b": 0},
