@@ -447,10 +447,13 @@ def _object_said(run: dict) -> str:
 
 @main.command("verify")
 @click.argument("solutions", type=click.Path(path_type=Path))
-@click.option("--tasks", "tasks_path", required=True, type=click.Path(path_type=Path), help="task_models.json.")
-@click.option("--task", required=True, help="The task the solutions were made for.")
+@click.option(
+    "--tasks", "tasks_path", type=click.Path(path_type=Path), default=None,
+    help="task_models.json [default: the sweep's, from its run.json].",
+)  # fmt: skip
+@click.option("--task", default=None, help="The task the solutions were made for [default: the sweep's].")
 @_out_option
-@_model_options
+@_sweep_model_options
 @_object_options
 @_fingers_option("those SOLUTIONS holds contacts of")
 def verify_command(

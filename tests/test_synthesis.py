@@ -258,17 +258,9 @@ def test_dask_local_cluster(tasks, tmp_path):
 
 
 def test_verify_command_recomputes_the_columns(cli, tasks, tmp_path):
+    """With the sweep's own task models, task, hand, object and grasp config, from its run.json."""
     assert synthesize(cli, tasks, tmp_path, "--starts", "2", "--executor", "serial").exit_code == 0
-    result = cli(
-        "verify",
-        tmp_path / "drawing" / "solutions.parquet",
-        "--tasks",
-        tasks,
-        "--task",
-        "drawing",
-        "--out",
-        tmp_path / "check",
-    )
+    result = cli("verify", tmp_path / "drawing" / "solutions.parquet", "--out", tmp_path / "check")
     assert result.exit_code == 0, result.output
     again = pd.read_parquet(tmp_path / "check" / "verification.parquet")
     before = pd.read_parquet(tmp_path / "drawing" / "solutions.parquet")

@@ -72,9 +72,8 @@ def run_export(
 
     solutions = Path(solutions)
     files = SweepFiles.of(solutions, hand, object_path, grasp_config, fingers, tasks, task)
-    if files.tasks is None or files.task is None:
-        raise BadInputError(solutions, "no run.json beside it names the task models and the task: give --tasks, --task")
-    model = load_task_model(files.tasks, files.task)
+    tasks_file, task_name = files.named_task(solutions)
+    model = load_task_model(tasks_file, task_name)
     solved = read_grasps(solutions, files.hand, files.fingers)
     chosen, kind = _chosen(solved, solutions, every_start)
     if not chosen:  # "wrote 0 grasps", exit 0, told the user nothing
@@ -82,17 +81,17 @@ def run_export(
     obj = load_object(files.object, say=lambda _: None)
     settings = load_grasp_settings(files.grasp_config)
     mesh = obj.picture(GLB_OBJECT_FACES)
-    sources = {"hand": str(files.hand), "object": str(files.object), "tasks": str(files.tasks)}
-    config = {"task": files.task, "all": every_start, **sources, "grasp_config": str(files.grasp_config)}
-    inputs = [solutions, files.tasks, files.hand, files.grasp_config, *object_files(files.object)]
+    sources = {"hand": str(files.hand), "object": str(files.object), "tasks": str(tasks_file)}
+    config = {"task": task_name, "all": every_start, **sources, "grasp_config": str(files.grasp_config)}
+    inputs = [solutions, tasks_file, files.hand, files.grasp_config, *object_files(files.object)]
     listing: list[dict[str, Any]] = []
     verified = 0
     with StagedOutput(out, Provenance.of("export", config, inputs)) as staged:
-        for row, grasp in progress(chosen, desc=f"export: {files.task}", unit="grasps"):
+        for row, grasp in progress(chosen, desc=f"export: {task_name}", unit="grasps"):
             check = verify(grasp, solved.hand, obj, model, settings)
             scene = grasp_scene(solved.hand, mesh, grasp, check.contacts, check.normals, settings.friction_coefficient)
             record = grasp_record(
-                task=files.task,
+                task=task_name,
                 row=row,
                 hand=solved.hand,
                 grasp=grasp,
@@ -106,5 +105,5 @@ def run_export(
             staged.write_json(f"{name}.json", record)
             verified += check.ok
             listing.append({"name": name, "start_id": int(row["start_id"]), "Q": float(row["Q"]), "verified": check.ok})
-        staged.write_json("grasps.json", {"task": files.task, "kind": kind, "grasps": listing})
+        staged.write_json("grasps.json", {"task": task_name, "kind": kind, "grasps": listing})
     return ExportSummary(Path(out), len(listing), verified, [str(g["name"]) for g in listing])

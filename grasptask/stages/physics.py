@@ -56,15 +56,12 @@ class PhysicsInputs:
         used = SweepFiles.of(
             self.solutions, self.hand, self.object, self.grasp_config, self.fingers, self.tasks, self.task
         )
-        if used.tasks is None or used.task is None:
-            raise BadInputError(
-                self.solutions, "no run.json beside it names the task models and the task: give --tasks, --task"
-            )
+        tasks, task = used.named_task(self.solutions)
         return replace(
             self,
             solutions=Path(self.solutions),
-            tasks=used.tasks,
-            task=used.task,
+            tasks=tasks,
+            task=task,
             hand=used.hand,
             object=used.object,
             grasp_config=used.grasp_config,

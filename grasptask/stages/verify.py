@@ -35,6 +35,13 @@ class SweepFiles:
     tasks: Path | None
     task: str | None
 
+    def named_task(self, solutions: str | Path) -> tuple[Path, str]:
+        """The task models and the task, given or from run.json; one line when neither names them."""
+        if self.tasks is None or self.task is None:
+            message = "no run.json beside it names the task models and the task: give --tasks, --task"
+            raise BadInputError(solutions, message)
+        return self.tasks, self.task
+
     @classmethod
     def of(
         cls,
@@ -149,22 +156,25 @@ def read_grasps(
 
 def run_verify(
     solutions_path: str | Path,
-    tasks_path: str | Path,
-    task: str,
+    tasks_path: str | Path | None,
+    task: str | None,
     out: str | Path,
-    hand_path: str | Path = DEFAULT_HAND,
-    object_path: str | Path = DEFAULT_OBJECT,
-    grasp_config: str | Path = DEFAULT_GRASP_CONFIG,
+    hand_path: str | Path | None = None,
+    object_path: str | Path | None = None,
+    grasp_config: str | Path | None = None,
     fingers: tuple[str, ...] | None = None,
     object_overrides: dict[str, Any] | None = None,
 ) -> pd.DataFrame:
     """Verify every row of ``solutions_path`` for ``task``; writes ``out/verification.parquet`` (one row per
-    start: ``verified``, ``verify_failures`` and the verifier's figures) and returns it. ``fingers`` defaults to
-    those the table holds contacts of; ``object_overrides`` are --unit, --mass and --task-frame."""
-    model = load_task_model(tasks_path, task)
-    solved = read_grasps(solutions_path, hand_path, fingers)
-    obj = load_object(object_path, **(object_overrides or {}))
-    settings = load_grasp_settings(grasp_config)
+    start: ``verified``, ``verify_failures`` and the verifier's figures) and returns it. Every file left None is
+    the sweep's (its ``run.json``), else the package's default; ``fingers`` defaults to those the table holds
+    contacts of; ``object_overrides`` are --unit, --mass and --task-frame."""
+    files = SweepFiles.of(solutions_path, hand_path, object_path, grasp_config, fingers, tasks_path, task)
+    tasks_file, task = files.named_task(solutions_path)
+    model = load_task_model(tasks_file, task)
+    solved = read_grasps(solutions_path, files.hand, files.fingers)
+    obj = load_object(files.object, **(object_overrides or {}))
+    settings = load_grasp_settings(files.grasp_config)
     rows = []
     for row, grasp in solved.rows:
         record: dict[str, object] = {"start_id": int(row["start_id"])}
@@ -176,7 +186,7 @@ def run_verify(
         rows.append(record)
     table = pd.DataFrame(rows)
     provenance = Provenance.of(
-        "verify", {"task": task}, [solutions_path, tasks_path, hand_path, object_path, grasp_config]
+        "verify", {"task": task}, [solutions_path, tasks_file, files.hand, files.object, files.grasp_config]
     )
     with StagedOutput(out, provenance) as staged:
         staged.write_parquet("verification.parquet", table)
