@@ -308,3 +308,11 @@ def test_a_view_fits_a_tall_scene_with_the_camera_farther_away():
     tall = np.array([[0, 0, 0], [0.4, 0.4, 2.0]])
     assert fitted_camera(cube)["eye"]["z"] == DEFAULT_EYE[2]
     assert fitted_camera(tall)["eye"]["z"] > 1.3 * DEFAULT_EYE[2]
+
+
+def test_a_folder_of_exports_alone_is_reported_as_found(cli, tmp_path):
+    export = tmp_path / "shared" / "drawing"
+    export.mkdir(parents=True)
+    (export / "grasps.json").write_text('{"task": "drawing", "kind": "optimum", "grasps": []}')
+    result = cli("report", "--results", tmp_path / "shared")
+    assert result.exit_code == 0 and f"found export: {export}" in result.output, result.output

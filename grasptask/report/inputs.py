@@ -112,9 +112,14 @@ class ResultsFolder:
         found = [p.parent for p in self.root.rglob("physics_summary.json")]
         return sorted(f for f in found if not (f / "run.json").is_file() and not _hidden(f, self.root))
 
+    def export_folders(self) -> list[Path]:
+        """Folders of ``grasptask export`` under the root (``grasps.json``)."""
+        return sorted(p.parent for p in self.root.rglob("grasps.json") if not _hidden(p.parent, self.root))
+
     def holds_anything(self) -> bool:
         laid_out = (self.manifest, self.stats, self.ellipsoids, self.task_models, self.distances)
-        return bool(self.sweep_folders() or self.unfinished_sweeps() or any(p.is_file() for p in laid_out))
+        found = self.sweep_folders() or self.unfinished_sweeps() or self.physics_folders() or self.export_folders()
+        return bool(found or any(p.is_file() for p in laid_out))
 
     def unfinished_sweeps(self) -> list[Path]:
         """Task folders whose per-start log holds rows that no summary includes: a sweep interrupted or still

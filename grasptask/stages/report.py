@@ -112,6 +112,7 @@ def _found(results: ResultsFolder, sweeps: dict[str, SweepResult]) -> list[str]:
         if path.is_file():
             lines.append(f"{label}: {path}")
     lines += [f"physics: {folder}" for folder in results.physics_folders()]
+    lines += [f"export: {folder} (for other tools; the report draws the sweeps)" for folder in results.export_folders()]
     return lines
 
 
