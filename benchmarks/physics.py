@@ -92,7 +92,7 @@ def figures(table: pd.DataFrame, hand: str, protocol: str, wall_s: float) -> dic
         "wall_s": wall_s,
     }
     if protocol == "grip":
-        from grasptask.stages.physics import agreement
+        from grasptask.physics.judge import agreement
 
         out["agreement"] = agreement(table)
         out["dexgraspbench_held_of_verified"] = rate(verified["dexgraspbench_passed"])

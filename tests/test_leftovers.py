@@ -296,7 +296,7 @@ def _descendants(pid: int) -> list[int]:
 def test_run_json_paths_read_from_another_working_directory(tmp_path, simulated):
     """An older sweep's run.json holds paths relative to where it ran: read from elsewhere, they are found
     beside it; a new one records them absolute."""
-    from grasptask.stages.verify import SweepFiles
+    from grasptask.records.sweeps import SweepFiles
 
     folder = tmp_path / "results" / "grasps" / "drawing"
     folder.mkdir(parents=True)

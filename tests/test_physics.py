@@ -241,7 +241,7 @@ def test_a_sweep_with_no_verified_grasp_summarises_to_no_rates(tmp_path):
     import pandas as pd
 
     from grasptask.io.artifacts import Provenance, StagedOutput
-    from grasptask.stages.physics import TRACE_COLUMNS, write_physics_results
+    from grasptask.physics.judge import TRACE_COLUMNS, write_physics_results
 
     table = pd.DataFrame({"start_id": [0, 1], "verified": [False, False], "Q": [float("nan")] * 2})
     with StagedOutput(tmp_path / "out", Provenance.of("test", {}, [])) as staged:

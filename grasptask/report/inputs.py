@@ -224,7 +224,7 @@ class PhysicsOutcome:
 def read_physics(results: ResultsFolder, sweep: SweepResult) -> PhysicsOutcome | None:
     """The physics check of ``sweep``'s task: ``grasptask physics``'s output under ``physics/<task>/`` when
     there is one, else ``synthesize --physics``'s beside the sweep; None when neither ran."""
-    from grasptask.stages.physics import TRACE_COLUMNS
+    from grasptask.physics.judge import TRACE_COLUMNS
 
     folders = [results.physics / sweep.folder.name]
     for folder in results.physics_folders():  # wherever `grasptask physics --out` put it, for this task

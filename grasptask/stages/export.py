@@ -12,7 +12,7 @@ from grasptask.grasp.grasp import Grasp
 from grasptask.io.artifacts import Provenance, StagedOutput
 from grasptask.io.tables import read_table
 from grasptask.progress import progress
-from grasptask.stages.verify import SolvedGrasps, SweepFiles, read_grasps
+from grasptask.records.sweeps import SolvedGrasps, SweepFiles, read_grasps
 
 #: the object's picture in the GLB, in triangles: smooth to the eye, a few hundred kB
 GLB_OBJECT_FACES = 20000

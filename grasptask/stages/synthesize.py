@@ -415,7 +415,7 @@ def summarise(
         staged.write_parquet("optima.parquet", optima)
         staged.write_json("run.json", run)
         if judge is not None:
-            from grasptask.stages.physics import best_grasp_trace, write_physics_results
+            from grasptask.physics.judge import best_grasp_trace, write_physics_results
 
             trace = best_grasp_trace(judge)
             write_physics_results(staged, solutions, options.task, judge.settings, trace, table_name=None, judge=judge)
@@ -427,8 +427,8 @@ def _physics_judge(options: SynthesisOptions, solutions: pd.DataFrame, fingers: 
     (the workers checked every verified start already)."""
     from grasptask.hand import load_hand
     from grasptask.io.solutions import grasp_from_row
-    from grasptask.stages.physics import Judge
-    from grasptask.stages.verify import SolvedGrasps
+    from grasptask.physics.judge import Judge
+    from grasptask.records.sweeps import SolvedGrasps
     from grasptask.task.model import load_task_model
 
     assert options.physics is not None

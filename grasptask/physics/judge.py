@@ -1,0 +1,171 @@
+"""The physics judge of a sweep: what every check of one run shares (:class:`Judge`), and the run's table turned
+into its summary, its 2x2 agreement with the analytic verifier and the best grasp's trace.
+
+``grasptask physics`` and ``synthesize --physics`` both judge through it."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+import pandas as pd
+
+from grasptask.grasp.grasp import Grasp
+from grasptask.io.artifacts import StagedOutput
+
+if TYPE_CHECKING:
+    from grasptask.objects.surface import ImplicitObject
+    from grasptask.physics.protocol import PhysicsResult
+    from grasptask.physics.scene import ObjectBody
+    from grasptask.physics.settings import PhysicsSettings
+    from grasptask.records.sweeps import SolvedGrasps
+    from grasptask.task.model import TaskModel
+
+
+@dataclass(frozen=True)
+class Judge:
+    """What every check of one run shares, built once and handed to the worker processes: the solved grasps,
+    the task model, the object and its convex parts (CoACD can take seconds), the friction and the settings."""
+
+    solved: SolvedGrasps
+    task: TaskModel
+    obj: ImplicitObject
+    friction: float
+    settings: PhysicsSettings
+    body: ObjectBody
+    #: the hand's actuators this many times as strong as its model (the judge's validity protocol)
+    strength: float = 1.0
+
+    @classmethod
+    def of(cls, solved: SolvedGrasps, task: TaskModel, object_path: Path, grasp_config: Path, physics: Path) -> Judge:
+        from grasptask.grasp.settings import load_grasp_settings
+        from grasptask.objects import load_object
+        from grasptask.physics.scene import object_body
+        from grasptask.physics.settings import load_physics_settings
+
+        obj = load_object(object_path, say=lambda _: None)
+        settings = load_physics_settings(physics)
+        friction = load_grasp_settings(grasp_config).friction_coefficient
+        return cls(solved, task, obj, friction, settings, object_body(obj, settings))
+
+    def check_scene(self) -> None:
+        """Build the first solved grasp's scene, so that a hand file MuJoCo cannot compile is one line here,
+        before any worker starts."""
+        from grasptask.physics.scene import build_scene
+
+        grasp = next((grasp for _, grasp in self.solved.rows if grasp is not None), None)
+        if grasp is not None:
+            build_scene(self.solved.hand, self.obj, self.body, grasp, self.friction, self.settings, self.strength)
+
+    def hold(self, grasp: Grasp, trace: bool = False) -> PhysicsResult:
+        from grasptask.physics.protocol import hold_grasp
+
+        hand, obj, body = self.solved.hand, self.obj, self.body
+        return hold_grasp(hand, obj, body, grasp, self.friction, self.task, self.settings, trace, self.strength)
+
+    def check(self, index: int) -> dict[str, Any]:
+        row, grasp = self.solved.rows[index]
+        record: dict[str, Any] = {"start_id": int(row["start_id"]), "verified": bool(row.get("verified", False))}
+        if grasp is None:
+            return record
+        record.update(self.hold(grasp).record())
+        return record
+
+
+def agreement(table: pd.DataFrame) -> dict[str, int]:
+    """The 2x2 table of the two judges over the solved grasps: verifier accepts or rejects, physics holds or
+    drops."""
+    solved = table[table["physics_passed"].notna()]
+    verified, held = solved["verified"].astype(bool), solved["physics_passed"].astype(bool)
+    return {
+        "verified_and_held": int((verified & held).sum()),
+        "verified_and_dropped": int((verified & ~held).sum()),
+        "rejected_and_held": int((~verified & held).sum()),
+        "rejected_and_dropped": int((~verified & ~held).sum()),
+    }
+
+
+TRACE_COLUMNS = ("start_id", "phase", "time_s", "translation_m", "rotation_deg")
+
+
+def best_grasp_trace(judge: Judge) -> pd.DataFrame:
+    """The object's motion over the whole protocol (``TRACE_COLUMNS``, phases in the protocol's order) under
+    the verified grasp of lowest Q, the best optimum's best start, held again with its trace kept; no rows
+    when no grasp is verified."""
+    verified = [
+        (row, grasp)
+        for row, grasp in judge.solved.rows
+        if grasp is not None and row.get("verified") and np.isfinite(float(row.get("Q", np.nan)))
+    ]
+    if not verified:
+        return pd.DataFrame({column: [] for column in TRACE_COLUMNS})
+    row, grasp = min(verified, key=lambda pair: float(pair[0]["Q"]))
+    result = judge.hold(grasp, trace=True)
+    frames = [
+        pd.DataFrame(
+            {
+                "start_id": int(row["start_id"]),
+                "phase": phase,
+                "time_s": motion[:, 0],
+                "translation_m": motion[:, 1],
+                "rotation_deg": motion[:, 2],
+            }
+        )
+        for phase, motion in result.traces.items()
+    ]
+    return pd.concat(frames, ignore_index=True)
+
+
+def summary(table: pd.DataFrame, task: str, settings: PhysicsSettings) -> dict[str, Any]:
+    """Pass rates among the verified grasps, DexGraspBench's beside ours, the 2x2 agreement, the failing
+    wrenches, the seconds per grasp and the thresholds the pass flags used."""
+    solved = table[table["physics_passed"].notna()]
+    verified = solved[solved["verified"].astype(bool)]
+
+    def rate(frame: pd.DataFrame, column: str) -> float | None:
+        return float(frame[column].astype(bool).mean()) if len(frame) else None
+
+    failing = verified.loc[~verified["physics_passed"].astype(bool), "physics_failed_wrench"]
+    return {
+        "task": task,
+        "solved": int(len(solved)),
+        "verified": int(len(verified)),
+        "physics_pass_rate_of_verified": rate(verified, "physics_passed"),
+        "dexgraspbench_pass_rate_of_verified": rate(verified, "dexgraspbench_passed"),
+        "agreement": agreement(table),
+        "failed_wrenches_of_verified": {str(k): int(v) for k, v in failing.value_counts().items()},
+        "seconds_per_grasp_median": float(np.median(solved["physics_seconds"])) if len(solved) else None,
+        "thresholds": {
+            "max_translation_m": settings.max_translation_m,
+            "max_rotation_deg": settings.max_rotation_deg,
+            "benchmark_translation_m": settings.benchmark_translation_m,
+            "benchmark_rotation_deg": settings.benchmark_rotation_deg,
+        },
+    }
+
+
+def write_physics_results(
+    staged: StagedOutput,
+    table: pd.DataFrame,
+    task: str,
+    settings: PhysicsSettings,
+    trace: pd.DataFrame,
+    table_name: str | None = "physics.parquet",
+    judge: Judge | None = None,
+) -> dict[str, Any]:
+    """``physics_summary.json`` and ``physics_trace.parquet`` (and the table itself, unless ``table_name`` is
+    None: a sweep's solutions table already holds the columns); the summary, with the object's mass from
+    ``judge``."""
+    summarised = ("physics_passed", "dexgraspbench_passed", "physics_failed_wrench", "physics_seconds")
+    table = table.assign(**{c: pd.NA for c in summarised if c not in table})  # no columns: no grasp was checked
+    result = summary(table, task, settings)
+    if judge is not None:  # a mass not given is stated, never silently assumed
+        result["object_mass_kg"] = judge.body.mass_kg
+        result["object_mass_given"] = getattr(judge.obj, "mass_kg", None) is not None
+    if table_name is not None:
+        staged.write_parquet(table_name, table)
+    staged.write_json("physics_summary.json", result)
+    staged.write_parquet("physics_trace.parquet", trace)
+    return result

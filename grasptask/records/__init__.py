@@ -1,0 +1,1 @@
+"""Grasp records: sweeps read back as grasps (:mod:`grasptask.records.sweeps`)."""
