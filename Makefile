@@ -21,6 +21,7 @@ test: $(INSTALLED) $(CYIPOPT) setup-browser
 	$(BIN)/ruff check grasptask tests benchmarks tools
 	$(BIN)/ruff format --check grasptask tests benchmarks tools
 	$(BIN)/mypy
+	$(BIN)/lint-imports
 	$(BIN)/python -m pytest -n 2 --dist loadfile
 
 install: $(INSTALLED)
