@@ -459,13 +459,6 @@ def _approach(fingers: dict[str, Finger], options: HandOptions) -> np.ndarray:
     return np.column_stack([x, np.cross(z, x), z])
 
 
-def _coupled(joint: Joint, coupling: tuple[str, float, float] | None) -> Joint:
-    if coupling is None:
-        return joint
-    master, ratio, offset = coupling
-    return replace(joint, coupled_to=master, ratio=ratio, coupling_offset=offset)
-
-
 def hand_from_tree(tree: Tree, source: Path, options: HandOptions = HandOptions()) -> Hand:
     """The hand a parsed file describes (see the module docstring for the rules and the defaults)."""
     _check_finite(tree, source)

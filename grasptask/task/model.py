@@ -48,10 +48,6 @@ class TaskModel:
             "weights": self.weights.tolist(),
         }
 
-    @classmethod
-    def from_dict(cls, name: str, data: dict) -> TaskModel:
-        return cls(name, int(data["n_recordings"]), Ellipsoid.from_matrix(np.asarray(data["S"], dtype=float)))
-
 
 def mean_models(ellipsoids: pd.DataFrame, by: str) -> dict[str, TaskModel]:
     """One Log-Euclidean mean model per value of column ``by`` (``task`` or ``group``)."""
