@@ -148,9 +148,15 @@ def check_writable(folder: str | Path) -> None:
     commit, it cost the user the whole run."""
     folder = Path(folder).absolute()
     for target in (folder.parent, folder) if folder.is_dir() else (folder.parent,):
-        try:
-            descriptor, probe = tempfile.mkstemp(prefix=".grasptask-probe-", dir=target)
-            os.close(descriptor)
-            os.unlink(probe)
-        except OSError as exc:
-            raise BadInputError(target, f"cannot be written ({exc.strerror or exc})") from None
+        probe_writable(target)
+
+
+def probe_writable(folder: Path, named: Path | None = None) -> None:
+    """One line naming ``named`` (default ``folder``) when ``folder`` cannot take a new file: one is made in it
+    and removed, the only test that a read-only mount, an immutable folder and permissions all answer."""
+    try:
+        descriptor, probe = tempfile.mkstemp(prefix=".grasptask-probe-", dir=folder)
+        os.close(descriptor)
+        os.unlink(probe)
+    except OSError as exc:
+        raise BadInputError(named or folder, f"cannot be written ({exc.strerror or exc})") from None

@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from grasptask.errors import BadInputError
-from grasptask.io.locking import make_owned_folder, remove_stale_folders
+from grasptask.io.locking import make_owned_folder, probe_writable, remove_stale_folders
 from grasptask.io.orphans import Reaper
 
 #: without the background-networking flags Chromium keeps trying to reach Google's hosts on a closed network;
@@ -118,13 +118,7 @@ def check_screenshot_path(path: str | Path) -> None:
     path = Path(path).absolute()
     if path.is_dir():
         raise BadInputError(path, "is a folder: a screenshot needs a file name (.png)")
-    folder = next(p for p in path.parents if p.exists())  # made when the screenshot is saved
-    try:
-        descriptor, probe = tempfile.mkstemp(prefix=".grasptask-probe-", dir=folder)
-        os.close(descriptor)
-        os.unlink(probe)
-    except OSError as exc:
-        raise BadInputError(path, f"cannot be written ({exc.strerror or exc})") from None
+    probe_writable(next(p for p in path.parents if p.exists()), path)  # the rest is made when it is saved
 
 
 def _coloured(png: bytes) -> np.ndarray:
