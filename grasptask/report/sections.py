@@ -276,8 +276,14 @@ def sweeps_section(
 
 
 def grasps_section(
-    results: ResultsFolder, sweeps: dict[str, SweepResult], paper: PaperSynthesis, writer: Writer
+    results: ResultsFolder,
+    sweeps: dict[str, SweepResult],
+    paper: PaperSynthesis,
+    writer: Writer,
+    hands: dict[Path, Hand] | None = None,
 ) -> Section:
+    """Per task a line of its figures, then each distinct optimum as a view and two fixed viewpoints, and the
+    table of Q. ``hands``: the hands already loaded for these sweeps (a mesh hand's sphere cover takes seconds)."""
     from grasptask.grasp.scene import grasp_scene
     from grasptask.grasp.settings import load_grasp_settings
     from grasptask.grasp.verify import verify
@@ -302,7 +308,7 @@ def grasps_section(
     shown_q: dict[tuple[str, int], float] = {}  # the Q each view shows, so that the table shows the same
     task_models = load_task_models(results.task_models) if results.task_models.is_file() else {}
     objects: dict[Path, tuple] = {}
-    hands: dict[Path, Hand] = {}
+    hands = {} if hands is None else hands
     for task, sweep in sweeps.items():
         if sweep.optima.empty:
             section.blocks.append(Note(f"{task}: no verified grasp among {len(sweep.solutions)} starts"))

@@ -73,7 +73,7 @@ def build_report(results_dir: str | Path, out: str | Path) -> ReportSummary:
         # the user's results first: their grasps, how they held, how the sweeps went; the tasks' ellipsoids
         # next, and the paper's Tables 1-10 last
         sections = [
-            grasps_section(results, sweeps, paper, writer),
+            grasps_section(results, sweeps, paper, writer, hands),
             physics_section(results, sweeps, writer),
             sweeps_section(results, sweeps, paper, writer),
         ]
