@@ -14,6 +14,7 @@ from pathlib import Path
 
 import pandas as pd
 import pytest
+from processes import alive, wait_for
 
 from grasptask.io.artifacts import Provenance, StagedOutput
 from grasptask.io.locking import lock_path
@@ -42,15 +43,6 @@ def log_rows(out) -> list[dict]:
     return [json.loads(line) for line in path.read_text().splitlines()] if path.exists() else []
 
 
-def wait_for(condition, timeout=120, what="condition"):
-    deadline = time.time() + timeout
-    while time.time() < deadline:
-        if condition():
-            return
-        time.sleep(0.1)
-    raise AssertionError(f"timed out waiting for {what}")
-
-
 def workers_of(pid: int) -> list[int]:
     """The pool workers (spawned processes) among a process's children."""
     try:
@@ -65,15 +57,6 @@ def workers_of(pid: int) -> list[int]:
         except OSError:
             pass
     return found
-
-
-def alive(pid: int) -> bool:
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
-    return state != "Z"
 
 
 def one_error_line(result) -> str:

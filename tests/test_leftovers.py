@@ -10,12 +10,12 @@ import subprocess
 import sys
 import tempfile
 import textwrap
-import time
 from pathlib import Path
 
 import pandas as pd
 import pytest
 import yaml
+from processes import alive, held_lock, wait_for
 
 from grasptask.cli import run_stage
 from grasptask.errors import BadInputError
@@ -103,24 +103,10 @@ def test_a_stage_that_failed_is_run_again_not_skipped(tmp_path, recording_factor
 
 def test_a_second_run_of_the_same_pipeline_is_refused_while_the_first_runs(tmp_path, recording_factory):
     spec = load_pipeline(_pipeline(tmp_path, recording_factory("rec.csv")))
-    holder = subprocess.Popen(
-        [sys.executable, "-c", textwrap.dedent(f"""
-            import sys, time
-            from grasptask.io.locking import folder_lock
-            with folder_lock({str(spec.state_path)!r}, "pipeline run"):
-                print("held", flush=True)
-                time.sleep(60)
-        """)],
-        stdout=subprocess.PIPE, text=True,
-    )  # fmt: skip
-    try:
-        assert holder.stdout is not None and holder.stdout.readline().strip() == "held"
+    with held_lock(spec.state_path, "pipeline run"):
         with pytest.raises(BadInputError, match="pipeline run"):
             run_pipeline(spec, run_stage, echo=quiet)
         assert not (tmp_path / "tasks").exists()
-    finally:
-        holder.kill()
-        holder.wait()
     assert run_pipeline(spec, run_stage, echo=quiet).ran == ["fit", "distances"]  # the dead holder's lock is stale
 
 
@@ -208,23 +194,6 @@ def _children(pid: int) -> list[int]:
         return []
 
 
-def _alive(pid: int) -> bool:
-    try:
-        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
-    except OSError:
-        return False
-    return state != "Z"
-
-
-def _wait(condition, timeout: float, what: str) -> None:
-    deadline = time.time() + timeout
-    while time.time() < deadline:
-        if condition():
-            return
-        time.sleep(0.1)
-    raise AssertionError(f"timed out waiting for {what}")
-
-
 def test_pool_workers_die_with_a_parent_killed_outright(tmp_path):
     """The physics check's pool (its initializer, as the stage starts it): kill -9 of the parent, and its
     workers follow within a second, not reparented to init for minutes."""
@@ -241,11 +210,11 @@ def test_pool_workers_die_with_a_parent_killed_outright(tmp_path):
         stdout=subprocess.PIPE, text=True,
     )  # fmt: skip
     assert parent.stdout is not None and parent.stdout.readline().strip() == "ready"
-    workers = [c for c in _children(parent.pid) if _alive(c)]
+    workers = [c for c in _children(parent.pid) if alive(c)]
     assert len(workers) >= 2
     parent.kill()
     parent.wait()
-    _wait(lambda: not any(_alive(w) for w in workers), 10, "the pool workers to die")
+    wait_for(lambda: not any(alive(w) for w in workers), 10, "the pool workers to die")
 
 
 @pytest.mark.skipif(
@@ -266,12 +235,12 @@ def test_a_killed_browser_check_leaves_no_browser_and_no_profile(tmp_path):
         [sys.executable, "-c", f"from grasptask.report.browser import check_page; check_page({str(page)!r})"],
         env={**os.environ, "TMPDIR": str(scratch)},
     )
-    _wait(lambda: any(scratch.glob("grasptask-chromium-*")) and len(_descendants(check.pid)) >= 3, 60, "a browser")
+    wait_for(lambda: any(scratch.glob("grasptask-chromium-*")) and len(_descendants(check.pid)) >= 3, 60, "a browser")
     browser = _descendants(check.pid)
     check.kill()
     check.wait()
-    _wait(lambda: not any(_alive(p) for p in browser), 15, "the browser to die")
-    _wait(lambda: not any(scratch.iterdir()), 15, "the profile and the browser's temporary files to go")
+    wait_for(lambda: not any(alive(p) for p in browser), 15, "the browser to die")
+    wait_for(lambda: not any(scratch.iterdir()), 15, "the profile and the browser's temporary files to go")
     scratch.rmdir()
 
 
@@ -362,10 +331,10 @@ def test_dask_says_when_no_worker_is_alive_and_stops_on_the_first_signal(tasks, 
         )  # fmt: skip
         try:
             log = tmp_path / "out" / "drawing" / "solutions.jsonl"
-            _wait(lambda: log.exists() and log.read_text().count("\n") >= 1, 180, "a first solved start")
+            wait_for(lambda: log.exists() and log.read_text().count("\n") >= 1, 180, "a first solved start")
             worker.kill()
             worker.wait()
-            _wait(lambda: "no Dask worker alive" in said.read_text(), 60, "the sweep to say no worker is alive")
+            wait_for(lambda: "no Dask worker alive" in said.read_text(), 60, "the sweep to say no worker is alive")
             sweep.send_signal(signal.SIGINT)
             assert sweep.wait(timeout=30) == 130
         finally:

@@ -426,31 +426,18 @@ def test_a_second_physics_run_into_one_folder_is_refused_at_its_start(sweep, tmp
     exits 2, where both used to exit 0 and the last writer won."""
     import subprocess
     import sys
-    import textwrap
+
+    from processes import held_lock
 
     tasks, folder = sweep
     out = tmp_path / "out"
-    holder = subprocess.Popen(
-        [sys.executable, "-c", textwrap.dedent(f"""
-            import time
-            from grasptask.io.locking import folder_lock
-            with folder_lock({str(out)!r}, "physics drawing"):
-                print("held", flush=True)
-                time.sleep(60)
-        """)],
-        stdout=subprocess.PIPE, text=True,
-    )  # fmt: skip
-    try:
-        assert holder.stdout is not None and holder.stdout.readline().strip() == "held"
+    with held_lock(out, "physics drawing"):
         began = time.perf_counter()
         result = subprocess.run(
             [sys.executable, "-m", "grasptask.cli", "physics", str(folder / "solutions.parquet"), "--tasks",
              str(tasks), "--task", "drawing", "--out", str(out)],
             capture_output=True, text=True, timeout=120,
         )  # fmt: skip
-    finally:
-        holder.kill()
-        holder.wait()
     assert result.returncode == 2 and "physics drawing" in result.stderr
     assert "physics drawing:" not in result.stderr  # no progress: refused before any grasp was held
     assert time.perf_counter() - began < 60 and not out.exists()
