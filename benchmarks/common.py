@@ -121,7 +121,7 @@ def ratios_to(entries: dict, reference: str, key: str) -> None:
 def first_attempt_figures(solutions: Any) -> dict:
     """What the sweep would have been without the retry postures, from the same run: the first attempt's median
     seconds and verified fraction, and how many starts were retried (columns absent: no retries were made)."""
-    from grasptask.io.solutions import retried
+    from grasptask.records.solutions import retried
 
     if "first_attempt_seconds" not in solutions:
         return {"median_s_per_start": None, "verified_fraction": None, "retried_starts": 0}

@@ -21,9 +21,9 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT / "benchmarks"), str(ROOT)]
 from common import median_seconds, save  # noqa: E402
 
-from grasptask.grasp.verify import verify  # noqa: E402
 from grasptask.hand import forward, load_hand  # noqa: E402
 from grasptask.objects import load_object  # noqa: E402
+from grasptask.verifier.verify import verify  # noqa: E402
 from tests.grasp_fixtures import ball_grasp, drawing_like_task  # noqa: E402
 
 TARGET_FK_10K_S = 1.0

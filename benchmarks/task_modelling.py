@@ -20,12 +20,12 @@ import scipy.linalg
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from common import median_seconds, save  # noqa: E402
 
-from grasptask.io.manifest import RecordingEntry  # noqa: E402
-from grasptask.io.recordings import write_recording  # noqa: E402
 from grasptask.stages import run_distances, run_fit_task, run_simulate  # noqa: E402
 from grasptask.task.distances import compute_distances  # noqa: E402
 from grasptask.task.ellipsoid import second_moment  # noqa: E402
 from grasptask.task.fit import ellipsoid_matrices, fit_entry  # noqa: E402
+from grasptask.task.manifest import RecordingEntry  # noqa: E402
+from grasptask.task.recordings import write_recording  # noqa: E402
 from grasptask.task.spd import log_vectors, spd_exp  # noqa: E402
 
 TARGET_SAMPLES_PER_S = 5e6

@@ -5,8 +5,8 @@ import pytest
 from click.testing import CliRunner
 
 from grasptask.cli import main
-from grasptask.io.recordings import write_recording
 from grasptask.stages import run_distances, run_fit_task, run_simulate
+from grasptask.task.recordings import write_recording
 
 
 @pytest.fixture(scope="session")

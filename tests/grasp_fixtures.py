@@ -11,15 +11,15 @@ from functools import lru_cache
 import numpy as np
 from scipy.optimize import least_squares
 
-from grasptask.grasp.verify import Grasp, verify
 from grasptask.hand import forward, load_hand
-from grasptask.io.reference import read_paper_synthesis
-from grasptask.io.solutions import grasp_columns
 from grasptask.objects import Superquadric
+from grasptask.records.reference import read_paper_synthesis
+from grasptask.records.solutions import grasp_columns
 from grasptask.stages import SynthesisOptions, summarise
 from grasptask.synthesis.config import SolverConfig, load_solver_config
 from grasptask.task.ellipsoid import Ellipsoid
 from grasptask.task.model import TaskModel
+from grasptask.verifier.verify import Grasp, verify
 
 BALL_RADIUS = 0.03
 

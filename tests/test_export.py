@@ -14,10 +14,10 @@ import trimesh
 from grasp_fixtures import ball_grasp, ball_sweep, drawing_like_task, results_with_tasks
 
 from grasptask.grasp.grasp import Grasp
-from grasptask.grasp.scene import grasp_scene
-from grasptask.grasp.verify import verify
 from grasptask.hand import forward, load_hand
-from grasptask.io.export import glb_bytes, grasp_from_record, grasp_record
+from grasptask.records.export import glb_bytes, grasp_from_record, grasp_record
+from grasptask.records.scene import grasp_scene
+from grasptask.verifier.verify import verify
 
 SCHEMA = json.loads(Path("docs/grasp_record.schema.json").read_text())
 

@@ -13,12 +13,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from grasptask.grasp.loads_lp import load_block
-from grasptask.grasp.margins import FRICTION_STEPS, friction_margin, strength_margin
-from grasptask.grasp.mechanics import friction_cone_edges
 from grasptask.grasp.settings import GraspSettings, load_grasp_settings
-from grasptask.grasp.verify import _torque_effort
 from grasptask.hand.model import Capability, Finger, Hand, Joint, Pad, Palm
+from grasptask.verifier.loads_lp import load_block
+from grasptask.verifier.margins import FRICTION_STEPS, friction_margin, strength_margin
+from grasptask.verifier.mechanics import friction_cone_edges
+from grasptask.verifier.verify import _torque_effort
 
 R = 0.02
 POINTS = np.array([[R, 0.0, 0.0], [-R, 0.0, 0.0]])

@@ -8,8 +8,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
-from grasptask.grasp.epsilon import ferrari_canny
-from grasptask.grasp.mechanics import (
+from grasptask.hand import load_hand
+from grasptask.verifier.epsilon import ferrari_canny
+from grasptask.verifier.mechanics import (
     friction_cone_edges,
     grasp_matrix,
     internal_forces,
@@ -17,8 +18,7 @@ from grasptask.grasp.mechanics import (
     task_quality,
     task_torques,
 )
-from grasptask.grasp.verify import verify
-from grasptask.hand import load_hand
+from grasptask.verifier.verify import verify
 from tests.grasp_fixtures import ball_grasp, drawing_like_task
 
 seeds = st.integers(0, 2**32 - 1)

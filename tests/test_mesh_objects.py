@@ -293,7 +293,7 @@ def test_the_report_renders_a_mesh_object(tmp_path):
 def test_synthesize_takes_a_mesh_file_directly(cli, simulated, tmp_path):
     """``--object handle.stl`` with no YAML: a sweep runs, its run definition hashes the mesh file, and every
     row has a sweep status."""
-    from grasptask.io.solutions import STATUSES
+    from grasptask.records.solutions import STATUSES
 
     handle().export(tmp_path / "handle.stl")
     tasks = simulated[0] / "tasks" / "task_models.json"

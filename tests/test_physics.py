@@ -19,7 +19,6 @@ from hypothesis import strategies as st
 
 from grasptask.grasp.grasp import Grasp
 from grasptask.hand import forward, load_hand
-from grasptask.io.solutions import grasp_columns
 from grasptask.objects import Superquadric, load_object
 from grasptask.physics import PhysicsSettings, build_scene, check_grasp, load_physics_settings
 from grasptask.physics.actuation import ActuatorMap, BoundedLeastSquares, IndependentMotors
@@ -28,6 +27,7 @@ from grasptask.physics.loads import task_tests
 from grasptask.physics.protocol import _Run
 from grasptask.physics.scene import object_body
 from grasptask.physics.sensing import hand_contacts, point_jacobian
+from grasptask.records.solutions import grasp_columns
 
 SETTINGS = load_physics_settings()
 SPRING = replace(SETTINGS, controller="spring")

@@ -35,7 +35,7 @@ def write_pipeline(tmp_path, recording_dir, bad=False):
 
 
 def test_runs_then_skips_then_reruns_after_a_change(tmp_path, recording_factory):
-    from grasptask.io.recordings import write_recording
+    from grasptask.task.recordings import write_recording
 
     recording_factory("rec.csv")
     spec = load_pipeline(write_pipeline(tmp_path, tmp_path))

@@ -5,8 +5,8 @@ import shutil
 import numpy as np
 import pandas as pd
 
-from grasptask.io.tool import load_tool
 from grasptask.task.frames import wrench_transform
+from grasptask.task.tool import load_tool
 from tests.conftest import wrench_samples
 
 EXAMPLE_TOOL = "configs/tools/wrist_sensor_example.yaml"

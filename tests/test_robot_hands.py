@@ -268,7 +268,7 @@ def test_a_sweep_runs_end_to_end_on_a_urdf_hand(cli, simulated, tmp_path):
 
     import pandas as pd
 
-    from grasptask.io.solutions import STATUSES
+    from grasptask.records.solutions import STATUSES
 
     tasks = simulated[0] / "tasks" / "task_models.json"
     result = cli(

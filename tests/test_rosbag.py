@@ -10,11 +10,11 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from grasptask.io.manifest import read_manifest
-from grasptask.io.recordings import read_recording, write_recording
-from grasptask.io.rosbag import BAG_KINDS, read_wrench_bag, write_wrench_bag
 from grasptask.stages import run_fit_task
 from grasptask.task.fit import ellipsoid_matrices
+from grasptask.task.manifest import read_manifest
+from grasptask.task.recordings import read_recording, write_recording
+from grasptask.task.rosbag import BAG_KINDS, read_wrench_bag, write_wrench_bag
 from tests.conftest import wrench_samples
 
 TOPIC = "/ft_sensor/wrench"

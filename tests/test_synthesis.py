@@ -18,9 +18,9 @@ import pyomo.environ as pyo
 import pytest
 
 from grasptask.hand import load_hand
-from grasptask.io.solutions import STATUSES
 from grasptask.objects import load_object
 from grasptask.paths import DEFAULT_HAND
+from grasptask.records.solutions import STATUSES
 from grasptask.synthesis.model import build_model
 from grasptask.synthesis.starts import make_starts, palm_directions, subset
 from grasptask.synthesis.sweep import _next_start

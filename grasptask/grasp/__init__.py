@@ -1,4 +1,1 @@
-"""Grasp mechanics and the independent grasp verifier (paper Section 5).
-
-Nothing here imports Pyomo or the synthesis model: the verifier is the independent judge of every grasp.
-"""
+"""The grasp as a value (:class:`~grasptask.grasp.grasp.Grasp`) and the settings every judge of it reads."""

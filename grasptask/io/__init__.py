@@ -1,1 +1,1 @@
-"""Reading inputs and writing artifacts: recordings, manifests, configs, staged atomic outputs."""
+"""The ground floor: staged atomic artifacts, folder locks, the config vocabulary, the sweep log, tables."""

@@ -1,1 +1,1 @@
-"""Grasp records: sweeps read back as grasps (:mod:`grasptask.records.sweeps`)."""
+"""Grasp records: a sweep's solutions table, its grasps read back, the exported scene, the paper's figures."""

@@ -15,9 +15,9 @@ from grasptask.grasp.grasp import Grasp
 from grasptask.hand import load_hand
 from grasptask.hand.model import Hand
 from grasptask.io.config import read_json
-from grasptask.io.solutions import fingers_in, grasp_from_row, implausible_column, joint_columns
 from grasptask.io.tables import read_table
 from grasptask.paths import DEFAULT_GRASP_CONFIG, DEFAULT_HAND, DEFAULT_OBJECT
+from grasptask.records.solutions import fingers_in, grasp_from_row, implausible_column, joint_columns
 
 
 @dataclass(frozen=True)

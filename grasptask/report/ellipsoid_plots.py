@@ -12,11 +12,11 @@ import numpy as np
 import pandas as pd
 
 from grasptask.errors import BadInputError
-from grasptask.io.manifest import read_manifest
-from grasptask.io.units import PAPER_TORQUE_UNIT, TORQUE_UNITS
 from grasptask.report.style import apply_style, save_figure, task_colour
 from grasptask.task.ellipsoid import FORCE, TORQUE
 from grasptask.task.fit import ellipsoid_matrices, entry_tool, load_wrenches
+from grasptask.task.manifest import read_manifest
+from grasptask.task.units import PAPER_TORQUE_UNIT, TORQUE_UNITS
 
 PLANES = ((0, 1), (0, 2), (1, 2))
 AXIS_NAMES = "xyz"

@@ -13,11 +13,11 @@ import trimesh
 from plotly.io.json import to_json_plotly
 from plotly.subplots import make_subplots
 
-from grasptask.grasp.mechanics import friction_cone_edges
-from grasptask.grasp.scene import CONTACT_COLOUR, OBJECT_COLOUR, PALM_COLOUR, GraspScene, icosphere_copies
-from grasptask.grasp.verify import Verification
-from grasptask.io.units import PAPER_TORQUE_UNIT, TORQUE_UNITS
+from grasptask.records.scene import CONTACT_COLOUR, OBJECT_COLOUR, PALM_COLOUR, GraspScene, icosphere_copies
 from grasptask.task.ellipsoid import FORCE, TORQUE
+from grasptask.task.units import PAPER_TORQUE_UNIT, TORQUE_UNITS
+from grasptask.verifier.mechanics import friction_cone_edges
+from grasptask.verifier.verify import Verification
 
 #: the friction cones' drawn length (m) and edges: long enough to read the cone's opening beside a fingertip
 CONE_LENGTH, CONE_EDGES = 0.015, 16

@@ -8,8 +8,8 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from grasptask.io.reference import PaperSynthesis
-from grasptask.io.solutions import retried
+from grasptask.records.reference import PaperSynthesis
+from grasptask.records.solutions import retried
 from grasptask.report.inputs import verifier_q
 from grasptask.task.stats import compare_with_reference
 

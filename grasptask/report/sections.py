@@ -12,9 +12,9 @@ import pandas as pd
 from grasptask.hand.model import Hand
 from grasptask.io.artifacts import StagedOutput, file_stem
 from grasptask.io.config import read_json
-from grasptask.io.reference import PaperSynthesis
 from grasptask.paths import DEFAULT_GRASP_CONFIG, DEFAULT_HAND, DEFAULT_OBJECT, PAPER_ELLIPSOID_TABLES, ROOT
 from grasptask.progress import progress
+from grasptask.records.reference import PaperSynthesis
 from grasptask.report import paper_tables
 from grasptask.report.inputs import PhysicsOutcome, ResultsFolder, SweepResult, verifier_q
 from grasptask.report.page import Figure, Note, Section, Table, View, markdown
@@ -209,7 +209,7 @@ def sweep_hand(sweep: SweepResult, hands: dict[Path, Hand]) -> tuple[Hand, list[
     not that hand's (a BarrettHand's optima under a human ``run.json``) is one line. ``hands`` caches loads."""
     from grasptask.errors import BadInputError
     from grasptask.hand import load_hand
-    from grasptask.io.solutions import fingers_in, joint_columns
+    from grasptask.records.solutions import fingers_in, joint_columns
 
     hand_path = _reference_path(sweep.run.get("hand", ""), DEFAULT_HAND)
     whole = hands.get(hand_path) or hands.setdefault(hand_path, load_hand(hand_path))
@@ -284,15 +284,15 @@ def grasps_section(
 ) -> Section:
     """Per task a line of its figures, then each distinct optimum as a view and two fixed viewpoints, and the
     table of Q. ``hands``: the hands already loaded for these sweeps (a mesh hand's sphere cover takes seconds)."""
-    from grasptask.grasp.scene import grasp_scene
     from grasptask.grasp.settings import load_grasp_settings
-    from grasptask.grasp.verify import verify
-    from grasptask.io.solutions import contacts_from_row, grasp_from_row, normals_from_row
     from grasptask.objects import load_object
+    from grasptask.records.scene import grasp_scene
+    from grasptask.records.solutions import contacts_from_row, grasp_from_row, normals_from_row
     from grasptask.report.inputs import read_physics
     from grasptask.report.interactive import HEIGHT, grasp_view
     from grasptask.report.render import display_mesh, render_grasp
     from grasptask.task.model import load_task_models
+    from grasptask.verifier.verify import verify
 
     section = Section(
         "grasps",

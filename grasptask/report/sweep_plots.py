@@ -9,7 +9,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.ticker import MaxNLocator
 
-from grasptask.io.solutions import STATUSES
+from grasptask.records.solutions import STATUSES
 from grasptask.report.style import apply_style, save_figure, task_colour
 
 STATUS_COLOURS = {

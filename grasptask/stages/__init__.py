@@ -12,7 +12,6 @@ from importlib import import_module
 from typing import TYPE_CHECKING, Any
 
 from grasptask.errors import BadInputError
-from grasptask.io.units import FORCE_UNITS, TIME_UNITS, TORQUE_UNITS
 from grasptask.paths import (
     DEFAULT_GRASP_CONFIG,
     DEFAULT_HAND,
@@ -21,6 +20,7 @@ from grasptask.paths import (
     DEFAULT_SIMULATE_CONFIG,
     DEFAULT_SOLVER_CONFIG,
 )
+from grasptask.task.units import FORCE_UNITS, TIME_UNITS, TORQUE_UNITS
 
 if TYPE_CHECKING:
     from grasptask.report.browser import check_page, check_screenshot_path, find_chromium

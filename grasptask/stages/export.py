@@ -1,5 +1,5 @@
 """``grasptask export``: the distinct optima of a sweep (or every verified start) as GLB scenes and JSON records
-that other tools load (:mod:`grasptask.io.export`)."""
+that other tools load (:mod:`grasptask.records.export`)."""
 
 from __future__ import annotations
 
@@ -62,13 +62,13 @@ def run_export(
     ``every_start``, each verified start (``start_017``), and ``out/grasps.json`` listing them. Inputs not
     given are those the sweep's ``run.json`` records. Each grasp is verified again, for the contact forces and
     activations per task wrench that the verifier's LP finds; the record says whether it still passes."""
-    from grasptask.grasp.scene import grasp_scene
     from grasptask.grasp.settings import load_grasp_settings
-    from grasptask.grasp.verify import verify
-    from grasptask.io.export import glb_bytes, grasp_record
     from grasptask.objects import load_object
     from grasptask.objects.loading import object_files
+    from grasptask.records.export import glb_bytes, grasp_record
+    from grasptask.records.scene import grasp_scene
     from grasptask.task.model import load_task_model
+    from grasptask.verifier.verify import verify
 
     solutions = Path(solutions)
     files = SweepFiles.of(solutions, hand, object_path, grasp_config, fingers, tasks, task)

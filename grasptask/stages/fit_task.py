@@ -13,12 +13,12 @@ import pandas as pd
 from grasptask.errors import BadInputError
 from grasptask.io.artifacts import Provenance, StagedOutput
 from grasptask.io.locking import check_writable, folder_lock
-from grasptask.io.manifest import RecordingEntry, default_id, is_manifest, read_manifest
-from grasptask.io.rosbag import is_bag
 from grasptask.progress import progress
 from grasptask.task.fit import FitOptions, FitResult, fit_recordings
+from grasptask.task.manifest import RecordingEntry, default_id, is_manifest, read_manifest
 from grasptask.task.model import task_models_payload
 from grasptask.task.preprocess import Preprocess
+from grasptask.task.rosbag import is_bag
 from grasptask.task.stats import statistics_table
 
 __all__ = ["FitOptions", "Preprocess", "entries_from_inputs", "run_fit_task"]

@@ -11,7 +11,7 @@ from grasptask import __version__
 from grasptask.errors import BadInputError
 from grasptask.hand.model import Hand
 from grasptask.io.artifacts import Provenance, StagedOutput
-from grasptask.io.reference import PaperSynthesis, read_paper_synthesis
+from grasptask.records.reference import PaperSynthesis, read_paper_synthesis
 from grasptask.report.inputs import ResultsFolder, SweepResult, find_results, read_sweep, verifier_q
 from grasptask.report.page import Section, render_html
 from grasptask.report.sections import (

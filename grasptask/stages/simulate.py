@@ -8,10 +8,10 @@ from pathlib import Path
 import pandas as pd
 
 from grasptask.io.artifacts import Provenance, StagedOutput
-from grasptask.io.manifest import default_id
-from grasptask.io.recordings import write_recording
 from grasptask.progress import progress
 from grasptask.task import simulate as sim
+from grasptask.task.manifest import default_id
+from grasptask.task.recordings import write_recording
 
 FORMATS = {"csv": ".csv", "parquet": ".parquet"}
 

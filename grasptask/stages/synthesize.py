@@ -31,12 +31,12 @@ from grasptask.io.artifacts import (
 )
 from grasptask.io.config import read_json
 from grasptask.io.locking import folder_lock
-from grasptask.io.reference import PaperSynthesis, read_paper_synthesis
-from grasptask.io.solutions import STATUSES, retried, solved_with_all_axes
 from grasptask.io.sweep_log import LogContents, LogWriter, read_log, rewrite_log
 from grasptask.objects.surface import Symmetry
 from grasptask.paths import DEFAULT_GRASP_CONFIG, DEFAULT_HAND, DEFAULT_OBJECT, DEFAULT_SOLVER_CONFIG
 from grasptask.progress import Progress
+from grasptask.records.reference import PaperSynthesis, read_paper_synthesis
+from grasptask.records.solutions import STATUSES, retried, solved_with_all_axes
 
 EXECUTORS = ("pool", "serial", "dask")
 BACKENDS = ("casadi", "cyipopt")
@@ -426,8 +426,8 @@ def _physics_judge(options: SynthesisOptions, solutions: pd.DataFrame, fingers: 
     """The physics check's judge over this sweep's own solutions, for the best grasp's trace and the summary
     (the workers checked every verified start already)."""
     from grasptask.hand import load_hand
-    from grasptask.io.solutions import grasp_from_row
     from grasptask.physics.judge import Judge
+    from grasptask.records.solutions import grasp_from_row
     from grasptask.records.sweeps import SolvedGrasps
     from grasptask.task.model import load_task_model
 

@@ -8,11 +8,11 @@ from typing import Any
 import pandas as pd
 
 from grasptask.grasp.settings import load_grasp_settings
-from grasptask.grasp.verify import verify
 from grasptask.io.artifacts import Provenance, StagedOutput
 from grasptask.objects import load_object
 from grasptask.records.sweeps import SweepFiles, read_grasps
 from grasptask.task.model import load_task_model
+from grasptask.verifier.verify import verify
 
 
 def run_verify(

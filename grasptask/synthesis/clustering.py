@@ -6,7 +6,7 @@ import numpy as np
 import pandas as pd
 from scipy.cluster.hierarchy import fcluster, linkage
 
-from grasptask.io.solutions import contacts_from_row, palm_normal_from_row, palm_position_from_row
+from grasptask.records.solutions import contacts_from_row, palm_normal_from_row, palm_position_from_row
 
 #: solutions closer than this (contacts and palm position in metres, palm normal x 0.05 m) are one optimum
 THRESHOLD = 0.01

@@ -11,19 +11,19 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from grasptask.io import solutions as schema
+from grasptask.records import solutions as schema
 from grasptask.synthesis.config import SolverConfig
 from grasptask.synthesis.feedback import Limits, tightened
 from grasptask.synthesis.starts import Start
 
 if TYPE_CHECKING:  # the solver stack loads in the workers, not where a Job is made
     from grasptask.grasp.settings import GraspSettings
-    from grasptask.grasp.verify import Verification
     from grasptask.hand.model import Hand
     from grasptask.objects.surface import ImplicitObject
     from grasptask.synthesis.backends import Backend, Bounds, SolveResult
     from grasptask.synthesis.model import GraspNLP
     from grasptask.task.model import TaskModel
+    from grasptask.verifier.verify import Verification
 
 # a test hook: a start whose id is listed here makes its worker exit abruptly (to exercise crash handling)
 CRASH_ENV = "GRASPTASK_CRASH_STARTS"
@@ -280,7 +280,7 @@ class SolverContext:
 
     def _judge(self, solver: Solver, result: SolveResult) -> tuple[dict, Verification, np.ndarray] | None:
         """IPOPT's point read back and checked by the verifier (None: no point), with the point itself."""
-        from grasptask.grasp.verify import Grasp, verify
+        from grasptask.verifier.verify import Grasp, verify
 
         if result.x is None:
             return None
@@ -300,9 +300,9 @@ class SolverContext:
     def _record(self, solution: dict, check: Verification) -> dict:
         """The columns of a solved start: Q, the grasp, the verifier's figures, and (where configured) the
         physics check and the surrogate's error at the contacts."""
-        from grasptask.grasp.verify import Grasp
-        from grasptask.io.solutions import grasp_columns
+        from grasptask.records.solutions import grasp_columns
         from grasptask.synthesis.spline import evaluate
+        from grasptask.verifier.verify import Grasp
 
         row: dict[str, Any] = {"Q": float(solution["Q"])}
         grasp = Grasp(solution["palm_rotation"], solution["palm_position"], solution["joint_angles"])

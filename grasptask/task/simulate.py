@@ -34,8 +34,8 @@ from scipy.spatial.transform import Rotation
 
 from grasptask.errors import BadInputError
 from grasptask.io.config import load_yaml, reject_unknown, require
-from grasptask.io.tool import ToolConfig
 from grasptask.task.frames import transform_wrenches, wrench_transform
+from grasptask.task.tool import ToolConfig
 
 GRAVITY = 9.81
 TASK_GRASPS = {"drawing": ("tripod", "cylindrical", "power"), "cutting": ("free",), "screwdriving": ("free",)}

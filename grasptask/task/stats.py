@@ -9,9 +9,9 @@ import numpy as np
 import pandas as pd
 
 from grasptask.errors import BadInputError
-from grasptask.io.units import PAPER_TORQUE_UNIT, TORQUE_UNITS
 from grasptask.task.ellipsoid import FORCE, TORQUE, block_extents, block_lengths
 from grasptask.task.fit import ellipsoid_matrices
+from grasptask.task.units import PAPER_TORQUE_UNIT, TORQUE_UNITS
 
 STATS_COLUMNS = ["group", "task", "grasp", "domain", "stat", "axis", "value"]
 DOMAINS = {"force": (FORCE, 1.0), "torque": (TORQUE, 1.0 / TORQUE_UNITS[PAPER_TORQUE_UNIT])}

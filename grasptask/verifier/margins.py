@@ -1,4 +1,4 @@
-"""How much room a grasp leaves, from the verifier's load LP (:mod:`grasptask.grasp.loads_lp`):
+"""How much room a grasp leaves, from the verifier's load LP (:mod:`grasptask.verifier.loads_lp`):
 
 - the strength margin: the largest ``s`` such that ``s`` times every task wrench is held at the hand's real
   strength and friction (one LP that maximises ``s``; 1 is a grasp at the edge of its strength, 2 one that
@@ -11,9 +11,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from grasptask.grasp.loads_lp import MARGIN_CAP, LoadBlock, load_block, solve_loads
-from grasptask.grasp.mechanics import friction_cone_edges
 from grasptask.hand.model import Hand
+from grasptask.verifier.loads_lp import MARGIN_CAP, LoadBlock, load_block, solve_loads
+from grasptask.verifier.mechanics import friction_cone_edges
 
 #: bisection steps of the friction margin: its resolution is 1/32 of its bracket (0.0125 at a bracket of 0.4),
 #: finer than a friction coefficient is known; each step is an LP, and 7 of them were 60% of the verifier's time

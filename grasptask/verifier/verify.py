@@ -14,11 +14,16 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from grasptask.grasp.epsilon import ferrari_canny
 from grasptask.grasp.grasp import Grasp
-from grasptask.grasp.loads_lp import load_block, normal_rows, solve_loads
-from grasptask.grasp.margins import friction_margin, strength_margin
-from grasptask.grasp.mechanics import (
+from grasptask.grasp.settings import GraspSettings
+from grasptask.hand.kinematics import forward
+from grasptask.hand.model import Hand
+from grasptask.objects.surface import ImplicitObject
+from grasptask.task.model import TaskModel
+from grasptask.verifier.epsilon import ferrari_canny
+from grasptask.verifier.loads_lp import load_block, normal_rows, solve_loads
+from grasptask.verifier.margins import friction_margin, strength_margin
+from grasptask.verifier.mechanics import (
     friction_cone_edges,
     grasp_matrix,
     hand_jacobian,
@@ -26,11 +31,6 @@ from grasptask.grasp.mechanics import (
     primitive_wrenches,
     task_quality,
 )
-from grasptask.grasp.settings import GraspSettings
-from grasptask.hand.kinematics import forward
-from grasptask.hand.model import Hand
-from grasptask.objects.surface import ImplicitObject
-from grasptask.task.model import TaskModel
 
 
 @dataclass(frozen=True)

@@ -22,7 +22,7 @@ from scipy.spatial.transform import Rotation
 
 from grasptask.errors import BadInputError
 from grasptask.io.config import load_yaml, reject_unknown, require
-from grasptask.io.units import UNIT_TABLES
+from grasptask.task.units import UNIT_TABLES
 
 CANONICAL_COLUMNS = ("t", "fx", "fy", "fz", "tx", "ty", "tz")
 

@@ -4,7 +4,7 @@ with contact forces in the linearised friction cones and joint torques its tendo
 Per wrench, the variables are the cone-edge magnitudes ``lam >= 0`` and the activations ``a >= 0``; one block
 of rows asks ``sum lam l = w`` (the wrench) and ``T J^T L lam = A a`` (the torques carried). The effort LP finds
 the least peak activation over all wrenches; the strength-margin LP the largest scale of the wrenches held at
-full strength (:mod:`grasptask.grasp.margins`)."""
+full strength (:mod:`grasptask.verifier.margins`)."""
 
 from __future__ import annotations
 
@@ -14,8 +14,8 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.optimize import linprog
 
-from grasptask.grasp.mechanics import primitive_wrenches
 from grasptask.hand.model import Hand
+from grasptask.verifier.mechanics import primitive_wrenches
 
 
 @dataclass(frozen=True)

@@ -16,7 +16,7 @@ import pyarrow.csv as pacsv
 import pyarrow.parquet as pq
 
 from grasptask.errors import BadInputError, existing_file
-from grasptask.io.tool import CANONICAL_COLUMNS
+from grasptask.task.tool import CANONICAL_COLUMNS
 
 MIN_SAMPLES = 10
 RECORDING_SUFFIXES = (".csv", ".parquet", ".pq")

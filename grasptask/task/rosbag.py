@@ -1,6 +1,6 @@
 """Force/torque recordings from ROS bags: the ``geometry_msgs/WrenchStamped`` messages of one topic, read with
 the pure-Python ``rosbags`` package (no ROS install), into the same ``(n, 7)`` array of t, fx, fy, fz, tx, ty,
-tz that :func:`grasptask.io.recordings.read_recording` gives for a CSV.
+tz that :func:`grasptask.task.recordings.read_recording` gives for a CSV.
 
 A ROS 1 bag is a ``.bag`` file; a ROS 2 bag is a folder with ``metadata.yaml`` and ``.db3`` (SQLite) or
 ``.mcap`` storage, named by the folder or by its storage file. Time is each message's header stamp, seconds
@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from grasptask.errors import BadInputError
-from grasptask.io.recordings import check_values
+from grasptask.task.recordings import check_values
 
 WRENCH_TYPES = ("geometry_msgs/msg/WrenchStamped", "geometry_msgs/WrenchStamped")
 ROS2_STORAGE = (".db3", ".mcap")
