@@ -79,13 +79,14 @@ def save_and_print(name: str, results: dict, table: Callable[[dict], str]) -> No
 
 
 def sweep_parser(description: str, name: str) -> Any:
-    """The options every sweep benchmark takes: --starts, --name and --table."""
+    """The options every sweep benchmark takes: --starts and --table. Each benchmark writes one results file,
+    benchmarks/results/NAME.json, which git keeps the history of."""
     import argparse
 
     parser = argparse.ArgumentParser(description=description)
     parser.add_argument("--starts", type=int, default=None, help="starts per task (default: all 126)")
-    parser.add_argument("--name", default=name, help="results file benchmarks/results/NAME.json")
-    parser.add_argument("--table", action="store_true", help="print the saved results NAME.json as a table, and stop")
+    parser.add_argument("--table", action="store_true", help=f"print the saved results/{name}.json as a table, and stop")
+    parser.set_defaults(name=name)
     return parser
 
 

@@ -1,4 +1,4 @@
-"""Grasp synthesis for every shipped hand (issue 16): the human hand with 3, 4 and 5 fingers, the BarrettHand
+"""Grasp synthesis for every shipped hand: the human hand with 3, 4 and 5 fingers, the BarrettHand
 BH8-282 (URDF), the Allegro Hand (MJCF), and ``mesh_allegro``, each on the tool cylinder for drawing, cutting and
 screw driving, 126 starts on 2 workers. Per hand and task: median and p90 seconds per start, the verified
 fraction, distinct optima, model size, and, where grasps pass every check of the verifier but its torque check,
@@ -6,16 +6,16 @@ the torque effort its LP needs there (above 1: the hand's tendons or motors cann
 Ratios: each hand's median over the human 3-finger hand's, in the same run.
 
 ``mesh_allegro`` is a robot hand as people publish one, written by the run (``tests/hand_files.py``): the
-Allegro's kinematics as a URDF whose every link is an STL mesh, joints named "0" to "15", no YAML (issue 43);
+Allegro's kinematics as a URDF whose every link is an STL mesh, joints named "0" to "15", no YAML;
 its medians are also given over the Allegro's.
 
-    python benchmarks/hands.py [--starts N] [--hands human3,barrett,...] [--name NAME]
-    python benchmarks/hands.py --name NAME --table     # the saved results as the README's table
-    python benchmarks/hands.py --keep DIR ...; python benchmarks/hands.py --summarise DIR --name NAME
+    python benchmarks/hands.py [--starts N] [--hands human3,barrett,...]
+    python benchmarks/hands.py --table     # the saved results as the README's table
+    python benchmarks/hands.py --keep DIR ...; python benchmarks/hands.py --summarise DIR
 
 Targets: each robot hand verifies >= 80% of its starts, its median within 2x of the human 3-finger hand's; the
 mesh hand's within 2x of the Allegro's.
-Results are saved after every sweep (benchmarks/results/NAME.json), so an interrupted run keeps what it did.
+Results are saved after every sweep (benchmarks/results/hands.json), so an interrupted run keeps what it did.
 """
 
 from __future__ import annotations
@@ -161,7 +161,7 @@ def main(n_starts: int | None, hands: list[str], name: str, solver: Path, keep: 
 
 
 def summarise(folder: Path, name: str) -> dict:
-    """The figures of sweeps kept with --keep, saved as NAME.json, without solving anything."""
+    """The figures of sweeps kept with --keep, saved as hands.json, without solving anything."""
     results: dict = {"hands": {}}
     for hand, (path, fingers) in HANDS.items():
         tasks = {

@@ -1,4 +1,4 @@
-"""Grasps with room to spare (issue 41), synthesis and the physics judge in one run: for the human 3-finger
+"""Grasps with room to spare, synthesis and the physics judge in one run: for the human 3-finger
 hand, the Allegro and the Barrett on the tool, drawing, cutting and screw driving, each of
 
 - ``today``: the route before the margin, ``configs/grasp_paper.yaml`` (no margin, a fixed pad point);

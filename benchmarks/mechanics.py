@@ -1,4 +1,4 @@
-"""Speed of the grasp-mechanics library (issue 3): forward kinematics plus contact Jacobians for 10,000 random
+"""Speed of the grasp-mechanics library: forward kinematics plus contact Jacobians for 10,000 random
 hand configurations (vectorised), and one call of the independent verifier per grasp.
 
 Baselines in the same run: the same kinematics one configuration at a time. The paper reports no timings

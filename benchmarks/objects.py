@@ -1,12 +1,12 @@
-"""Grasp synthesis on mesh objects (issue 17) beside the tool cylinder: the human hand, drawing, cutting and screw
+"""Grasp synthesis on mesh objects beside the tool cylinder: the human hand, drawing, cutting and screw
 driving, on 2 workers. Per object and task: a worker's build seconds, ms per IPOPT iteration, median and p90
 seconds per start, the verified fraction and distinct optima; ratios of each median over the cylinder's for the
 same task, in the same run. ``mug_gp`` is today's route for a mesh (a GP implicit surface), for comparison;
 ``kitchen_knife_handle``, ``screwdriver_handle`` and ``spray_bottle_body`` are the part of a mesh the hand holds,
 alone, as an exact superquadric (``benchmarks/proxies/``): its shape without a surrogate's cost.
 
-    python benchmarks/objects.py [--starts N] [--objects tool,mug,...] [--name NAME] [--keep DIR]
-    python benchmarks/objects.py --name NAME --table     # the saved results as the README's table
+    python benchmarks/objects.py [--starts N] [--objects tool,mug,...] [--keep DIR]
+    python benchmarks/objects.py --table     # the saved results as the README's table
 
 ``scan_bottle`` and ``scan_box`` are scanned household objects as people download them, written by the run
 (``tests/scan_files.py``): bare textured OBJs split along every texture seam, no YAML, so their task frame is
@@ -17,7 +17,7 @@ friction), and the share of the verified grasps it holds is recorded.
 
 Targets: a worker's model ready in <= 15 s, the median within 2x the cylinder's (4x for the scans), >= 80% of
 starts verified, and with ``--physics`` >= 90% of the verified grasps held.
-Results are saved after every sweep (benchmarks/results/NAME.json), so an interrupted run keeps what it did.
+Results are saved after every sweep (benchmarks/results/objects.json), so an interrupted run keeps what it did.
 """
 
 from __future__ import annotations
@@ -62,7 +62,7 @@ OBJECTS.update(
 
 
 #: scanned household objects as people download them, written by the run itself (tests/scan_files.py): bare
-#: textured OBJs split along their seams, base at the file's origin, no YAML (issue 42)
+#: textured OBJs split along their seams, base at the file's origin, no YAML
 SCANS = ("scan_bottle", "scan_box")
 
 
@@ -133,7 +133,7 @@ def compare(results: dict) -> dict:
         name: {
             "build_within_15_s": entry["build_s"] <= 15,
             "median_within_2x_tool": all((t["median_over_tool"] or np.inf) <= 2 for t in entry["tasks"].values()),
-            # a scanned mesh's bar (issue 42)
+            # a scanned mesh's bar
             "median_within_4x_tool": all((t["median_over_tool"] or np.inf) <= 4 for t in entry["tasks"].values()),
             "verified_at_least_80pct": all(t["verified_fraction"] >= 0.8 for t in entry["tasks"].values()),
             "held_at_least_90pct": all(

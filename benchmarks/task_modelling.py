@@ -1,4 +1,4 @@
-"""Speed of the task-modelling stages (issue 2): fit-task on the 105 simulated recordings, fit-task throughput
+"""Speed of the task-modelling stages: fit-task on the 105 simulated recordings, fit-task throughput
 on a 10-million-sample recording, and distances on 105 and 5,000 ellipsoids.
 
 Each figure is the median of several runs. Baselines run in the same process: pandas' own CSV reader for

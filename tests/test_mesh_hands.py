@@ -1,4 +1,4 @@
-"""Robot hands as people publish them (issue 43): every link an STL mesh, joints named by number, no YAML."""
+"""Robot hands as people publish them: every link an STL mesh, joints named by number, no YAML."""
 
 from __future__ import annotations
 

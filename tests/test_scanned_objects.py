@@ -1,4 +1,4 @@
-"""A user's own object, as it comes (issue 42): scans laid out as they are published load as they are, repaired
+"""A user's own object, as it comes: scans laid out as they are published load as they are, repaired
 and said so in one line; a bare file gets a task frame at its centre of volume; what a bare file cannot say is
 given on the command line; and each file no repair can save is one line with exit code 2."""
 

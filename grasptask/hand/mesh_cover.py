@@ -5,7 +5,7 @@ A sphere centred ``d`` inside the surface (``d`` its distance to the nearest sur
 from the centre. So candidate centres are surface samples moved inward along their normals, kept where the
 nearest surface is still as far as they moved (the inside of the link, not through its far side), and a greedy
 set cover picks among them until every surface sample and vertex lies in a sphere. The mesh's oriented bounding
-box, covered as a box, wrapped the LEAP Hand's fingers in blobs that hid the object (issue 43).
+box, covered as a box, wrapped the LEAP Hand's fingers in blobs that hid the object.
 
 Meshes as hand files ship them are often open or self-intersecting, so nothing here needs an inside test."""
 
