@@ -85,7 +85,7 @@ def sweep_parser(description: str, name: str) -> Any:
 
     parser = argparse.ArgumentParser(description=description)
     parser.add_argument("--starts", type=int, default=None, help="starts per task (default: all 126)")
-    parser.add_argument("--table", action="store_true", help=f"print the saved results/{name}.json as a table, and stop")
+    parser.add_argument("--table", action="store_true", help=f"print the saved {name}.json as a table")
     parser.set_defaults(name=name)
     return parser
 
