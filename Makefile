@@ -6,7 +6,7 @@ INSTALLED := $(VENV)/.installed
 CYIPOPT := $(VENV)/.cyipopt
 export OPENBLAS_NUM_THREADS ?= 1
 
-.PHONY: demo paper test install setup-cyipopt setup-browser lint format typecheck bench screenshot clean
+.PHONY: demo paper test docs install setup-cyipopt setup-browser lint format typecheck bench screenshot clean
 
 demo: $(INSTALLED)
 	$(BIN)/grasptask pipeline run pipelines/demo.yaml
@@ -22,7 +22,12 @@ test: $(INSTALLED) $(CYIPOPT) setup-browser
 	$(BIN)/ruff format --check grasptask tests benchmarks tools
 	$(BIN)/mypy
 	$(BIN)/lint-imports
+	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict --quiet
 	$(BIN)/python -m pytest -n 2 --dist loadfile
+
+# the docs site, built offline into site/ (open site/index.html); its tables come from benchmarks/results/
+docs: $(INSTALLED)
+	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict
 
 install: $(INSTALLED)
 
