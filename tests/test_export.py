@@ -15,11 +15,18 @@ from grasp_fixtures import ball_grasp, ball_sweep, drawing_like_task, results_wi
 
 from grasptask.grasp.grasp import Grasp
 from grasptask.hand import forward, load_hand
-from grasptask.records.export import glb_bytes, grasp_from_record, grasp_record
+from grasptask.records.export import glb_bytes, grasp_record
 from grasptask.records.scene import grasp_scene
 from grasptask.verifier.verify import verify
 
 SCHEMA = json.loads(Path("docs/grasp_record.schema.json").read_text())
+
+
+def grasp_from_record(record, joint_names):
+    """The grasp a record holds, as a reader of the JSON replays it: joint angles in the hand's own order."""
+    pose = np.asarray(record["palm_pose"], dtype=float)
+    angles = record["joint_angles"]
+    return Grasp(pose[:3, :3], pose[:3, 3], np.array([angles[name] for name in joint_names], dtype=float))
 
 
 def _light_tasks(results: Path) -> Path:

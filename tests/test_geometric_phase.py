@@ -102,21 +102,3 @@ def test_the_phase_runs_longer_where_the_turn_is_held(tasks):
         context = SolverContext(job)
         caps[task] = (context.first.held_positions is not None, context.size["geometric_iterations"])
     assert caps == {"drawing": (True, 7), "cutting": (False, 5)}
-
-
-def test_every_attempt_but_the_last_stops_at_the_retry_cap(tasks, monkeypatch):
-    """With retry_after_iterations, a first attempt that has not converged by the cap goes on to the next
-    posture, and only the last attempt's first model runs to IPOPT's max_iter."""
-    from grasptask.synthesis.context import Job, SolverContext
-
-    fast = load_solver_config("tests/data/solver_fast.yaml")
-    solver = replace(fast, retry_postures=(0.25,), retry_after_iterations=3, torque_axes=4)
-    context = SolverContext(Job(str(DEFAULT_HAND), "configs/objects/tool.yaml", str(tasks), "cutting", solver=solver))
-    assert context.size["retry_after_iterations"] == 3
-    # the capped solver shares the first model's NLP and variables: only its IPOPT instance differs
-    assert context.capped.nlp is context.first.nlp and context.capped.backend is not context.first.backend
-    solves = record_solves(monkeypatch, {"capped": context.capped, "first": context.first})
-    row = context.solve(subset(make_starts(context.bounds), 12)[1])
-    assert [name for name, _, _ in solves] == ["capped", "first"] and row["attempts"] == 2
-    assert solves[0][2].status == "max-iter" and solves[0][2].iterations == 3
-    assert solves[1][2].iterations > 3

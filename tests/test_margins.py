@@ -75,7 +75,7 @@ def test_the_margin_settings_are_validated(tmp_path):
     config.write_text("friction_scale: 0.8\nactivation_max: 0.8\nmin_normal_force_n: 0.2\n")
     loaded = load_grasp_settings(config)
     assert (loaded.friction_scale, loaded.activation_max, loaded.min_normal_force_n) == (0.8, 0.8, 0.2)
-    # the dataclass's defaults are the shipped config's, and the paper's config keeps no margin
+    # the shipped config sets nothing (the schema's defaults are the tool's), and the paper's keeps no margin
     assert GraspSettings() == load_grasp_settings("configs/grasp.yaml")
     paper = load_grasp_settings("configs/grasp_paper.yaml")
     assert (paper.activation_max, paper.friction_scale, paper.min_normal_force_n) == (1.0, 1.0, 0.0)

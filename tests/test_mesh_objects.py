@@ -246,8 +246,7 @@ def test_the_verifiers_feedback_turns_a_narrow_miss_into_a_verified_grasp(simula
     hand, bottle = "configs/hands/human.yaml", "configs/objects/spray_bottle.yaml"
     # the four-edge cone under which these starts were narrow misses (under the default octagon they are not)
     settings = tmp_path / "grasp.yaml"
-    settings.write_text(Path("configs/grasp.yaml").read_text().replace("cone_edges: 8", "cone_edges: 4"))
-    assert "cone_edges: 4" in settings.read_text()
+    settings.write_text("cone_edges: 4\n")
     contexts = {
         rounds: SolverContext(
             Job(

@@ -3,6 +3,7 @@ NLP's surface that stay finite where a cylinder's exponents meet zero."""
 
 import math
 import re
+from dataclasses import replace
 
 import numpy as np
 import pyomo.environ as pyo
@@ -14,7 +15,7 @@ from pyomo.core.expr.calculus.derivatives import Modes, differentiate
 from grasptask.errors import BadInputError
 from grasptask.hand import load_hand
 from grasptask.objects import load_object
-from grasptask.synthesis.config import Regularisation, SearchBounds, SolverConfig, load_solver_config
+from grasptask.synthesis.config import IPOPT_DEFAULTS, Regularisation, SearchBounds, SolverConfig, load_solver_config
 from grasptask.synthesis.model import build_model
 from grasptask.synthesis.placement import ANCHOR_DEPTH_CELLS, Anchors, anchor_point, place
 from grasptask.synthesis.starts import make_starts
@@ -113,29 +114,31 @@ def test_cylinder_contact_has_finite_second_derivatives_on_its_axis_planes():
 @pytest.mark.parametrize(
     "text, message",
     [
-        ("ipopt: {}\nplacment: true\n", "unknown field 'placment'"),
-        ("placement: 1\n", "field 'placement' must be true or false"),
-        ("search_bounds: {task_force_n: -5}\n", "search_bounds.task_force_n' must be a positive number"),
-        ("search_bounds: {edge: 5}\n", "unknown field 'search_bounds.edge'"),
-        ("ipopt: [tol]\n", "field 'ipopt' must be a mapping"),
-        ("regularisation: {activation: -1.0e-6}\n", "regularisation.activation' must be a number >= 0"),
-        ("retry_postures: [0.25, 1.5]\n", "field 'retry_postures' must be a list of numbers in [0, 1]"),
-        ("retry_postures: 0.25\n", "field 'retry_postures' must be a list of numbers in [0, 1]"),
-        ("first_posture: 1.5\n", "field 'first_posture' must be a number in [0, 1]"),
-        ("first_posture: null\n", "field 'first_posture' must be a number in [0, 1]"),
-        ("feedback_rounds: 1.5\n", "field 'feedback_rounds' must be a whole number >= 0"),
-        ("feedback_rounds: -1\n", "field 'feedback_rounds' must be a whole number >= 0"),
+        ("ipopt: {}\nplacment: true\n", "unknown field 'placment' (allowed: feedback_rounds, first_posture,"),
+        ("placement: 1\n", "field 'placement': must be a valid boolean, got 1"),
+        ("search_bounds: {task_force_n: -5}\n", "field 'search_bounds.task_force_n': must be greater than 0, got -5"),
+        ("search_bounds: {edge: 5}\n", "unknown field 'search_bounds.edge' (allowed: edge_force_n, task_force_n)"),
+        ("ipopt: [tol]\n", "field 'ipopt': must be a valid dictionary"),
+        ("ipopt: {tol: .nan}\n", "field 'ipopt.tol': must be a finite number or a word, got nan"),
+        ("ipopt: {print_level: true}\n", "field 'ipopt.print_level': must be a finite number or a word, got True"),
+        ("regularisation: {activation: -1.0e-6}\n", "field 'regularisation.activation': must be greater than or equal"),
+        ("retry_postures: [0.25, 1.5]\n", "field 'retry_postures[2]': must be less than or equal to 1, got 1.5"),
+        ("retry_postures: 0.25\n", "field 'retry_postures': must be a valid tuple, got 0.25"),
+        ("first_posture: 1.5\n", "field 'first_posture': must be less than or equal to 1, got 1.5"),
+        ("first_posture: null\n", "field 'first_posture': must be a valid number, got None"),
+        ("first_posture: .inf\n", "field 'first_posture': must be a finite number, got inf"),
+        ("feedback_rounds: 1.5\n", "field 'feedback_rounds': must be a valid integer, got 1.5"),
+        ("feedback_rounds: -1\n", "field 'feedback_rounds': must be greater than or equal to 0, got -1"),
         ("regularisation: {lam: 0.1}\n", "unknown field 'regularisation.lam'"),
-        ("regularisation: 0\n", "field 'regularisation' must be a mapping"),
-        ("torque_axes: 0\n", "field 'torque_axes' must be a whole number from 1 to 6 or null"),
-        ("torque_axes: 2.5\n", "field 'torque_axes' must be a whole number from 1 to 6 or null"),
-        ("hold_axis_rotation: -0.1\n", "field 'hold_axis_rotation' must be a number >= 0 or null"),
-        ("hold_axis_rotation: yes\n", "field 'hold_axis_rotation' must be a number >= 0 or null"),
-        ("geometric_iterations: -5\n", "field 'geometric_iterations' must be a whole number >= 0"),
-        ("geometric_iterations: 2.5\n", "field 'geometric_iterations' must be a whole number >= 0"),
-        ("held_geometric_iterations: -1\n", "field 'held_geometric_iterations' must be a whole number >= 0 or null"),
-        ("retry_after_iterations: 0\n", "field 'retry_after_iterations' must be a whole number >= 1 or null"),
-        ("retry_after_iterations: 1.5e2\n", "field 'retry_after_iterations' must be a whole number >= 1 or null"),
+        ("regularisation: 0\n", "field 'regularisation': must be a dictionary"),
+        ("torque_axes: 0\n", "field 'torque_axes': must be greater than or equal to 1, got 0"),
+        ("torque_axes: 2.5\n", "field 'torque_axes': must be a valid integer, got 2.5"),
+        ("hold_axis_rotation: -0.1\n", "field 'hold_axis_rotation': must be greater than or equal to 0"),
+        ("hold_axis_rotation: yes\n", "field 'hold_axis_rotation': must be a valid number, got True"),
+        ("geometric_iterations: -5\n", "field 'geometric_iterations': must be greater than or equal to 0"),
+        ("geometric_iterations: 2.5\n", "field 'geometric_iterations': must be a valid integer, got 2.5"),
+        ("held_geometric_iterations: -1\n", "field 'held_geometric_iterations': must be greater than or equal to 0"),
+        ("retry_after_iterations: 200\n", "unknown field 'retry_after_iterations'"),
     ],
 )
 def test_bad_solver_config_is_one_clear_line(tmp_path, text, message):
@@ -148,19 +151,26 @@ def test_bad_solver_config_is_one_clear_line(tmp_path, text, message):
 def test_solver_config_defaults_and_bundled_files():
     bundled = load_solver_config("configs/solver.yaml")
     assert bundled.placement
-    assert bundled.bounds == SearchBounds(100.0, 50.0)
+    assert bundled.search_bounds == SearchBounds(100.0, 50.0)
     assert bundled.regularisation == Regularisation()
     assert bundled.time_limit == bundled.ipopt["max_wall_time"]
     per_attempt = 1 + bundled.feedback_rounds + (bundled.torque_axes is not None) + 1  # the geometric phase
     solves = (1 + len(bundled.retry_postures)) * per_attempt
     assert bundled.start_time_limit == bundled.time_limit * solves
-    assert load_solver_config("tests/data/solver_fast.yaml").placement
-    assert bundled.hold_axis_rotation == 0.1 and SolverConfig().hold_axis_rotation is None
-    assert bundled.geometric_iterations == 20 and SolverConfig().geometric_iterations == 0
+    # the shipped file sets nothing: every value is the schema's one default
+    assert bundled == SolverConfig() and bundled.ipopt == IPOPT_DEFAULTS
+    fast = load_solver_config("tests/data/solver_fast.yaml")
+    assert fast.placement and fast.hold_axis_rotation is None and fast.geometric_iterations == 0
+    # a config's IPOPT options are set over the defaults, not in their place
+    assert fast.ipopt == {**IPOPT_DEFAULTS, **fast.ipopt} and fast.ipopt["max_wall_time"] == 4.0
+    assert bundled.hold_axis_rotation == 0.1 and bundled.geometric_iterations == 20
     assert bundled.phase_iterations(held=False) == 20 and bundled.phase_iterations(held=True) == 30
-    assert SolverConfig(geometric_iterations=20).phase_iterations(held=True) == 20  # no held cap: the same one
+    free = SolverConfig(geometric_iterations=20, held_geometric_iterations=None)
+    assert free.phase_iterations(held=True) == 20  # no held cap: the same one
     # a held cap alone still makes the phase one of an attempt's solves
-    assert SolverConfig(held_geometric_iterations=30).start_time_limit == SolverConfig().start_time_limit * 2
+    none = replace(free, geometric_iterations=0)
+    phase = none.time_limit * len(none.postures)  # one more solve per attempt
+    assert replace(none, held_geometric_iterations=30).start_time_limit == none.start_time_limit + phase
 
 
 def test_compiled_expressions_match_pyomo_for_every_operation():

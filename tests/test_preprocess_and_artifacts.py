@@ -4,13 +4,14 @@ import json
 
 import numpy as np
 import pandas as pd
+import pyarrow.parquet as pq
 import pytest
 import scipy.linalg
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from grasptask.errors import BadInputError
-from grasptask.io.artifacts import Provenance, StagedOutput, read_parquet_provenance
+from grasptask.io.artifacts import Provenance, StagedOutput
 from grasptask.task import preprocess
 from grasptask.task.distances import (
     compute_distances,
@@ -63,7 +64,7 @@ def test_artifacts_carry_provenance(tmp_path):
         staged.write_parquet("t.parquet", pd.DataFrame({"x": [1.0]}))
         staged.write_json("m.json", {"value": 1})
         staged.write_csv("s.csv", pd.DataFrame({"x": [1]}))
-    recorded = read_parquet_provenance(tmp_path / "out" / "t.parquet")
+    recorded = json.loads(pq.read_schema(tmp_path / "out" / "t.parquet").metadata[b"grasptask.provenance"])
     assert recorded["seed"] == 7 and recorded["inputs"][str(source)] == provenance.inputs[str(source)]
     assert json.loads((tmp_path / "out" / "m.json").read_text())["provenance"]["config_hash"] == provenance.config_hash
     ledger = json.loads((tmp_path / "out" / "provenance.json").read_text())

@@ -6,6 +6,7 @@ start that needs longer is recorded as time-limit, which the sweep must handle a
 
 import json
 import multiprocessing as mp
+import os
 import signal
 import subprocess
 import sys
@@ -167,8 +168,30 @@ def test_sweep_on_a_gp_object(cli, tasks, tmp_path):
     np.testing.assert_allclose(converged["Q"], converged["verify_Q"], rtol=1e-3)
 
 
+CRASHING_WORKER = """
+import os
+from grasptask.synthesis import context
+
+_solve = context.SolverContext.solve
+
+
+def _crash_on_62(self, start):
+    if start.start_id == 62:
+        os._exit(13)
+    return _solve(self, start)
+
+
+context.SolverContext.solve = _crash_on_62
+"""
+
+
 def test_a_crashed_worker_is_recorded_and_the_sweep_goes_on(cli, tasks, tmp_path, monkeypatch):
-    monkeypatch.setenv("GRASPTASK_CRASH_STARTS", "62")  # the middle one of the 3-start subset 0, 62, 125
+    """A worker process that dies outright on start 62 (the middle one of the subset 0, 62, 125): the spawned
+    workers import a sitecustomize that makes them exit there, so no hook lives in the package."""
+    hook = tmp_path / "hook"
+    hook.mkdir()
+    (hook / "sitecustomize.py").write_text(CRASHING_WORKER)
+    monkeypatch.setenv("PYTHONPATH", os.pathsep.join(filter(None, (str(hook), os.environ.get("PYTHONPATH")))))
     result = synthesize(cli, tasks, tmp_path, "--starts", "3", "--workers", "1")
     assert result.exit_code == 0, result.output
     solutions = pd.read_parquet(tmp_path / "drawing" / "solutions.parquet").set_index("start_id")

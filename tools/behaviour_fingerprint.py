@@ -50,7 +50,8 @@ def fingerprint(tasks_path: Path, n_starts: int = 12, seed: int = 0, nl_dir: Pat
     models = load_task_models(tasks_path)
     nl = {}
     for task in TASKS:
-        text, _ = write_nl(build_model(hand, obj, models[task], settings, solver.bounds, solver.regularisation).model)
+        nlp = build_model(hand, obj, models[task], settings, solver.search_bounds, solver.regularisation)
+        text, _ = write_nl(nlp.model)
         nl[task] = hashlib.sha256(text.encode()).hexdigest()
         if nl_dir is not None:
             nl_dir.mkdir(parents=True, exist_ok=True)

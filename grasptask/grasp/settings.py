@@ -1,34 +1,49 @@
-"""Contact model and grasp requirements (``configs/grasp.yaml``), read once and shared as plain data."""
+"""Contact model and grasp requirements (``configs/grasp.yaml``): the schema, with every default, declared once
+and shared as plain data by synthesis and the verifier."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass, fields
 from pathlib import Path
+from typing import Annotated
 
-from grasptask.errors import BadInputError
-from grasptask.io.config import load_yaml, number, reject_unknown, whole
+from pydantic import Field, Strict
+from pydantic.dataclasses import dataclass
+
+from grasptask.io.config import SCHEMA, Flag, NonNegative, Positive, Share, load_yaml, validated
 from grasptask.paths import DEFAULT_GRASP_CONFIG
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, config=SCHEMA)
 class GraspSettings:
-    friction_coefficient: float = 0.5
-    cone_edges: int = 8
-    pad_angle_max_deg: float = 45.0
-    force_closure_min_weight: float = 1e-3
-    activation_margin: float = 0.02
-    #: the margin every task wrench is held with, by synthesis and the verifier alike: activations at most
-    #: activation_max (motor_activation_max for a hand driven by motors), forces inside cones of friction_scale
-    #: mu, and at least min_normal_force_n at each contact
-    activation_max: float = 0.8
-    #: a motor's torque is rated, a muscle's force estimated: at 0.9 physics held 95-100% of the Allegro's and
-    #: the BarrettHand's verified grasps, the human hand's screw driving 71% (docs/margins.md)
-    motor_activation_max: float = 0.9
-    friction_scale: float = 0.8
-    min_normal_force_n: float = 0.5
-    #: contacts roll over the fingertip's sphere, sunk by the hand's compliance (False: a fixed pad point, the
-    #: paper's model)
-    rolling_contacts: bool = True
+    """The contact model and the margin every task wrench is held with. The paper's own model is
+    ``configs/grasp_paper.yaml``: four cone edges, no margin and a fixed pad point."""
+
+    #: mu
+    friction_coefficient: Positive = 0.5
+    #: m, edges of the linearised friction cone (an octagon: within 8% of the round cone)
+    cone_edges: Annotated[int, Strict(), Field(ge=3)] = 8
+    #: the largest angle between a fingertip pad's normal and the inward surface normal
+    pad_angle_max_deg: Annotated[float, Strict(), Field(gt=0, le=90)] = 45.0
+    #: epsilon in phi >= epsilon (eq. 4)
+    force_closure_min_weight: NonNegative = 1e-3
+    #: synthesis keeps activations this far below the cap, so that the verifier's own LP still finds every task
+    #: wrench within reach
+    activation_margin: NonNegative = 0.02
+    #: the margin: every task wrench held with tendon activations at most this (1: none) ...
+    activation_max: Share = 0.8
+    #: ... with motor torques at most this share of their rating (a motor's torque is rated, a muscle's
+    #: force estimated) ...
+    motor_activation_max: Share = 0.9
+    #: ... with forces inside cones of this times mu ...
+    friction_scale: Share = 0.8
+    #: ... and with at least this normal force at each contact (N)
+    min_normal_force_n: NonNegative = 0.5
+    #: contacts roll over the fingertip's sphere, sunk by the hand's compliance (false: a fixed pad point)
+    rolling_contacts: Flag = True
+
+    def __post_init__(self) -> None:
+        if self.activation_margin >= min(self.activation_max, self.motor_activation_max):
+            raise ValueError("field 'activation_margin': must be below activation_max and motor_activation_max")
 
     def activation_cap(self, kind: str) -> float:
         """The margin's activation cap for a hand whose capability is of ``kind`` ("tendons", "motors" or a
@@ -38,25 +53,5 @@ class GraspSettings:
 
 
 def load_grasp_settings(path: str | Path = DEFAULT_GRASP_CONFIG) -> GraspSettings:
-    data = load_yaml(path)
-    names = {f.name for f in fields(GraspSettings)}
-    reject_unknown(data, names, path)
-    values: dict[str, float | int | bool] = {}
-    for key, value in data.items():
-        if isinstance(getattr(GraspSettings, key), bool):
-            if not isinstance(value, bool):
-                raise BadInputError(path, f"field '{key}': must be true or false, got {value!r}")
-            values[key] = value
-        elif isinstance(getattr(GraspSettings, key), int):
-            values[key] = whole(value, path, key)
-        else:
-            values[key] = number(value, path, key, minimum=0.0)
-    settings = GraspSettings(**values)  # type: ignore[arg-type]
-    if settings.friction_coefficient <= 0 or settings.cone_edges < 3 or not 0 < settings.pad_angle_max_deg <= 90:
-        raise BadInputError(path, "need friction_coefficient > 0, cone_edges >= 3 and 0 < pad_angle_max_deg <= 90")
-    for key in ("activation_max", "motor_activation_max", "friction_scale"):
-        if not 0 < getattr(settings, key) <= 1:
-            raise BadInputError(path, f"field '{key}': must be in (0, 1], got {getattr(settings, key)}")
-    if settings.activation_margin >= min(settings.activation_max, settings.motor_activation_max):
-        raise BadInputError(path, "field 'activation_margin': must be below activation_max and motor_activation_max")
-    return settings
+    """The grasp config file at ``path``: only the keys it sets differ from :class:`GraspSettings`' defaults."""
+    return validated(GraspSettings, load_yaml(path), path)

@@ -354,12 +354,6 @@ def _record_provenance(
     staged.write_text(json.dumps(ledger, indent=2, sort_keys=True) + "\n")
 
 
-def read_parquet_provenance(path: str | Path) -> dict[str, Any] | None:
-    meta = pq.read_schema(path).metadata or {}
-    raw = meta.get(b"grasptask.provenance")
-    return json.loads(raw) if raw else None
-
-
 def _jsonable(value: Any) -> Any:
     if hasattr(value, "tolist"):
         return value.tolist()

@@ -1,16 +1,44 @@
-"""YAML configuration and JSON summaries, read and validated once at the edge."""
+"""YAML configuration and JSON summaries, read and validated once at the edge.
+
+A config file's schema is a pydantic dataclass: its keys, their defaults and their checks declared once, in
+the module that uses them, with the types below. :func:`validated` turns a file's mapping into it, and an
+unknown key, a wrong type or a value out of range into the same one line naming the file and the key.
+"""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
+import typing
+from collections.abc import Mapping
 from pathlib import Path
-from typing import Any
+from typing import Annotated, Any, TypeVar
 
 import numpy as np
 import yaml
+from pydantic import ConfigDict, Field, Strict, TypeAdapter, ValidationError
 
 from grasptask.errors import BadInputError, existing_file
+
+#: every schema's own settings: an unknown key is an error, and so is a NaN or an infinity
+SCHEMA = ConfigDict(extra="forbid", allow_inf_nan=False)
+#: a number, never text or true/false
+Real = Annotated[float, Strict()]
+#: a number >= 0
+NonNegative = Annotated[float, Strict(), Field(ge=0)]
+#: a number > 0
+Positive = Annotated[float, Strict(), Field(gt=0)]
+#: a number in [0, 1]
+Fraction = Annotated[float, Strict(), Field(ge=0, le=1)]
+#: a number in (0, 1]
+Share = Annotated[float, Strict(), Field(gt=0, le=1)]
+#: a whole number >= 0, never 1.0 or true
+Count = Annotated[int, Strict(), Field(ge=0)]
+#: true or false, never 1 or "yes"
+Flag = Annotated[bool, Strict()]
+
+T = TypeVar("T")
 
 #: the largest config file read; every bundled one is under 10 kB
 MAX_CONFIG_BYTES = 1 << 20
@@ -28,7 +56,8 @@ class _NoAliasLoader(yaml.SafeLoader):
 
 
 def load_yaml(path: str | Path) -> dict[str, Any]:
-    """A YAML mapping from ``path`` (safe types only, no aliases), or a one-line error naming the file."""
+    """A YAML mapping from ``path`` (safe types only, no aliases), or a one-line error naming the file. A file
+    with nothing but comments is the empty mapping: every key at its default."""
     path = existing_file(path, "config file")
     if path.stat().st_size > MAX_CONFIG_BYTES:
         raise BadInputError(path, f"larger than {MAX_CONFIG_BYTES >> 20} MB: not a config file")
@@ -41,9 +70,49 @@ def load_yaml(path: str | Path) -> dict[str, Any]:
         raise BadInputError(
             path, f"invalid YAML: {getattr(exc, 'problem', exc)}", row=None if line is None else line + 1
         ) from exc
+    if data is None and _only_comments(path):
+        return {}
     if not isinstance(data, dict):
         raise BadInputError(path, "expected a mapping at the top level")
     return data
+
+
+def _only_comments(path: Path) -> bool:
+    lines = [line.strip() for line in path.read_text().splitlines()]
+    return any(lines) and all(not line or line.startswith("#") for line in lines)
+
+
+def validated(schema: type[T], data: Mapping[str, Any], source: str | Path) -> T:
+    """``data`` as an instance of the pydantic dataclass ``schema``, or one line naming the file and the key."""
+    try:
+        return TypeAdapter(schema).validate_python(data)
+    except ValidationError as exc:
+        # a misspelt key explains a missing one, so an unknown key is named first
+        errors = sorted(exc.errors(), key=lambda e: e["type"] not in ("unexpected_keyword_argument", "extra_forbidden"))
+        raise BadInputError(source, _problem(schema, errors[0])) from None
+
+
+def _problem(schema: type, error: Any) -> str:
+    """One of pydantic's errors as this project's one line: ``field 'a.b': must be ..., got ...``."""
+    loc = [part for part in error["loc"] if part != "__root__"]
+    key = "".join(f"[{part + 1}]" if isinstance(part, int) else f".{part}" for part in loc).lstrip(".")
+    message = str(error["msg"]).removeprefix("Value error, ").replace("Input should be", "must be")
+    if error["type"] in ("unexpected_keyword_argument", "extra_forbidden"):
+        return f"unknown field '{key}' (allowed: {', '.join(_keys(schema, loc[:-1]))})"
+    if error["type"] == "missing":
+        return f"missing field '{key}'"
+    if not key:
+        return message
+    return f"field '{key}': {message}, got {error.get('input')!r}"
+
+
+def _keys(schema: Any, path: list[Any]) -> list[str]:
+    """The keys a schema allows at ``path`` (a nested schema's, for an unknown key inside it)."""
+    for part in path:
+        schema = typing.get_type_hints(schema).get(str(part))
+        if not dataclasses.is_dataclass(schema):
+            return []
+    return sorted(f.name for f in dataclasses.fields(schema))
 
 
 def read_json(path: str | Path) -> dict[str, Any]:

@@ -27,11 +27,14 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Annotated, Any
+
+from pydantic import Field, Strict
+from pydantic.dataclasses import dataclass as pydantic_dataclass
 
 from grasptask.errors import BadInputError
 from grasptask.io.artifacts import config_hash, path_hash, write_json_atomic
-from grasptask.io.config import load_yaml, reject_unknown, require
+from grasptask.io.config import SCHEMA, load_yaml, validated
 from grasptask.io.locking import folder_lock
 
 
@@ -84,42 +87,57 @@ class Outcome:
     exit_code: int = 0
 
 
+#: a stage argument as a YAML file may give it: text, or a number (["--starts", 4] is "--starts 4")
+Argument = Annotated[str, Strict()] | Annotated[int, Strict()] | Annotated[float, Strict()]
+Text = Annotated[str, Strict(), Field(min_length=1)]
+
+
+@pydantic_dataclass(frozen=True, config=SCHEMA)
+class StageFile:
+    """One stage of a pipeline file: the grasptask command it runs, its arguments, what it reads and makes."""
+
+    run: Text
+    #: what the stage makes: it reruns when any of them is missing or changed
+    outputs: Annotated[list[Text], Field(min_length=1)]
+    #: what the runner calls the stage (default: stage-N)
+    name: Text | None = None
+    args: list[Argument] = field(default_factory=list)
+    inputs: list[Text] = field(default_factory=list)
+
+
+@pydantic_dataclass(frozen=True, config=SCHEMA)
+class PipelineFile:
+    """A pipeline file's schema (``grasptask pipeline run FILE``)."""
+
+    name: Text
+    stages: Annotated[list[StageFile], Field(min_length=1)]
+    description: str = ""
+    #: where the runner remembers what it ran (default: results/.pipeline/NAME.json)
+    state: Text | None = None
+    #: printed when the run ends
+    final_message: str = ""
+
+
 def load_pipeline(path: str | Path) -> PipelineSpec:
     path = Path(path)
-    data = load_yaml(path)
-    reject_unknown(data, {"name", "description", "state", "final_message", "stages"}, path)
-    name = require(data, "name", path, str)
-    stages_data = require(data, "stages", path, list)
-    if not stages_data:
-        raise BadInputError(path, "no stages")
+    spec = validated(PipelineFile, load_yaml(path), path)
     stages, names = [], set()
-    for index, item in enumerate(stages_data, start=1):
-        where = f"stages[{index}]."
-        if not isinstance(item, dict):
-            raise BadInputError(path, f"stage {index} must be a mapping")
-        reject_unknown(item, {"name", "run", "args", "inputs", "outputs"}, path, where)
-        stage_name = str(item.get("name", f"stage-{index}"))
+    for index, item in enumerate(spec.stages, start=1):
+        stage_name = item.name or f"stage-{index}"
         if stage_name in names:
             raise BadInputError(path, f"duplicate stage name '{stage_name}'")
         names.add(stage_name)
-        run = str(require(item, "run", path, str)).split()
-        for key in ("args", "inputs", "outputs"):
-            if not isinstance(item.get(key, []), list):
-                raise BadInputError(path, f"field '{where}{key}' must be a list")
-        outputs = [Path(str(p)) for p in item.get("outputs", [])]
-        if not outputs:
-            raise BadInputError(path, f"field '{where}outputs' must name what the stage makes")
         stages.append(
             Stage(
                 name=stage_name,
-                run=run,
-                args=[str(a) for a in item.get("args", [])],
-                inputs=[Path(str(p)) for p in item.get("inputs", [])],
-                outputs=outputs,
+                run=item.run.split(),
+                args=[str(a) for a in item.args],
+                inputs=[Path(p) for p in item.inputs],
+                outputs=[Path(p) for p in item.outputs],
             )
         )
-    state = Path(str(data.get("state", f"results/.pipeline/{name}.json")))
-    return PipelineSpec(name, path, stages, state, str(data.get("final_message", "")))
+    state = Path(spec.state or f"results/.pipeline/{spec.name}.json")
+    return PipelineSpec(spec.name, path, stages, state, spec.final_message)
 
 
 def _load_state(path: Path, force: bool) -> dict[str, dict]:

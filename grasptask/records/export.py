@@ -139,11 +139,3 @@ def grasp_record(
             "figures": _figures(verification, fingers),
         },
     }
-
-
-def grasp_from_record(record: Mapping[str, Any], joint_names: list[str]) -> Grasp:
-    """The grasp a record holds, its joint angles in the order ``joint_names`` (a hand's own): how a record is
-    replayed through the hand's forward kinematics."""
-    pose = np.asarray(record["palm_pose"], dtype=float)
-    angles = record["joint_angles"]
-    return Grasp(pose[:3, :3], pose[:3, 3], np.array([angles[name] for name in joint_names], dtype=float))

@@ -19,6 +19,7 @@ from grasptask.io.artifacts import Provenance, StagedOutput
 from grasptask.io.locking import check_writable, folder_lock
 from grasptask.paths import DEFAULT_PHYSICS_CONFIG
 from grasptask.physics.judge import Judge, best_grasp_trace, write_physics_results
+from grasptask.physics.settings import Controller
 from grasptask.records.sweeps import SweepFiles, read_grasps
 
 
@@ -37,7 +38,7 @@ class PhysicsInputs:
     physics_config: Path = DEFAULT_PHYSICS_CONFIG
     fingers: tuple[str, ...] | None = None
     #: None: the physics config's controller
-    controller: str | None = None
+    controller: Controller | None = None
     #: the hand's actuators and the friction coefficient this many times the models' (the judge's own checks)
     strength: float = 1.0
     friction_scale: float = 1.0

@@ -317,12 +317,9 @@ def _say_model(size: dict[str, Any], paper: PaperSynthesis, echo: Callable[[str]
     if size.get("held_axis_rotation"):
         option = "held_geometric_iterations, or geometric_iterations if null"
     geometric = f"; each start's first {warmup} iterations without eq. 10 ({option})" if warmup else ""
-    cap = size.get("retry_after_iterations")
-    retry = f"; attempts but the last stop after {cap} iterations (retry_after_iterations)" if cap else ""
     echo(
         f"model {size['variables']} variables x {size['constraints']} constraints"
         f" (paper: {paper.variables} x {paper.constraints}){held if size.get('held_axis_rotation') else ''}{geometric}"
-        f"{retry}"
     )
 
 

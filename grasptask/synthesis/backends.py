@@ -8,7 +8,6 @@ built once per model and then re-solved from each start's initial point.
 
 from __future__ import annotations
 
-import copy
 import io
 import os
 import sys
@@ -193,22 +192,11 @@ class CasadiBackend:
 
     def __init__(self, nl_text: str, ipopt_options: dict, surrogate: SurrogateSpec | None = None):
         self.nlp = CasadiNLP(nl_text, surrogate)
-        self._build(ipopt_options)
-
-    def _build(self, ipopt_options: dict) -> None:
-        self.ipopt_options = ipopt_options
         options: dict[str, Any] = {f"ipopt.{k}": v for k, v in ipopt_options.items()}
         options.update({"expand": self.nlp.expandable, "print_time": False, "error_on_fail": False})
         if not self.nlp.expandable:  # CasADi would differentiate the MX graph itself, several times slower
             options.update(self.nlp.derivative_functions())
         self.solver = casadi.nlpsol("grasp", "ipopt", {"x": self.nlp.x, "f": self.nlp.f, "g": self.nlp.g}, options)
-
-    def with_max_iter(self, max_iter: int) -> CasadiBackend:
-        """The same imported NLP behind a second IPOPT instance that stops after ``max_iter`` iterations (CasADi
-        fixes IPOPT's options when the solver is made)."""
-        other = copy.copy(self)
-        other._build({**self.ipopt_options, "max_iter": max_iter})
-        return other
 
     def solve(self, x0: np.ndarray, bounds: Bounds | None = None) -> SolveResult:
         b = bounds or self.nlp.bounds
@@ -255,12 +243,6 @@ class CyipoptBackend:
         self._hess = casadi.Function("lagrangian_hessian", [x, nlp.sigma, nlp.lam], [hess.nz[:]])
         self._hess_rc = hess.sparsity().get_triplet()
         self.options = ipopt_options
-
-    def with_max_iter(self, max_iter: int) -> CyipoptBackend:
-        """The same functions, solved with IPOPT stopping after ``max_iter`` iterations."""
-        other = copy.copy(self)
-        other.options = {**self.options, "max_iter": max_iter}
-        return other
 
     def solve(self, x0: np.ndarray, bounds: Bounds | None = None) -> SolveResult:
         backend = self
@@ -316,8 +298,6 @@ class Backend(Protocol):
     nlp: CasadiNLP
 
     def solve(self, x0: np.ndarray, bounds: Bounds | None = None) -> SolveResult: ...
-
-    def with_max_iter(self, max_iter: int) -> Backend: ...
 
 
 BACKENDS: dict[str, Callable[..., Backend]] = {"casadi": CasadiBackend, "cyipopt": CyipoptBackend}

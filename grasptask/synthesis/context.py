@@ -3,7 +3,6 @@ initial point, every solution checked by the independent verifier, and the resul
 
 from __future__ import annotations
 
-import os
 import time
 import traceback
 from dataclasses import dataclass, replace
@@ -24,9 +23,6 @@ if TYPE_CHECKING:  # the solver stack loads in the workers, not where a Job is m
     from grasptask.synthesis.model import GraspNLP
     from grasptask.task.model import TaskModel
     from grasptask.verifier.verify import Verification
-
-# a test hook: a start whose id is listed here makes its worker exit abruptly (to exercise crash handling)
-CRASH_ENV = "GRASPTASK_CRASH_STARTS"
 
 
 @dataclass(frozen=True)
@@ -81,10 +77,6 @@ class Solver:
             bounds = replace(bounds, lbx=lbx, ubx=ubx)
         return self.backend.solve(x0, bounds)
 
-    def capped(self, max_iter: int) -> Solver:
-        """The same NLP, variables and limits, with IPOPT stopping after ``max_iter`` iterations."""
-        return replace(self, backend=self.backend.with_max_iter(max_iter))
-
 
 def build_solver(
     hand: Hand,
@@ -102,7 +94,7 @@ def build_solver(
 
     config = job.solver
     held = held_axis(obj, task, config.hold_axis_rotation)
-    nlp = build_model(hand, obj, task, settings, config.bounds, config.regularisation, torque_axes, held)
+    nlp = build_model(hand, obj, task, settings, config.search_bounds, config.regularisation, torque_axes, held)
     text, order, rows = write_nl_rows(nlp.model)
     nlp.compile()  # now, so that its one-off cost is not counted in the first start's seconds
     options = config.ipopt if max_iter is None else {**config.ipopt, "max_iter": max_iter}
@@ -130,9 +122,7 @@ class SolverContext:
     covers all six axes, is solved again from itself with the whole model. With ``geometric_iterations``
     (``held_geometric_iterations`` where the turn about the object's axis is held), a start's first iterations
     are made on the model without eq. 10 at all: they move the grasp most, and there they cost half. Objects
-    whose surface the NLP sees through a surrogate (meshes, point clouds) skip that phase (docs/synthesis-notes.md,
-    "A geometric phase first"). With ``retry_after_iterations``, every attempt but the last stops the first
-    model there and goes on to the next posture."""
+    whose surface the NLP sees through a surrogate (meshes, point clouds) skip that phase."""
 
     def __init__(self, job: Job):
         from grasptask.grasp.settings import GraspSettings, load_grasp_settings
@@ -154,9 +144,6 @@ class SolverContext:
         axes = job.solver.torque_axes
         self.first = build_solver(*parts, axes) if axes is not None and axes < len(self.task.weights) else self.whole
         self._carried = _positions(self.first, self.whole)
-        cap = job.solver.retry_after_iterations
-        # the first model as every attempt but the last solves it (None: they all solve self.first)
-        self.capped = self.first.capped(cap) if cap is not None and len(job.solver.postures) > 1 else None
         # formula objects only: on meshes the phase lost verified starts and added a third surrogate-laden build
         held = self.first.held_positions is not None
         warmup = job.solver.phase_iterations(held) if self.first.nlp.surrogate is None else 0
@@ -167,11 +154,7 @@ class SolverContext:
         self.whole.nlp.initialise_forces()
         self._whole_initial = _values(self.whole.order)
         self.nlp = self.first.nlp
-        self.size = {
-            **self.nlp.size(),
-            "geometric_iterations": warmup,
-            "retry_after_iterations": cap if self.capped is not None else None,
-        }
+        self.size = {**self.nlp.size(), "geometric_iterations": warmup}
         self.nominal = Limits(
             self.settings.activation_cap(self.nlp.hand.capability.kind) - self.settings.activation_margin,
             np.full(len(self.nlp.hand.fingers), self.settings.pad_angle_max_deg),
@@ -196,14 +179,12 @@ class SolverContext:
         while the verifier rejects the result, again from each of its retry postures. The row is the last
         attempt's; its seconds, iterations, placement seconds and feedback rounds are those of every attempt
         together, and ``first_attempt_*`` say how the first did."""
-        if str(start.start_id) in os.environ.get(CRASH_ENV, "").split(","):
-            os._exit(13)
         if self.approach is not None:  # the start's palm normal is the hand's approach direction
             start = replace(start, palm_rotation=start.palm_rotation @ self.approach.T)
         postures = [self.nlp.hand.posture(f) for f in self.job.solver.postures]
         spent = {"seconds": 0.0, "iterations": 0, "placement_seconds": 0.0, "feedback_rounds": 0, "all_axes_solves": 0}
         for attempt, joints in enumerate(postures, 1):
-            row = self._attempt(start, joints, last=attempt == len(postures))
+            row = self._attempt(start, joints)
             if attempt == 1:
                 first = {"first_attempt_seconds": row["seconds"], "first_attempt_verified": row["verified"]}
             for key in spent:
@@ -212,10 +193,9 @@ class SolverContext:
                 break
         return {**row, **spent, **first, "attempts": attempt}
 
-    def _attempt(self, start: Start, joints: np.ndarray, last: bool = True) -> dict:
+    def _attempt(self, start: Start, joints: np.ndarray) -> dict:
         """Placement, IPOPT and the verifier from one posture; the whole model's solve when the first model left
-        out an axis the grasp cannot hold; the verifier's feedback rounds. Only the ``last`` attempt's first
-        model runs to IPOPT's max_iter."""
+        out an axis the grasp cannot hold; the verifier's feedback rounds."""
         from grasptask.synthesis.placement import place
 
         row: dict[str, Any] = {
@@ -229,7 +209,7 @@ class SolverContext:
         else:
             self.nlp.initialise(start.palm_rotation, start.palm_position, joints)
         row["placement_seconds"] = placed = time.perf_counter() - began
-        solver = self.first if last or self.capped is None else self.capped
+        solver = self.first
         x0 = _values(solver.order)
         seconds, iterations, rounds, whole = placed, 0, 0, 0
         if self.geometric is not None:  # the first iterations without eq. 10, carried into the first model
