@@ -38,21 +38,21 @@ def record_solves(monkeypatch, solvers: dict) -> list:
 
 
 def test_the_geometric_model_is_the_first_without_eq_10(context):
-    geometric, first = context.geometric.nlp.model, context.first.nlp.model
+    geometric, first = context.models.geometric.nlp.model, context.models.first.nlp.model
     assert len(geometric.eq10_wrench) == len(geometric.eq10_torque) == 0
     assert len(first.eq10_wrench) > 0
     # every variable of the geometric model is one of the first model's, so its point carries over whole
-    assert (context._geometric >= 0).all()
-    names = [v.name for v in context.first.order]
-    assert [names[k] for k in context._geometric] == [v.name for v in context.geometric.order]
-    assert context.geometric.nlp.size()["variables"] < context.size["variables"]
+    assert (context.models.geometric_positions >= 0).all()
+    names = [v.name for v in context.models.first.order]
+    assert [names[k] for k in context.models.geometric_positions] == [v.name for v in context.models.geometric.order]
+    assert context.models.geometric.nlp.size()["variables"] < context.size["variables"]
 
 
 def test_a_start_goes_on_from_the_capped_warm_up_and_counts_its_iterations(context, monkeypatch):
     """The warm-up stops at its cap, the first model starts where it stopped, and the row's iterations and
     seconds are both solves'."""
     # the whole model's solves (an all-axes re-solve or a feedback round) are counted in the row too
-    solvers = {"warm": context.geometric, "first": context.first, "whole": context.whole}
+    solvers = {"warm": context.models.geometric, "first": context.models.first, "whole": context.models.whole}
     solves = record_solves(monkeypatch, solvers)
     start = subset(make_starts(context.bounds), 12)[0]
     row = context.solve(start)
@@ -61,7 +61,7 @@ def test_a_start_goes_on_from_the_capped_warm_up_and_counts_its_iterations(conte
     seen = {"warm": solves[0][2], "x0": solves[1][1], "later": later}
     assert row["attempts"] == 1  # the fast solver config has no retry postures: one phase, then the first model
     assert seen["warm"].status == "max-iter" and seen["warm"].iterations == 5
-    np.testing.assert_array_equal(seen["x0"][context._geometric], seen["warm"].x)
+    np.testing.assert_array_equal(seen["x0"][context.models.geometric_positions], seen["warm"].x)
     assert row["iterations"] == 5 + sum(r.iterations for r in seen["later"])
     solve_seconds = seen["warm"].seconds + sum(r.seconds for r in seen["later"])
     assert solve_seconds <= row["seconds"] <= solve_seconds + row["placement_seconds"] + 1e-9
@@ -70,21 +70,21 @@ def test_a_start_goes_on_from_the_capped_warm_up_and_counts_its_iterations(conte
 
 def test_a_failed_warm_up_leaves_the_placed_point(context, monkeypatch):
     from grasptask.synthesis.backends import SolveResult
-    from grasptask.synthesis.context import _values
+    from grasptask.synthesis.models import values as _values
 
     placed: dict = {}
-    first = context.first.solve
+    first = context.models.first.solve
 
     def broken(x0, limits=None):
-        placed["x"] = _values(context.first.order)  # placement has run; nothing has been carried yet
+        placed["x"] = _values(context.models.first.order)  # placement has run; nothing has been carried yet
         return SolveResult("error", 3, 0.01, None, "test")
 
     def first_solve(x0, limits=None):
         placed.setdefault("x0", x0.copy())
         return first(x0, limits)
 
-    monkeypatch.setattr(context.geometric, "solve", broken)
-    monkeypatch.setattr(context.first, "solve", first_solve)
+    monkeypatch.setattr(context.models.geometric, "solve", broken)
+    monkeypatch.setattr(context.models.first, "solve", first_solve)
     context.solve(subset(make_starts(context.bounds), 12)[1])
     np.testing.assert_array_equal(placed["x0"], placed["x"])
 
@@ -100,5 +100,5 @@ def test_the_phase_runs_longer_where_the_turn_is_held(tasks):
     for task in ("drawing", "cutting"):
         job = Job(str(DEFAULT_HAND), "configs/objects/tool.yaml", str(tasks), task, solver=solver)
         context = SolverContext(job)
-        caps[task] = (context.first.held_positions is not None, context.size["geometric_iterations"])
+        caps[task] = (context.models.first.held_positions is not None, context.size["geometric_iterations"])
     assert caps == {"drawing": (True, 7), "cutting": (False, 5)}

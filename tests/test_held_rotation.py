@@ -14,7 +14,7 @@ from grasptask.objects import load_object
 from grasptask.objects.superquadric import Superquadric
 from grasptask.objects.surface import ImplicitObject
 from grasptask.synthesis.backends import Bounds
-from grasptask.synthesis.context import Solver, held_axis
+from grasptask.synthesis.models import Solver, held_axis
 from grasptask.task.frames import wrench_transform
 from grasptask.task.symmetry import axis_asymmetry
 from tests.grasp_fixtures import unhurried_solver
@@ -127,9 +127,9 @@ def test_a_held_start_solves_verifies_and_keeps_its_turn(tasks):
     assert context.size["held_axis_rotation"]
     rows = [context.solve(start) for start in subset(make_starts(context.bounds), 12)[:3]]
     assert sum(row["verified"] for row in rows) >= 2, [(r["status"], r.get("verify_failures")) for r in rows]
-    for solved in {id(s): s for s in (context.first, context.whole)}.values():
+    for solved in {id(s): s for s in (context.models.first, context.models.whole)}.values():
         m = solved.nlp.model
         assert pyo.value(m.held_axis_rotation.body) == pytest.approx(0, abs=1e-6)
-    m = context.first.nlp.model
+    m = context.models.first.nlp.model
     moved = np.linalg.norm([pyo.value(m.d_h[i]) - pyo.value(m.held_reference[i]) for i in range(3)])
     assert moved > 1e-3  # the palm moved from where its solve started; only its turn about the axis is held

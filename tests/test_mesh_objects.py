@@ -212,7 +212,7 @@ def test_a_mesh_gives_verified_grasps_end_to_end(cli, simulated, tmp_path):
         row = context.solve(start)
         tried.append((start.start_id, row["status"], row.get("verify_failures")))
         if row["verified"]:
-            errors = [row[f"surrogate_error_m_{f}"] for f in context.fingers]
+            errors = [row[f"surrogate_error_m_{f}"] for f in context.judges.fingers]
             assert np.abs(errors).max() < 1e-3
             return
     pytest.fail(f"no verified grasp on the mug in {len(tried)} starts: {tried}")

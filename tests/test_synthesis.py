@@ -353,11 +353,12 @@ def test_a_grasp_the_left_out_axes_reject_is_solved_again_with_all_of_them(tasks
     from dataclasses import replace
 
     from grasptask.synthesis.config import load_solver_config
-    from grasptask.synthesis.context import Job, SolverContext, _values
+    from grasptask.synthesis.context import Job, SolverContext
+    from grasptask.synthesis.models import values as _values
 
     solver = replace(load_solver_config(FAST), torque_axes=1, retry_postures=(), feedback_rounds=0)
     context = SolverContext(Job(str(DEFAULT_HAND), "configs/objects/tool.yaml", str(tasks), "cutting", solver=solver))
-    first, whole = context.first, context.whole
+    first, whole = context.models.first, context.models.whole
     assert first.nlp.size()["variables"] < whole.nlp.size()["variables"]
     rows = [context.solve(start) for start in subset(make_starts(context.bounds), 12)[:6]]
     assert any(row["all_axes_solves"] for row in rows), [(r["status"], r.get("verify_failures")) for r in rows]

@@ -16,6 +16,7 @@ from grasptask.grasp.grasp import Grasp
 from grasptask.io.artifacts import StagedOutput
 
 if TYPE_CHECKING:
+    from grasptask.hand.model import Hand
     from grasptask.objects.surface import ImplicitObject
     from grasptask.physics.protocol import PhysicsResult
     from grasptask.physics.scene import ObjectBody
@@ -25,12 +26,10 @@ if TYPE_CHECKING:
 
 
 @dataclass(frozen=True)
-class Judge:
-    """What every check of one run shares, built once and handed to the worker processes: the solved grasps,
-    the task model, the object and its convex parts (CoACD can take seconds), the friction and the settings."""
+class Holding:
+    """What holding any grasp on one object needs, built once: the object and its convex parts (CoACD can take
+    seconds), the friction, the settings and the actuators' strength factor."""
 
-    solved: SolvedGrasps
-    task: TaskModel
     obj: ImplicitObject
     friction: float
     settings: PhysicsSettings
@@ -39,16 +38,37 @@ class Judge:
     strength: float = 1.0
 
     @classmethod
-    def of(cls, solved: SolvedGrasps, task: TaskModel, object_path: Path, grasp_config: Path, physics: Path) -> Judge:
-        from grasptask.grasp.settings import load_grasp_settings
-        from grasptask.objects import load_object
+    def of(cls, obj: ImplicitObject, friction: float, physics: Path) -> Holding:
         from grasptask.physics.scene import object_body
         from grasptask.physics.settings import load_physics_settings
 
-        obj = load_object(object_path, say=lambda _: None)
         settings = load_physics_settings(physics)
+        return cls(obj, friction, settings, object_body(obj, settings))
+
+    def hold(self, hand: Hand, grasp: Grasp, task: TaskModel, trace: bool = False) -> PhysicsResult:
+        from grasptask.physics.protocol import hold_grasp
+
+        body, friction = self.body, self.friction
+        return hold_grasp(hand, self.obj, body, grasp, friction, task, self.settings, trace, self.strength)
+
+
+@dataclass(frozen=True)
+class Judge:
+    """What every check of one run shares, built once and handed to the worker processes: the solved grasps,
+    the task model and the holding of grasps on the object."""
+
+    solved: SolvedGrasps
+    task: TaskModel
+    holding: Holding
+
+    @classmethod
+    def of(cls, solved: SolvedGrasps, task: TaskModel, object_path: Path, grasp_config: Path, physics: Path) -> Judge:
+        from grasptask.grasp.settings import load_grasp_settings
+        from grasptask.objects import load_object
+
+        obj = load_object(object_path, say=lambda _: None)
         friction = load_grasp_settings(grasp_config).friction_coefficient
-        return cls(solved, task, obj, friction, settings, object_body(obj, settings))
+        return cls(solved, task, Holding.of(obj, friction, physics))
 
     def check_scene(self) -> None:
         """Build the first solved grasp's scene, so that a hand file MuJoCo cannot compile is one line here,
@@ -57,13 +77,11 @@ class Judge:
 
         grasp = next((grasp for _, grasp in self.solved.rows if grasp is not None), None)
         if grasp is not None:
-            build_scene(self.solved.hand, self.obj, self.body, grasp, self.friction, self.settings, self.strength)
+            h = self.holding
+            build_scene(self.solved.hand, h.obj, h.body, grasp, h.friction, h.settings, h.strength)
 
     def hold(self, grasp: Grasp, trace: bool = False) -> PhysicsResult:
-        from grasptask.physics.protocol import hold_grasp
-
-        hand, obj, body = self.solved.hand, self.obj, self.body
-        return hold_grasp(hand, obj, body, grasp, self.friction, self.task, self.settings, trace, self.strength)
+        return self.holding.hold(self.solved.hand, grasp, self.task, trace)
 
     def check(self, index: int) -> dict[str, Any]:
         row, grasp = self.solved.rows[index]
@@ -162,8 +180,8 @@ def write_physics_results(
     table = table.assign(**{c: pd.NA for c in summarised if c not in table})  # no columns: no grasp was checked
     result = summary(table, task, settings)
     if judge is not None:  # a mass not given is stated, never silently assumed
-        result["object_mass_kg"] = judge.body.mass_kg
-        result["object_mass_given"] = getattr(judge.obj, "mass_kg", None) is not None
+        result["object_mass_kg"] = judge.holding.body.mass_kg
+        result["object_mass_given"] = getattr(judge.holding.obj, "mass_kg", None) is not None
     if table_name is not None:
         staged.write_parquet(table_name, table)
     staged.write_json("physics_summary.json", result)

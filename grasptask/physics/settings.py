@@ -21,6 +21,7 @@ class PhysicsSettings:
 
     #: "grip" (contact forces from a QP over MuJoCo's contacts) or "spring" (a spring on each synthesized pad)
     controller: Controller = "grip"
+    #: MuJoCo's step (s)
     timestep_s: Positive = 0.001
     #: the object's mass when its config gives none (DexGraspBench's 100 g)
     object_mass_kg: Positive = 0.1
@@ -34,11 +35,15 @@ class PhysicsSettings:
     grip_friction_fraction: Share = 0.8
     #: ... and the impedance on the object's pose error from where the grasp settled
     object_stiffness_n_per_m: Positive = 300.0
+    #: ... and on its velocity
     object_damping_ns_per_m: Positive = 5.0
+    #: the object's impedance on its rotation error ...
     object_rotational_stiffness_nm_per_rad: Positive = 1.0
+    #: ... and on its angular velocity
     object_rotational_damping_nms_per_rad: Positive = 0.01
     #: the spring controller: a spring on each fingertip pad ...
     tip_stiffness_n_per_m: Positive = 2000.0
+    #: ... its damping ...
     tip_damping_ns_per_m: Positive = 20.0
     #: ... whose rest point is this far inside the object along its inward normal (the squeeze) ...
     squeeze_m: Positive = 0.002
@@ -51,17 +56,23 @@ class PhysicsSettings:
     joint_damping_nms_per_rad: Positive = 0.05
     #: reflected actuator inertia on every hand joint (kg m^2): keeps the stiff controller stable at the timestep
     armature_kg_m2: Positive = 1e-3
+    #: the controller's period (s): 100 Hz
     control_period_s: Positive = 0.01
+    #: closing and settling (s)
     settle_s: Positive = 0.3
+    #: each test wrench ramped in over this time (s) ...
     ramp_s: Positive = 0.2
+    #: ... then held for this time (s)
     hold_s: Positive = 0.3
     #: a grasp passes when no test moves the object further than these from where the hand settled it
     max_translation_m: Positive = 0.005
+    #: ... nor turns it further than this
     max_rotation_deg: Positive = 5.0
     #: DexGraspBench's six +-axis forces are this acceleration times the object's mass (its 10 m/s^2)
     benchmark_acceleration_m_s2: Positive = 10.0
     #: DexGraspBench's pass thresholds, reported beside ours
     benchmark_translation_m: Positive = 0.05
+    #: ... and rotation
     benchmark_rotation_deg: Positive = 15.0
 
     def __post_init__(self) -> None:

@@ -71,9 +71,10 @@ def _judge_for(inputs: PhysicsInputs) -> Judge:
     model = load_task_model(inputs.tasks, inputs.task)
     solved = read_grasps(inputs.solutions, inputs.hand, inputs.fingers)
     judge = Judge.of(solved, model, inputs.object, inputs.grasp_config, inputs.physics_config)
-    controller = inputs.controller or judge.settings.controller
-    settings = replace(judge.settings, controller=controller)
-    judge = replace(judge, settings=settings, strength=inputs.strength, friction=judge.friction * inputs.friction_scale)
+    holding = judge.holding
+    settings = replace(holding.settings, controller=inputs.controller or holding.settings.controller)
+    friction = holding.friction * inputs.friction_scale
+    judge = replace(judge, holding=replace(holding, settings=settings, strength=inputs.strength, friction=friction))
     judge.check_scene()
     return judge
 
@@ -138,13 +139,13 @@ def _judge_all(
     files = [inputs.solutions, inputs.tasks, inputs.hand, inputs.object, inputs.grasp_config, inputs.physics_config]
     parameters = {
         "task": inputs.task,
-        "controller": judge.settings.controller,
+        "controller": judge.holding.settings.controller,
         "strength": inputs.strength,
         "friction_scale": inputs.friction_scale,
     }
     provenance = Provenance.of("physics", parameters, [f for f in files if f is not None])
     with StagedOutput(out, provenance) as staged:
-        result = write_physics_results(staged, table, judge.task.name, judge.settings, trace, judge=judge)
+        result = write_physics_results(staged, table, judge.task.name, judge.holding.settings, trace, judge=judge)
     echo(physics_line(result))
     return table
 

@@ -415,7 +415,9 @@ def summarise(
             from grasptask.physics.judge import best_grasp_trace, write_physics_results
 
             trace = best_grasp_trace(judge)
-            write_physics_results(staged, solutions, options.task, judge.settings, trace, table_name=None, judge=judge)
+            write_physics_results(
+                staged, solutions, options.task, judge.holding.settings, trace, table_name=None, judge=judge
+            )
     return run
 
 

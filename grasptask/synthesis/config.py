@@ -77,35 +77,38 @@ class SolverConfig:
     default and check declared here once. The paper's model is ``retry_postures=()``, ``feedback_rounds=0``,
     ``torque_axes=None``, ``hold_axis_rotation=None`` and ``geometric_iterations=0``."""
 
-    #: IPOPT's options, set over :data:`IPOPT_DEFAULTS`
+    #: IPOPT's options (tol, max_iter, max_wall_time per solve, ...); a file's own are set over these, and
+    #: options that would write files are refused
     ipopt: dict[str, IpoptValue] = field(default_factory=lambda: dict(IPOPT_DEFAULTS))
     #: a worker that has not reported this long after its start's time limit is taken as hung and replaced
     hang_grace_s: Positive = 30.0
     #: move the palm from its far-away start to the object, keeping its orientation, before IPOPT
     placement: Flag = True
-    #: bounds on the NLP's force variables
+    #: bounds on eq. 8's task forces and eq. 10's cone-edge forces (N) that no grasp worth finding reaches; null:
+    #: unbounded, as the paper
     search_bounds: SearchBounds = field(default_factory=SearchBounds)
-    #: small quadratic terms on the variables Q does not see
+    #: small quadratic terms on the variables Q does not see, so that each optimum is isolated; Q as reported is
+    #: eq. 12 alone
     regularisation: Regularisation = field(default_factory=Regularisation)
     #: the posture a start's first attempt is placed and solved from: each joint this fraction of its range from
     #: its lower limit (0.5: the paper's mid-range joints)
     first_posture: Fraction = 0.5
-    #: a start the verifier rejects is solved again from each of these postures in turn, until one is verified;
-    #: () solves each start once
+    #: a start the verifier rejects is placed and solved again from each of these postures in turn (a hand opened
+    #: a quarter, then nearly open), until one is verified; []: each start solved once
     retry_postures: tuple[Fraction, ...] = (0.25, 0.1)
     #: a solved grasp the verifier rejects only on the torque check or the pad angle is solved again from itself
     #: with those limits tightened by what the verifier measured, up to this many times (synthesis.feedback)
     feedback_rounds: Count = 2
-    #: eq. 10 in the NLP for the task's this many longest axes (None: all six); a grasp the verifier then rejects
-    #: on its torque check is solved again from itself with all six
+    #: eq. 10 in the NLP for the task's this many longest axes; a grasp the verifier (which checks all six)
+    #: rejects on its torque check is solved again with all six; null: the paper's model
     torque_axes: Annotated[int, Strict(), Field(ge=1, le=6)] | None = 4
-    #: on an object of revolution, the grasp's turn about its axis is held at each start's when the task is at
-    #: most this asymmetric about it (grasptask.task.symmetry.axis_asymmetry); None leaves the turn free
+    #: on an object with an axis of revolution, the grasp's turn about it is held at the start's when the task is
+    #: at most this asymmetric about it (the most Q can change along the turn); null: free
     hold_axis_rotation: NonNegative | None = 0.1
     #: a start's first IPOPT iterations, up to this many, are made on the model without eq. 10, whose iterations
     #: cost half as much; the first model goes on from where they stop (0: none). Formula objects only
     geometric_iterations: Count = 20
-    #: the phase's cap instead when the grasp's turn about the object's axis is held (None: the same cap)
+    #: that cap instead where the turn about the object's axis is held; null: the same cap
     held_geometric_iterations: Count | None = 30
 
     @field_validator("ipopt", mode="before")
