@@ -137,7 +137,7 @@ def test_nothing_is_touched_before_the_run_is_known_to_work(tasks, tmp_path):
     folder = tmp_path / "drawing"
     before = {p.name: p.read_bytes() for p in folder.iterdir()}
     bad_ipopt = tmp_path / "bad_ipopt.yaml"
-    bad_ipopt.write_text(FAST.read_text().replace("mu_strategy: adaptive", "mu_strategy: sideways"))
+    bad_ipopt.write_text(FAST.read_text().replace("ipopt:\n", "ipopt:\n  mu_strategy: sideways\n"))
     began = time.time()
     for extra, expected in (
         (("--executor", "dask"), "needs --scheduler"),

@@ -262,7 +262,7 @@ def test_the_verifiers_feedback_turns_a_narrow_miss_into_a_verified_grasp(simula
     }
     # a mesh skips the geometric phase that the solver config asks for (it lost verified starts on meshes)
     assert solver.geometric_iterations > 0
-    assert all(c.geometric is None and c.size["geometric_iterations"] == 0 for c in contexts.values())
+    assert all(c.models.geometric is None and c.size["geometric_iterations"] == 0 for c in contexts.values())
     for start_id in (75, 67, 17, 47, 61, 43):  # starts that were narrow misses in the objects benchmark
         without = contexts[0].solve(starts[start_id])
         if without["verified"] or not set(without["verify_failures"].split(";")) <= NARROW:

@@ -363,7 +363,7 @@ def test_a_grasp_the_left_out_axes_reject_is_solved_again_with_all_of_them(tasks
     rows = [context.solve(start) for start in subset(make_starts(context.bounds), 12)[:6]]
     assert any(row["all_axes_solves"] for row in rows), [(r["status"], r.get("verify_failures")) for r in rows]
     assert all(row["verify_torque_effort"] <= 1 + 1e-6 for row in rows if row["verified"])
-    carried = context._in_whole(_values(first.order))
+    carried = context.models.in_whole(_values(first.order))
     values = {v.name: v.value for v in first.order}
     shared = [(k, v.name) for k, v in enumerate(whole.order) if v.name in values]
     assert len(shared) == len(first.order)
@@ -383,7 +383,7 @@ def test_attempts_start_from_the_first_posture_then_each_retry_posture(tasks, mo
     context = SolverContext(Job(str(DEFAULT_HAND), "configs/objects/tool.yaml", str(tasks), "cutting", solver=solver))
     tried = []
 
-    def attempt(start, joints, last):
+    def attempt(start, joints):
         tried.append(joints)
         keys = ("seconds", "iterations", "placement_seconds", "feedback_rounds", "all_axes_solves")
         return {"verified": len(tried) == 2, **dict.fromkeys(keys, 1)}
