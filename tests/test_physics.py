@@ -20,7 +20,9 @@ from hypothesis import strategies as st
 from grasptask.grasp.grasp import Grasp
 from grasptask.hand import forward, load_hand
 from grasptask.objects import Superquadric, load_object
-from grasptask.physics import PhysicsSettings, build_scene, check_grasp, load_physics_settings
+from grasptask.physics.protocol import check_grasp
+from grasptask.physics.scene import build_scene
+from grasptask.physics.settings import PhysicsSettings, load_physics_settings
 from grasptask.physics.actuation import ActuatorMap, BoundedLeastSquares, IndependentMotors
 from grasptask.physics.grip import GripController
 from grasptask.physics.loads import task_tests

@@ -21,7 +21,7 @@ from grasptask.hand.tree import Shape, Tree, TreeJoint, TreeLink
 
 
 def _frame(position: np.ndarray, quaternion: np.ndarray | None = None) -> np.ndarray:
-    import mujoco
+    import mujoco  # deferred: MuJoCo, only for MJCF hands
 
     frame = np.eye(4)
     if quaternion is not None:
@@ -34,7 +34,7 @@ def _frame(position: np.ndarray, quaternion: np.ndarray | None = None) -> np.nda
 
 def visual_free_spec(source: Path):
     """The file's ``MjSpec`` without the visual-only geoms and the assets only they need."""
-    import mujoco
+    import mujoco  # deferred: MuJoCo, only for MJCF hands
 
     try:
         spec = mujoco.MjSpec.from_file(str(source))
@@ -65,14 +65,14 @@ def _compile(source: Path):
 
 
 def _name(model, kind, index: int, fallback: str) -> str:
-    import mujoco
+    import mujoco  # deferred: MuJoCo, only for MJCF hands
 
     return mujoco.mj_id2name(model, kind, index) or f"{fallback}{index}"
 
 
 def _shape(model, g: int, shift: np.ndarray, link: str, source: Path) -> Shape:
     """One collision geom: the spheres covering it, points on its surface, and a mesh's triangles."""
-    import mujoco
+    import mujoco  # deferred: MuJoCo, only for MJCF hands
 
     kind, size = int(model.geom_type[g]), model.geom_size[g]  # an int: numpy's does not match enums with `in`
     transform = _frame(-shift) @ _frame(model.geom_pos[g], model.geom_quat[g])
@@ -102,7 +102,7 @@ def _shape(model, g: int, shift: np.ndarray, link: str, source: Path) -> Shape:
 
 def _efforts(model) -> dict[int, float]:
     """The torque limit of every joint an actuator drives (N.m)."""
-    import mujoco
+    import mujoco  # deferred: MuJoCo, only for MJCF hands
 
     limits: dict[int, float] = {}
     for a in range(model.nu):
@@ -125,7 +125,7 @@ def _efforts(model) -> dict[int, float]:
 
 def _couplings(model, source: Path) -> dict[int, tuple[int, float, float]]:
     """Joint equalities: ``slave -> (master, multiplier, offset)``, linear ones only."""
-    import mujoco
+    import mujoco  # deferred: MuJoCo, only for MJCF hands
 
     out = {}
     for e in range(model.neq):
@@ -145,7 +145,7 @@ def _couplings(model, source: Path) -> dict[int, tuple[int, float, float]]:
 
 def read_mjcf(source: Path) -> Tree:
     """The kinematic tree of an MJCF file."""
-    import mujoco
+    import mujoco  # deferred: MuJoCo, only for MJCF hands
 
     model = _compile(source)
     body_name = [_name(model, mujoco.mjtObj.mjOBJ_BODY, b, "body") for b in range(model.nbody)]

@@ -31,7 +31,7 @@ def resolve_mesh(filename: str, source: Path) -> Path | None:
 
 def _shape(geometry, transform: np.ndarray, link: str, source: Path) -> Shape:
     """One collision geometry: the spheres covering it, points on its surface, and a mesh's triangles."""
-    import trimesh
+    import trimesh  # deferred: trimesh, only for mesh links
 
     if geometry.sphere is not None:
         radius = float(geometry.sphere.radius)
@@ -59,8 +59,8 @@ def _shape(geometry, transform: np.ndarray, link: str, source: Path) -> Shape:
 
 def read_urdf(source: Path) -> Tree:
     """The kinematic tree of a URDF file."""
-    import yourdfpy
-    from lxml import etree
+    import yourdfpy  # deferred: only for URDF hands
+    from lxml import etree  # deferred: only for URDF hands
 
     try:  # yourdfpy recovers from broken XML on its own; a hand file must be well-formed
         etree.parse(str(source))

@@ -20,6 +20,8 @@ from typing import Any
 import numpy as np
 
 from grasptask.errors import BadInputError, existing_file
+from grasptask.hand.from_mjcf import read_mjcf
+from grasptask.hand.from_urdf import read_urdf
 from grasptask.hand.from_yaml import hand_from_yaml
 from grasptask.hand.model import DEFAULT_COMPLIANCE_M, Hand, Pad
 from grasptask.hand.tree import HandOptions, hand_from_tree
@@ -88,8 +90,6 @@ def _approach(value: Any, source: Path) -> np.ndarray | None:
 
 
 def _read_model(path: Path, source: Path) -> Any:
-    from grasptask.hand.from_mjcf import read_mjcf
-    from grasptask.hand.from_urdf import read_urdf
 
     suffix = path.suffix.lower()
     if suffix in URDF_SUFFIXES:

@@ -14,10 +14,12 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+from scipy.sparse import csr_matrix
 from scipy.spatial import cKDTree
 
 from grasptask.errors import BadInputError
 from grasptask.hand import skin
+from grasptask.hand.spheres import mesh_box
 from grasptask.hand.tree import Shape
 
 #: the most a sphere of the cover reaches outside its mesh (m); a box cover's bulge off a 1 cm thick link is 2.2
@@ -37,7 +39,7 @@ MAX_SAMPLES = 40000
 def surface_samples(vertices: np.ndarray, faces: np.ndarray, spacing: float) -> tuple[np.ndarray, np.ndarray]:
     """Points spread over the faces about ``spacing`` apart, with the vertices, and the outward normal at each
     (area-weighted vertex normals for the vertices)."""
-    import trimesh
+    import trimesh  # deferred: trimesh, only for mesh links
 
     mesh = trimesh.Trimesh(vertices, faces, process=False)
     count = int(np.clip(np.ceil(mesh.area / spacing**2), 1, MAX_SAMPLES))
@@ -56,7 +58,6 @@ def mesh_spheres(
     most :data:`BOUND_M` outside it. Other links get the fewest fitted spheres that reach no farther, or, where
     :data:`MAX_SPHERES` cannot (a sharp 2 x 3 x 5 cm box needs 215 at 2.5 mm, every edge and corner its own),
     the closest that so few can, or the box's spheres if they reach less far."""
-    from grasptask.hand.spheres import mesh_box
 
     vertices, faces = np.asarray(vertices, float), np.asarray(faces, int)
     points, normals = surface_samples(vertices, faces, BOUND_M / 2)
@@ -142,7 +143,6 @@ def _greedy_cover(
     points: np.ndarray, tree: cKDTree, centre: np.ndarray, radius: np.ndarray, most: int | None
 ) -> list[int] | None:
     """Candidates chosen one by one, each the one that holds the most points not yet held, until all are."""
-    from scipy.sparse import csr_matrix
 
     members = tree.query_ball_point(centre, radius)
     lengths = np.array([len(m) for m in members])

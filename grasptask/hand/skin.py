@@ -83,7 +83,7 @@ def box(half_sizes: np.ndarray, transform: np.ndarray) -> np.ndarray:
 
 def mesh(vertices: np.ndarray, transform: np.ndarray) -> np.ndarray:
     """A mesh's convex hull: its vertices and points spread evenly over its faces."""
-    import trimesh
+    import trimesh  # deferred: trimesh, only for mesh links
 
     hull = trimesh.Trimesh(np.asarray(vertices, dtype=float)).convex_hull
     points, _ = trimesh.sample.sample_surface_even(hull, _count(float(hull.area)), seed=0)

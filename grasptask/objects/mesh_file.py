@@ -20,6 +20,8 @@ from typing import Any
 import numpy as np
 import pandas as pd
 import trimesh
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
 
 from grasptask.errors import BadInputError
 
@@ -70,8 +72,6 @@ def non_manifold_edges(mesh: trimesh.Trimesh) -> int:
 
 def holes(mesh: trimesh.Trimesh) -> list[float]:
     """The diameter of each hole (each closed loop of open edges), largest first, in the mesh's units."""
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
 
     edges = mesh.edges_sorted[trimesh.grouping.group_rows(mesh.edges_sorted, require_count=1)]
     if len(edges) == 0:
@@ -142,7 +142,7 @@ def read_mesh(path: Path, unit: str = "m", say: Callable[[str], Any] = print) ->
 def _meshfix(mesh: trimesh.Trimesh, path: Path, scale: float) -> tuple[trimesh.Trimesh, str]:
     """MeshFix's repair of a mesh that is open or not manifold, and what it did; a hole too wide to guess and a
     mesh it cannot close are one line each."""
-    import pymeshfix
+    import pymeshfix  # deferred: only to repair a scan
 
     gaps, fins = holes(mesh), non_manifold_edges(mesh)
     extent = float(mesh.extents.max())

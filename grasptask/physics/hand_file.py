@@ -39,7 +39,7 @@ def compile_spec(spec: mujoco.MjSpec, source: Path | str) -> mujoco.MjModel:
 def _urdf_spec(source: Path) -> mujoco.MjSpec:
     """A URDF through MuJoCo's parser: visuals dropped, fixed links kept as bodies (the palm link must stay
     one), collision meshes found where the hand loader finds them."""
-    from lxml import etree
+    from lxml import etree  # deferred: only for URDF hands
 
     root = etree.parse(str(source)).getroot()
     for visual in root.iter("visual"):
@@ -58,7 +58,7 @@ def _urdf_spec(source: Path) -> mujoco.MjSpec:
 
 def _convex_meshes(spec: mujoco.MjSpec, source: Path) -> None:
     """Every mesh asset read with trimesh and replaced by its convex hull's vertices and faces."""
-    import trimesh
+    import trimesh  # deferred: trimesh, only for mesh links
 
     for mesh in spec.meshes:
         if not mesh.file:

@@ -13,7 +13,10 @@ import numpy as np
 import pandas as pd
 
 from grasptask.grasp.grasp import Grasp
+from grasptask.grasp.settings import load_grasp_settings
 from grasptask.io.artifacts import StagedOutput
+from grasptask.objects import load_object
+from grasptask.physics.settings import load_physics_settings
 
 if TYPE_CHECKING:
     from grasptask.hand.model import Hand
@@ -39,14 +42,13 @@ class Holding:
 
     @classmethod
     def of(cls, obj: ImplicitObject, friction: float, physics: Path) -> Holding:
-        from grasptask.physics.scene import object_body
-        from grasptask.physics.settings import load_physics_settings
+        from grasptask.physics.scene import object_body  # deferred: MuJoCo
 
         settings = load_physics_settings(physics)
         return cls(obj, friction, settings, object_body(obj, settings))
 
     def hold(self, hand: Hand, grasp: Grasp, task: TaskModel, trace: bool = False) -> PhysicsResult:
-        from grasptask.physics.protocol import hold_grasp
+        from grasptask.physics.protocol import hold_grasp  # deferred: MuJoCo
 
         body, friction = self.body, self.friction
         return hold_grasp(hand, self.obj, body, grasp, friction, task, self.settings, trace, self.strength)
@@ -63,8 +65,6 @@ class Judge:
 
     @classmethod
     def of(cls, solved: SolvedGrasps, task: TaskModel, object_path: Path, grasp_config: Path, physics: Path) -> Judge:
-        from grasptask.grasp.settings import load_grasp_settings
-        from grasptask.objects import load_object
 
         obj = load_object(object_path, say=lambda _: None)
         friction = load_grasp_settings(grasp_config).friction_coefficient
@@ -73,7 +73,7 @@ class Judge:
     def check_scene(self) -> None:
         """Build the first solved grasp's scene, so that a hand file MuJoCo cannot compile is one line here,
         before any worker starts."""
-        from grasptask.physics.scene import build_scene
+        from grasptask.physics.scene import build_scene  # deferred: MuJoCo
 
         grasp = next((grasp for _, grasp in self.solved.rows if grasp is not None), None)
         if grasp is not None:

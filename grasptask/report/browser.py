@@ -5,6 +5,7 @@ screenshot of the top of the page and of one view."""
 
 from __future__ import annotations
 
+import io
 import os
 import shutil
 import tempfile
@@ -124,9 +125,8 @@ def check_screenshot_path(path: str | Path) -> None:
 def _coloured(png: bytes) -> np.ndarray:
     """Which pixels are not a grey (white background, grey grid and object, black text): the hand, the contacts,
     the cones and the task's axes."""
-    import io
 
-    from matplotlib.image import imread
+    from matplotlib.image import imread  # deferred: matplotlib, only to read a screenshot
 
     rgb = imread(io.BytesIO(png), format="png")[..., :3]
     return (rgb.max(axis=-1) - rgb.min(axis=-1)) > 0.2
@@ -139,9 +139,8 @@ def _coloured_pixels(png: bytes) -> int:
 def _edge_pixels(png: bytes, area: dict, band: int = EDGE_BAND_PX) -> int:
     """Drawn pixels (coloured, or the object's mid grey) within ``band`` of the plot area's border (``area``:
     plotly's ``l, t, w, h`` in pixels): a scene the camera crops runs into it."""
-    import io
 
-    from matplotlib.image import imread
+    from matplotlib.image import imread  # deferred: matplotlib, only to read a screenshot
 
     rgb = imread(io.BytesIO(png), format="png")[..., :3]
     left, top = int(area["l"]), int(area["t"])
@@ -155,7 +154,7 @@ def _edge_pixels(png: bytes, area: dict, band: int = EDGE_BAND_PX) -> int:
 
 def _check_view(driver: Any, element: Any, save: Path | None) -> ViewCheck:
     """Scroll ``element`` into sight, wait for the page to draw it, then look at what its WebGL scene shows."""
-    from selenium.webdriver.support.ui import WebDriverWait
+    from selenium.webdriver.support.ui import WebDriverWait  # deferred: only for the browser check
 
     key = element.get_attribute("id")
     driver.execute_script("arguments[0].scrollIntoView({block: 'center'});", element)
@@ -190,9 +189,9 @@ def check_page(
 ) -> BrowserCheck:
     """Open ``page`` and check it (see the module docstring); ``view_screenshot`` saves the first grasp view
     (or the first view) as drawn."""
-    from selenium import webdriver
-    from selenium.webdriver.chrome.service import Service
-    from selenium.webdriver.common.by import By
+    from selenium import webdriver  # deferred: only for the browser check
+    from selenium.webdriver.chrome.service import Service  # deferred: only for the browser check
+    from selenium.webdriver.common.by import By  # deferred: only for the browser check
 
     found = find_chromium()
     if found is None:

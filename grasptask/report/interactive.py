@@ -4,6 +4,7 @@ plotly.js when it scrolls into sight (:mod:`grasptask.report.page`)."""
 
 from __future__ import annotations
 
+import hashlib
 import html
 from typing import Any
 
@@ -210,7 +211,6 @@ def ellipsoid_view(task: str, model: np.ndarray, recordings: list[np.ndarray], c
 
 
 def mesh_digest(mesh: trimesh.Trimesh) -> str:
-    import hashlib
 
     digest = hashlib.sha1(np.asarray(mesh.vertices, dtype=np.float32).tobytes())
     digest.update(np.asarray(mesh.faces, dtype=np.int64).tobytes())

@@ -161,7 +161,7 @@ def render_html(title: str, meta: str, summary: list[str], sections: list[Sectio
     shared = {key: data for view in views for key, data in view.shared.items()}
     parts += [f'<script type="application/json" id="shared-{key}">{data}</script>' for key, data in shared.items()]
     if views:
-        from plotly.offline import get_plotlyjs
+        from plotly.offline import get_plotlyjs  # deferred: plotly's bundle, only when a page has views
 
         # the library once for every view, inline: the page works offline and can be mailed
         parts += [f"<script>{get_plotlyjs()}</script>", f"<script>{VIEWS_SCRIPT}</script>"]

@@ -9,15 +9,33 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from grasptask.errors import BadInputError
+from grasptask.grasp.settings import load_grasp_settings
+from grasptask.hand import load_hand
 from grasptask.hand.model import Hand
 from grasptask.io.artifacts import StagedOutput, file_stem
 from grasptask.io.config import read_json
+from grasptask.objects import load_object
 from grasptask.paths import DEFAULT_GRASP_CONFIG, DEFAULT_HAND, DEFAULT_OBJECT, PAPER_ELLIPSOID_TABLES, ROOT
 from grasptask.progress import progress
 from grasptask.records.reference import PaperSynthesis
+from grasptask.records.scene import grasp_scene
+from grasptask.records.solutions import contacts_from_row, fingers_in, grasp_from_row, joint_columns, normals_from_row
 from grasptask.report import paper_tables
-from grasptask.report.inputs import PhysicsOutcome, ResultsFolder, SweepResult, verifier_q
+from grasptask.report.distance_plots import plot_embedding, plot_heatmap
+from grasptask.report.ellipsoid_plots import load_samples_or_note, plot_task_ellipsoids
+from grasptask.report.inputs import PhysicsOutcome, ResultsFolder, SweepResult, read_physics, verifier_q
+from grasptask.report.interactive import HEIGHT, ellipsoid_view, figure_json, grasp_view
 from grasptask.report.page import Figure, Note, Section, Table, View, markdown
+from grasptask.report.physics_plots import plot_physics_traces
+from grasptask.report.render import display_mesh, render_grasp
+from grasptask.report.style import task_colour
+from grasptask.report.sweep_plots import plot_sweeps
+from grasptask.task.distances import read_distances
+from grasptask.task.fit import ellipsoid_matrices, read_ellipsoids
+from grasptask.task.model import load_task_models
+from grasptask.task.stats import read_reference
+from grasptask.verifier.verify import verify
 
 
 class Writer:
@@ -37,7 +55,6 @@ class Writer:
 
     def view(self, name: str, figure: Any, caption: str, height: int) -> View:
         """An interactive view of the plotly ``figure``, its element id made unique and safe from ``name``."""
-        from grasptask.report.interactive import figure_json
 
         key = f"view-{file_stem(name)}"
         if key in self.views:
@@ -58,7 +75,6 @@ def _run_missing(what: str, command: str) -> Note:
 
 
 def ellipsoid_tables_section(results: ResultsFolder, writer: Writer) -> Section:
-    from grasptask.task.stats import read_reference
 
     section = Section(
         "tables",
@@ -103,11 +119,6 @@ def ellipsoid_tables_section(results: ResultsFolder, writer: Writer) -> Section:
 
 
 def ellipsoid_figures_section(results: ResultsFolder, writer: Writer) -> Section:
-    from grasptask.report.ellipsoid_plots import load_samples_or_note, plot_task_ellipsoids
-    from grasptask.report.interactive import ellipsoid_view
-    from grasptask.report.style import task_colour
-    from grasptask.task.fit import ellipsoid_matrices, read_ellipsoids
-    from grasptask.task.model import load_task_models
 
     section = Section("ellipsoids", "Force and torque ellipsoids (Figures 2, 7, 10)")
     if not results.ellipsoids.is_file() or not results.task_models.is_file():
@@ -154,9 +165,6 @@ def ellipsoid_figures_section(results: ResultsFolder, writer: Writer) -> Section
 
 
 def distances_section(results: ResultsFolder, writer: Writer) -> Section:
-    from grasptask.report.distance_plots import plot_embedding, plot_heatmap
-    from grasptask.task.distances import read_distances
-    from grasptask.task.fit import read_ellipsoids
 
     section = Section("distances", "Distances between task ellipsoids (Figure 9)")
     needed = (results.distances, results.distance_summary, results.ellipsoids)
@@ -207,9 +215,6 @@ Q_MEANING = (
 def sweep_hand(sweep: SweepResult, hands: dict[Path, Hand]) -> tuple[Hand, list[str]]:
     """The grasping hand of ``sweep`` (its ``run.json``'s hand and fingers) and its fingers; a table that is
     not that hand's (a BarrettHand's optima under a human ``run.json``) is one line. ``hands`` caches loads."""
-    from grasptask.errors import BadInputError
-    from grasptask.hand import load_hand
-    from grasptask.records.solutions import fingers_in, joint_columns
 
     hand_path = _reference_path(sweep.run.get("hand", ""), DEFAULT_HAND)
     whole = hands.get(hand_path) or hands.setdefault(hand_path, load_hand(hand_path))
@@ -234,7 +239,6 @@ def _no_sweeps(results: ResultsFolder) -> Note:
 def sweeps_section(
     results: ResultsFolder, sweeps: dict[str, SweepResult], paper: PaperSynthesis, writer: Writer
 ) -> Section:
-    from grasptask.report.sweep_plots import plot_sweeps
 
     optima = " / ".join(str(paper.optima.get(t, "?")) for t in ("drawing", "cutting", "screwdriving"))
     paper_said = (
@@ -284,15 +288,6 @@ def grasps_section(
 ) -> Section:
     """Per task a line of its figures, then each distinct optimum as a view and two fixed viewpoints, and the
     table of Q. ``hands``: the hands already loaded for these sweeps (a mesh hand's sphere cover takes seconds)."""
-    from grasptask.grasp.settings import load_grasp_settings
-    from grasptask.objects import load_object
-    from grasptask.records.scene import grasp_scene
-    from grasptask.records.solutions import contacts_from_row, grasp_from_row, normals_from_row
-    from grasptask.report.inputs import read_physics
-    from grasptask.report.interactive import HEIGHT, grasp_view
-    from grasptask.report.render import display_mesh, render_grasp
-    from grasptask.task.model import load_task_models
-    from grasptask.verifier.verify import verify
 
     section = Section(
         "grasps",
@@ -425,8 +420,6 @@ def physics_table(outcomes: dict[str, PhysicsOutcome], sweeps: dict[str, SweepRe
 
 
 def physics_section(results: ResultsFolder, sweeps: dict[str, SweepResult], writer: Writer) -> Section:
-    from grasptask.report.inputs import read_physics
-    from grasptask.report.physics_plots import plot_physics_traces
 
     section = Section(
         "physics",

@@ -32,7 +32,7 @@ def task_order(task: str) -> tuple[int, str]:
 def save_figure(fig: Any, path: Path) -> None:
     """Save ``fig`` as a PNG of at most 256 colours: a third of the bytes of a full-colour one for these flat
     plots, and the report inlines every figure (its 15 MB budget)."""
-    from PIL import Image
+    from PIL import Image  # deferred: Pillow, only to write a PNG
 
     buffer = io.BytesIO()
     fig.savefig(buffer, format="png")

@@ -9,10 +9,17 @@ from typing import Any
 
 from grasptask.errors import BadInputError
 from grasptask.grasp.grasp import Grasp
+from grasptask.grasp.settings import load_grasp_settings
 from grasptask.io.artifacts import Provenance, StagedOutput
 from grasptask.io.tables import read_table
+from grasptask.objects import load_object
+from grasptask.objects.loading import object_files
 from grasptask.progress import progress
+from grasptask.records.export import glb_bytes, grasp_record
+from grasptask.records.scene import grasp_scene
 from grasptask.records.sweeps import SolvedGrasps, SweepFiles, read_grasps
+from grasptask.task.model import load_task_model
+from grasptask.verifier.verify import verify
 
 #: the object's picture in the GLB, in triangles: smooth to the eye, a few hundred kB
 GLB_OBJECT_FACES = 20000
@@ -62,13 +69,6 @@ def run_export(
     ``every_start``, each verified start (``start_017``), and ``out/grasps.json`` listing them. Inputs not
     given are those the sweep's ``run.json`` records. Each grasp is verified again, for the contact forces and
     activations per task wrench that the verifier's LP finds; the record says whether it still passes."""
-    from grasptask.grasp.settings import load_grasp_settings
-    from grasptask.objects import load_object
-    from grasptask.objects.loading import object_files
-    from grasptask.records.export import glb_bytes, grasp_record
-    from grasptask.records.scene import grasp_scene
-    from grasptask.task.model import load_task_model
-    from grasptask.verifier.verify import verify
 
     solutions = Path(solutions)
     files = SweepFiles.of(solutions, hand, object_path, grasp_config, fingers, tasks, task)

@@ -17,10 +17,13 @@ import pandas as pd
 from grasptask.errors import BadInputError
 from grasptask.io.artifacts import Provenance, StagedOutput
 from grasptask.io.locking import check_writable, folder_lock
+from grasptask.io.orphans import die_with_parent
 from grasptask.paths import DEFAULT_PHYSICS_CONFIG
 from grasptask.physics.judge import Judge, best_grasp_trace, write_physics_results
 from grasptask.physics.settings import Controller
+from grasptask.progress import Progress
 from grasptask.records.sweeps import SweepFiles, read_grasps
+from grasptask.task.model import load_task_model
 
 
 @dataclass(frozen=True)
@@ -64,7 +67,6 @@ class PhysicsInputs:
 def _judge_for(inputs: PhysicsInputs) -> Judge:
     """The judge of ``inputs`` (resolved): its grasps, task model, object, settings, strength and friction; the
     first grasp's scene built, so that a hand file MuJoCo cannot compile is one line before any worker starts."""
-    from grasptask.task.model import load_task_model
 
     assert inputs.hand is not None and inputs.object is not None and inputs.grasp_config is not None
     assert inputs.tasks is not None and inputs.task is not None, "resolved() first"
@@ -84,7 +86,6 @@ _worker: Judge | None = None
 
 def _start_worker(judge: Judge) -> None:
     global _worker
-    from grasptask.io.orphans import die_with_parent
 
     die_with_parent()  # a physics run killed outright left its pool workers running for minutes
     os.environ["OPENBLAS_NUM_THREADS"] = "1"
@@ -118,7 +119,6 @@ def run_physics(
 def _judge_all(
     judge: Judge, inputs: PhysicsInputs, out: str | Path, workers: int, echo: Callable[[str], Any]
 ) -> pd.DataFrame:
-    from grasptask.progress import Progress
 
     indices = list(range(len(judge.solved.rows)))
     counts = {"held": 0, "dropped": 0}

@@ -20,6 +20,8 @@ import pandas as pd
 import yaml
 
 from grasptask.errors import BadInputError
+from grasptask.grasp.settings import load_grasp_settings
+from grasptask.hand import load_hand
 from grasptask.io.artifacts import (
     Provenance,
     StagedOutput,
@@ -32,11 +34,21 @@ from grasptask.io.artifacts import (
 from grasptask.io.config import read_json
 from grasptask.io.locking import folder_lock
 from grasptask.io.sweep_log import LogContents, LogWriter, read_log, rewrite_log
+from grasptask.objects import load_object
+from grasptask.objects.loading import object_config, object_facts, object_files, object_from_config
 from grasptask.objects.surface import Symmetry
 from grasptask.paths import DEFAULT_GRASP_CONFIG, DEFAULT_HAND, DEFAULT_OBJECT, DEFAULT_SOLVER_CONFIG
+from grasptask.physics.settings import load_physics_settings
 from grasptask.progress import Progress
 from grasptask.records.reference import PaperSynthesis, read_paper_synthesis
-from grasptask.records.solutions import STATUSES, retried, solved_with_all_axes
+from grasptask.records.solutions import STATUSES, grasp_from_row, retried, solved_with_all_axes
+from grasptask.records.sweeps import SolvedGrasps
+from grasptask.synthesis.clustering import cluster
+from grasptask.synthesis.config import load_solver_config
+from grasptask.synthesis.context import Job
+from grasptask.synthesis.starts import make_starts, subset
+from grasptask.synthesis.sweep import graceful_stop, make_executor
+from grasptask.task.model import load_task_model
 
 EXECUTORS = ("pool", "serial", "dask")
 BACKENDS = ("casadi", "cyipopt")
@@ -130,15 +142,7 @@ class _Prepared:
 
 
 def _prepare(options: SynthesisOptions) -> _Prepared:
-    from grasptask.grasp.settings import load_grasp_settings
-    from grasptask.hand import load_hand
-    from grasptask.objects import load_object
-    from grasptask.objects.loading import object_config, object_facts, object_files, object_from_config
-    from grasptask.synthesis.backends import check_ipopt_options
-    from grasptask.synthesis.config import load_solver_config
-    from grasptask.synthesis.context import Job
-    from grasptask.synthesis.starts import make_starts, subset
-    from grasptask.task.model import load_task_model
+    from grasptask.synthesis.backends import check_ipopt_options  # deferred: CasADi and Pyomo
 
     model = load_task_model(options.tasks, options.task)
     plain_name(options.task, options.tasks, "task name")
@@ -146,8 +150,6 @@ def _prepare(options: SynthesisOptions) -> _Prepared:
     check_ipopt_options(solver.ipopt, options.solver_config)
     load_grasp_settings(options.grasp_config)
     if options.physics is not None:
-        from grasptask.physics.settings import load_physics_settings
-
         load_physics_settings(options.physics)
     hand = load_hand(options.hand)
     if options.fingers:
@@ -260,7 +262,6 @@ def run_synthesize(options: SynthesisOptions, echo: Callable[[str], Any] = print
 
     Every input is checked, and a worker has built the model, before anything of an earlier sweep in the
     folder is touched; the folder is locked for the run."""
-    from grasptask.synthesis.sweep import graceful_stop, make_executor
 
     prepared = _prepare(options)
     folder = options.folder
@@ -353,10 +354,8 @@ def summarise(
 ) -> dict:
     """Write the sweep's ``solutions.parquet``, ``optima.parquet`` and ``run.json`` from its rows; the run
     summary."""
-    import casadi
-    import pyomo.version
-
-    from grasptask.synthesis.clustering import cluster
+    import casadi  # deferred, as the solver stack is: only for their versions
+    import pyomo.version  # deferred with casadi
 
     solutions = pd.DataFrame(rows).sort_values("start_id").reset_index(drop=True)
     solutions["verified"] = solutions["verified"].fillna(False).astype(bool)
@@ -412,7 +411,7 @@ def summarise(
         staged.write_parquet("optima.parquet", optima)
         staged.write_json("run.json", run)
         if judge is not None:
-            from grasptask.physics.judge import best_grasp_trace, write_physics_results
+            from grasptask.physics.judge import best_grasp_trace, write_physics_results  # deferred: MuJoCo
 
             trace = best_grasp_trace(judge)
             write_physics_results(
@@ -424,11 +423,7 @@ def summarise(
 def _physics_judge(options: SynthesisOptions, solutions: pd.DataFrame, fingers: list[str]) -> Any:
     """The physics check's judge over this sweep's own solutions, for the best grasp's trace and the summary
     (the workers checked every verified start already)."""
-    from grasptask.hand import load_hand
-    from grasptask.physics.judge import Judge
-    from grasptask.records.solutions import grasp_from_row
-    from grasptask.records.sweeps import SolvedGrasps
-    from grasptask.task.model import load_task_model
+    from grasptask.physics.judge import Judge  # deferred: MuJoCo
 
     assert options.physics is not None
     hand = load_hand(options.hand).with_grasping(fingers).grasping_hand()

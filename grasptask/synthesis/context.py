@@ -12,11 +12,16 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from grasptask.grasp.settings import GraspSettings, load_grasp_settings
+from grasptask.hand import load_hand
+from grasptask.objects import load_object
 from grasptask.records import solutions as schema
 from grasptask.synthesis.config import SolverConfig
 from grasptask.synthesis.feedback import Limits, tightened
-from grasptask.synthesis.models import assign, values
+from grasptask.synthesis.judging import Judges
+from grasptask.synthesis.models import assign, build_models, values
 from grasptask.synthesis.starts import Start
+from grasptask.task.model import load_task_models
 
 if TYPE_CHECKING:  # the solver stack loads in the workers, not where a Job is made
     from grasptask.synthesis.backends import SolveResult
@@ -53,13 +58,7 @@ class SolverContext:
 
     def __init__(self, job: Job):
         # the solver stack (Pyomo, CasADi) and the loaders, in the worker that builds the models
-        from grasptask.grasp.settings import GraspSettings, load_grasp_settings
-        from grasptask.hand import load_hand
-        from grasptask.objects import load_object
-        from grasptask.synthesis.judging import Judges
-        from grasptask.synthesis.models import build_models
         from grasptask.synthesis.placement import Anchors
-        from grasptask.task.model import load_task_models
 
         self.job = job
         self.hand = load_hand(job.hand_path)

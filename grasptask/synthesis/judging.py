@@ -63,7 +63,7 @@ class Judges:
     def record(self, solution: dict, check: Verification) -> dict:
         """The columns of a solved start: Q, the grasp, the verifier's figures, and (where configured) the
         physics check and the surrogate's error at the contacts."""
-        from grasptask.synthesis.spline import evaluate
+        from grasptask.synthesis.spline import evaluate  # deferred: CasADi, in the workers
 
         row: dict[str, Any] = {"Q": float(solution["Q"])}
         grasp = Grasp(solution["palm_rotation"], solution["palm_position"], solution["joint_angles"])

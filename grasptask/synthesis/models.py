@@ -11,6 +11,7 @@ import numpy as np
 
 from grasptask.synthesis.config import SolverConfig
 from grasptask.synthesis.feedback import Limits
+from grasptask.task.symmetry import axis_asymmetry
 
 if TYPE_CHECKING:  # the solver stack loads in the workers, not where a Job is made
     from grasptask.grasp.settings import GraspSettings
@@ -68,7 +69,7 @@ def build_solver(
     """The NLP written, imported into the ``backend`` and compiled for initialisation; ``max_iter`` caps IPOPT's
     iterations below the solver config's."""
     from grasptask.synthesis.backends import BACKENDS, write_nl_rows  # the solver stack: CasADi, Pyomo
-    from grasptask.synthesis.model import build_model
+    from grasptask.synthesis.model import build_model  # deferred: Pyomo, in the workers
 
     held = held_axis(obj, task, config.hold_axis_rotation)
     nlp = build_model(hand, obj, task, settings, config.search_bounds, config.regularisation, torque_axes, held)
@@ -82,7 +83,6 @@ def build_solver(
 def held_axis(obj: ImplicitObject, task: TaskModel, tolerance: float | None) -> tuple[np.ndarray, np.ndarray] | None:
     """The object's axis of revolution when the grasp's turn about it is to be held: the object has one and the
     task is at most ``tolerance`` asymmetric about it (None: never held)."""
-    from grasptask.task.symmetry import axis_asymmetry
 
     axis = obj.revolution_axis()
     if tolerance is None or axis is None or axis_asymmetry(task.weights, task.axes, *axis) > tolerance:

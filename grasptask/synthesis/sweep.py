@@ -26,6 +26,7 @@ from contextlib import contextmanager
 from typing import Any, Protocol
 
 from grasptask.errors import BadInputError
+from grasptask.io.orphans import die_with_parent
 from grasptask.synthesis.context import Job, SolverContext, build_failure, failed_row, solve_guarded
 from grasptask.synthesis.starts import Start
 
@@ -104,7 +105,6 @@ class SerialExecutor:
 
 
 def _worker(job: Job, tasks: Any, results: Any, worker_id: int) -> None:
-    from grasptask.io.orphans import die_with_parent
 
     die_with_parent()  # at once, rather than at its next poll of the parent (_next_start)
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
@@ -252,7 +252,7 @@ def _dask_context(job: Job) -> SolverContext:
     """Runs on a Dask worker, under :data:`_DASK_LOCK`: the context is built once per worker process and job."""
     key = (os.getpid(), repr(job))
     if key not in _DASK_CONTEXTS:
-        from threadpoolctl import threadpool_limits
+        from threadpoolctl import threadpool_limits  # deferred: only in pool workers
 
         threadpool_limits(1)  # a worker's environment is not ours: one BLAS thread per solve, as in the pool
         _DASK_CONTEXTS[key] = SolverContext(job)
@@ -317,7 +317,7 @@ class DaskExecutor:
             )
 
     def _wait(self, future: Any) -> Any:
-        from dask.distributed import TimeoutError as DaskTimeout
+        from dask.distributed import TimeoutError as DaskTimeout  # deferred: only with --executor dask
 
         while True:
             _check_stop()
@@ -328,7 +328,7 @@ class DaskExecutor:
                 continue
 
     def start(self) -> dict[str, int]:
-        from dask.distributed import Client
+        from dask.distributed import Client  # deferred: only with --executor dask
 
         try:
             self.client = Client(self.scheduler, timeout=f"{self.connect_timeout_s}s")
@@ -351,7 +351,7 @@ class DaskExecutor:
         return size
 
     def run(self, starts: list[Start], on_result: OnResult) -> None:
-        from dask.distributed import as_completed
+        from dask.distributed import as_completed  # deferred: only with --executor dask
 
         futures = {
             self.client.submit(

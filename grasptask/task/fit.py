@@ -16,6 +16,7 @@ from grasptask.task.ellipsoid import Ellipsoid, is_singular, second_moment
 from grasptask.task.frames import transform_wrenches
 from grasptask.task.manifest import RecordingEntry
 from grasptask.task.recordings import MIN_SAMPLES, read_recording
+from grasptask.task.rosbag import read_wrench_bag
 from grasptask.task.spd import spd_problem
 from grasptask.task.tool import ToolConfig, load_tool
 from grasptask.task.units import UNIT_TABLES
@@ -56,7 +57,6 @@ def _read_samples(entry: RecordingEntry, tool: ToolConfig) -> np.ndarray:
     must be the tool's sensor frame when the manifest says the wrenches are in the sensor frame."""
     if not entry.topic:
         return read_recording(entry.path, tool.columns, tool.ignore_columns)
-    from grasptask.task.rosbag import read_wrench_bag
 
     bag = read_wrench_bag(entry.path, entry.topic, *entry.window_s)
     if entry.frame == "sensor" and tool.frame_id and bag.frame_id != tool.frame_id:

@@ -18,6 +18,7 @@ import numpy as np
 import pandas as pd
 
 from grasptask.errors import BadInputError, existing_file
+from grasptask.task.rosbag import is_bag
 from grasptask.task.units import UNIT_TABLES
 
 REQUIRED = ("path", "task", "subject", "trial", "grasp")
@@ -160,7 +161,6 @@ def _entry(path: Path, row_number: int, row: dict[str, str]) -> RecordingEntry:
 
 def _bag_fields(row: dict[str, str], recording: Path, fail) -> tuple[str, tuple[float | None, float | None]]:
     """A bag row's topic and time window, checked; a recording that is not a bag may have neither."""
-    from grasptask.task.rosbag import is_bag
 
     topic = row.get("topic", "").strip()
     bounds: list[float | None] = []

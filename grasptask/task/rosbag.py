@@ -53,8 +53,8 @@ def read_wrench_bag(
     """The ``WrenchStamped`` messages on ``topic``, time-ordered, between ``start_s`` and ``end_s`` seconds
     after the topic's first message (both optional). A missing topic, another message type, an empty window, a
     frame that changes between messages or a bag that cannot be read is one line naming the bag and topic."""
-    from rosbags.highlevel import AnyReader
-    from rosbags.typesys import Stores, get_typestore
+    from rosbags.highlevel import AnyReader  # deferred: only for bag files
+    from rosbags.typesys import Stores, get_typestore  # deferred: only for bag files
 
     path = Path(path)
     where = f"{path} (topic {topic})"
@@ -118,10 +118,10 @@ def write_wrench_bag(
     """``(n, 7)`` samples (t in s, wrenches in N and N m) as the ``WrenchStamped`` messages a force/torque
     driver publishes, stamped ``start_ns`` plus each sample's time, in a ROS 1 ``.bag`` or a ROS 2 bag folder
     (``kind``: one of ``BAG_KINDS``); the path to name in a manifest."""
-    from rosbags.rosbag1 import Writer as Writer1
-    from rosbags.rosbag2 import StoragePlugin
-    from rosbags.rosbag2 import Writer as Writer2
-    from rosbags.typesys import Stores, get_typestore
+    from rosbags.rosbag1 import Writer as Writer1  # deferred: only for bag files
+    from rosbags.rosbag2 import StoragePlugin  # deferred: only for bag files
+    from rosbags.rosbag2 import Writer as Writer2  # deferred: only for bag files
+    from rosbags.typesys import Stores, get_typestore  # deferred: only for bag files
 
     if kind not in BAG_KINDS:
         raise ValueError(f"kind must be one of {', '.join(BAG_KINDS)}, got {kind!r}")
