@@ -34,6 +34,8 @@ class _Group(click.Group):
 
     def invoke(self, ctx):
         main_thread = threading.current_thread() is threading.main_thread()
+        if main_thread:  # a parent may hand down a mask that blocks them, and a stop must always get through
+            signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT, signal.SIGTERM})
         previous = signal.signal(signal.SIGTERM, _interrupt) if main_thread else None
         try:
             return super().invoke(ctx)

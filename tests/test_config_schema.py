@@ -11,9 +11,14 @@ import yaml
 
 from grasptask.errors import BadInputError
 from grasptask.grasp.settings import GraspSettings, load_grasp_settings
+from grasptask.hand.config import ModelHandConfig
+from grasptask.hand.loading import load_hand
+from grasptask.objects.config import SCHEMAS
+from grasptask.objects.loading import load_object
 from grasptask.physics.settings import PhysicsSettings, load_physics_settings
 from grasptask.pipeline.runner import load_pipeline
 from grasptask.synthesis.config import IPOPT_DEFAULTS, SolverConfig, load_solver_config
+from grasptask.task.tool import ToolFile, load_tool
 
 LOADERS = {
     "solver": (load_solver_config, "first_posture", 0.3),
@@ -74,6 +79,28 @@ def test_the_shipped_configs_set_only_what_differs_from_the_defaults():
         for key, value in data.items():
             assert getattr(defaults, key) != value, f"configs/{name}: '{key}' repeats its default"
     assert load_solver_config("configs/solver.yaml").ipopt == IPOPT_DEFAULTS
+    for path in sorted(Path("configs/objects").glob("*.yaml")):
+        data = yaml.safe_load(path.read_text())
+        _sets_only_changes(path, data, SCHEMAS[data["type"]])
+    _sets_only_changes(
+        Path("configs/hands/allegro.yaml"),
+        yaml.safe_load(Path("configs/hands/allegro.yaml").read_text()),
+        ModelHandConfig,
+    )
+    for path in sorted(Path("configs/tools").glob("*.yaml")):
+        _sets_only_changes(path, yaml.safe_load(path.read_text()), ToolFile)
+
+
+def _plain(value):
+    if dataclasses.is_dataclass(value):
+        return {k: _plain(v) for k, v in dataclasses.asdict(value).items()}  # type: ignore[arg-type]
+    return [_plain(v) for v in value] if isinstance(value, list | tuple) else value
+
+
+def _sets_only_changes(path: Path, data: dict, schema: type) -> None:
+    for field in dataclasses.fields(schema):
+        if field.name in data and field.default is not dataclasses.MISSING:
+            assert _plain(field.default) != _plain(data[field.name]), f"{path}: '{field.name}' repeats its default"
 
 
 def test_ipopt_options_are_set_over_the_defaults(tmp_path):
@@ -100,3 +127,45 @@ def test_a_bad_pipeline_file_is_one_line_naming_the_key(tmp_path, text, problem)
     with pytest.raises(BadInputError) as caught:
         load_pipeline(path)
     assert "\n" not in str(caught.value) and problem in str(caught.value)
+
+
+@pytest.mark.parametrize(
+    "kind, text, problem",
+    [
+        (
+            "object",
+            "type: superquadric\nsize_m: [0.01, 0.01, 0.1]\nexponents: [1, 1]\ncolour: red\n",
+            "unknown field 'colour'",
+        ),
+        (
+            "object",
+            "type: mesh\nmesh: m.stl\ngrid_spacing_m: 0.1\n",
+            "field 'grid_spacing_m': must be less than or equal",
+        ),
+        ("object", "type: mesh\nmesh: m.stl\nmass_kg: heavy\n", "field 'mass_kg': must be a valid number"),
+        ("object", "type: mesh\nmesh: m.stl\ntask_frame: {origin_m: [0, 0, .nan]}\n", "task_frame"),
+        ("object", "type: gp\nn_support: 4\n", "a gp object needs one of 'mesh' or 'points_csv'"),
+        (
+            "hand",
+            "model: h.urdf\npads: {tip: {point_m: [0, 0], normal: [1, 0, 0], tangent: [0, 1, 0]}}\n",
+            "field 'pads.tip.point_m'",
+        ),
+        ("hand", "model: h.urdf\ncompliance_m: -0.001\n", "field 'compliance_m': must be greater than or equal to 0"),
+        ("hand", "model: h.urdf\nfingertip: [a, b]\n", "unknown field 'fingertip' (allowed: approach, compliance_m,"),
+        ("tool", "name: t\nsensor: {position_m: [0, 0, x]}\n", "field 'sensor.position_m[3]': must be a valid number"),
+        (
+            "tool",
+            "name: t\ncolumns: {force_x: Fx}\n",
+            "unknown field 'columns.force_x' (allowed: fx, fy, fz, t, tx, ty, tz)",
+        ),
+        ("tool", "name: t\nunits: {torque_unit: lbf.in}\n", "unknown unit 'lbf.in' in 'units.torque_unit'"),
+    ],
+)
+def test_object_hand_and_tool_files_name_the_key_at_fault(tmp_path, kind, text, problem):
+    path = tmp_path / f"{kind}.yaml"
+    path.write_text(text)
+    load = {"object": load_object, "hand": load_hand, "tool": load_tool}[kind]
+    with pytest.raises(BadInputError) as caught:
+        load(path)
+    line = str(caught.value)
+    assert "\n" not in line and line.startswith(f"{path}: ") and problem in line, line

@@ -333,6 +333,21 @@ def test_artifact_names_from_inputs_stay_inside_the_output_folder(tmp_path):
     assert not (tmp_path / "escaped.png").exists() and not (tmp_path / "o").exists()
 
 
+def test_a_stop_gets_through_a_signal_mask_handed_down_by_the_parent(tasks, tmp_path):
+    """A process started with SIGINT and SIGTERM blocked (a parent's thread may hand its mask down) still stops
+    on the first Ctrl-C, rather than solving on with the signal pending."""
+    blocked = {signal.SIGINT, signal.SIGTERM}
+    sweep = subprocess.Popen(
+        command(tasks, tmp_path, "--executor", "serial", "--starts", "12"),
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        preexec_fn=lambda: signal.pthread_sigmask(signal.SIG_BLOCK, blocked),
+    )  # fmt: skip
+    assert sweep.stdout is not None and "model" in sweep.stdout.readline() + sweep.stdout.readline()
+    sweep.send_signal(signal.SIGINT)
+    _, err = sweep.communicate(timeout=60)
+    assert sweep.returncode == 130 and "interrupted" in err, err
+
+
 def test_a_ctrl_c_before_any_start_is_solved_says_nothing_was_kept(tasks, tmp_path):
     """It said 'finished starts are kept in .../solutions.jsonl' of a folder that was never made."""
     sweep = start_sweep(tasks, tmp_path, "--executor", "serial")

@@ -138,7 +138,10 @@ def test_bad_hand_files(tasks, tmp_path, cli, edit, expected):
 @pytest.mark.parametrize(
     "text, expected",
     [
-        ("exponents: [0.1, 1.0, 2.0]\nsize_m: [0.01, 0.01, 0.1]\n", "'exponents' must be 2 numbers"),
+        (
+            "exponents: [0.1, 1.0, 2.0]\nsize_m: [0.01, 0.01, 0.1]\n",
+            "field 'exponents': tuple should have at most 2 items",
+        ),
         ("exponents: [0.1, 1.0]\nsize_m: [0.01, wide, 0.1]\n", "size_m[2]"),
         ("exponents: [0.1, 1.0]\nsize_m: [0.01, 0.01, 0.1]\npose: {position_m: [0, 0]}\n", "pose.position_m"),
     ],

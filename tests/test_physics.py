@@ -20,15 +20,13 @@ from hypothesis import strategies as st
 from grasptask.grasp.grasp import Grasp
 from grasptask.hand import forward, load_hand
 from grasptask.objects import Superquadric, load_object
-from grasptask.physics.protocol import check_grasp
-from grasptask.physics.scene import build_scene
-from grasptask.physics.settings import PhysicsSettings, load_physics_settings
 from grasptask.physics.actuation import ActuatorMap, BoundedLeastSquares, IndependentMotors
 from grasptask.physics.grip import GripController
 from grasptask.physics.loads import task_tests
-from grasptask.physics.protocol import _Run
-from grasptask.physics.scene import object_body
+from grasptask.physics.protocol import _Run, check_grasp
+from grasptask.physics.scene import build_scene, object_body
 from grasptask.physics.sensing import hand_contacts, point_jacobian
+from grasptask.physics.settings import PhysicsSettings, load_physics_settings
 from grasptask.records.solutions import grasp_columns
 
 SETTINGS = load_physics_settings()

@@ -20,68 +20,44 @@ from typing import Any
 import numpy as np
 
 from grasptask.errors import BadInputError, existing_file
+from grasptask.hand.config import ApproachConfig, ModelHandConfig, PadConfig
 from grasptask.hand.from_mjcf import read_mjcf
 from grasptask.hand.from_urdf import read_urdf
 from grasptask.hand.from_yaml import hand_from_yaml
-from grasptask.hand.model import DEFAULT_COMPLIANCE_M, Hand, Pad
+from grasptask.hand.model import Hand, Pad
 from grasptask.hand.tree import HandOptions, hand_from_tree
-from grasptask.io.config import load_yaml, number, numbers, reject_unknown
+from grasptask.io.config import load_yaml, validated
 from grasptask.paths import DEFAULT_HAND
 
 URDF_SUFFIXES = (".urdf",)
 MJCF_SUFFIXES = (".xml", ".mjcf")
-MODEL_FIELDS = {
-    "model", "name", "description", "palm_link", "fingertips", "finger_names", "grasping_fingers", "pads",
-    "approach", "sources", "compliance_m",
-}  # fmt: skip
 
 
-def _names(data: dict, key: str, source: Path) -> tuple[str, ...] | None:
-    value = data.get(key)
-    if value is None:
-        return None
-    if not isinstance(value, list) or not all(isinstance(v, str) and v for v in value):
-        raise BadInputError(source, f"field '{key}' must be a list of names, got {value!r}")
-    return tuple(value)
-
-
-def _unit(value: Any, source: Path, name: str) -> np.ndarray:
-    v = numbers(value, source, name, 3)
+def _unit(value: tuple[float, float, float], source: Path, name: str) -> np.ndarray:
+    v = np.array(value, dtype=float)
     if np.linalg.norm(v) < 1e-9:
         raise BadInputError(source, f"field '{name}' must be a non-zero 3-vector")
     return v / np.linalg.norm(v)
 
 
-def _pads(value: Any, source: Path) -> dict[str, Pad]:
-    if value is None:
-        return {}
-    if not isinstance(value, dict):
-        raise BadInputError(source, "field 'pads' must map fingertip links to point_m, normal and tangent")
-    pads = {}
-    for link, spec in value.items():
+def _pads(pads: dict[str, PadConfig], source: Path) -> dict[str, Pad]:
+    found = {}
+    for link, spec in pads.items():
         where = f"pads.{link}"
-        if not isinstance(spec, dict):
-            raise BadInputError(source, f"field '{where}' must be a mapping")
-        reject_unknown(spec, {"point_m", "normal", "tangent", "radius_m"}, source, f"{where}.")
-        normal = _unit(spec.get("normal"), source, f"{where}.normal")
-        tangent = _unit(spec.get("tangent"), source, f"{where}.tangent")
+        normal = _unit(spec.normal, source, f"{where}.normal")
+        tangent = _unit(spec.tangent, source, f"{where}.tangent")
         tangent = tangent - (tangent @ normal) * normal
         if np.linalg.norm(tangent) < 1e-6:
             raise BadInputError(source, f"field '{where}.tangent' is parallel to the normal")
-        point = numbers(spec.get("point_m"), source, f"{where}.point_m", 3)
-        radius = number(spec.get("radius_m", 0.0), source, f"{where}.radius_m", minimum=0.0)
-        pads[str(link)] = Pad(point, normal, tangent / np.linalg.norm(tangent), radius)
-    return pads
+        found[link] = Pad(np.array(spec.point_m, dtype=float), normal, tangent / np.linalg.norm(tangent), spec.radius_m)
+    return found
 
 
-def _approach(value: Any, source: Path) -> np.ndarray | None:
-    if value is None:
+def _approach(approach: ApproachConfig | None, source: Path) -> np.ndarray | None:
+    if approach is None:
         return None
-    if not isinstance(value, dict):
-        raise BadInputError(source, "field 'approach' must give z (towards the object) and x, in the palm frame")
-    reject_unknown(value, {"z", "x"}, source, "approach.")
-    z = _unit(value.get("z"), source, "approach.z")
-    x = _unit(value.get("x", [1, 0, 0] if abs(z[0]) < 0.9 else [0, 1, 0]), source, "approach.x")
+    z = _unit(approach.z, source, "approach.z")
+    x = _unit(approach.x or ((1, 0, 0) if abs(z[0]) < 0.9 else (0, 1, 0)), source, "approach.x")
     x = x - (x @ z) * z
     if np.linalg.norm(x) < 1e-6:
         raise BadInputError(source, "fields 'approach.x' and 'approach.z' are parallel")
@@ -100,24 +76,21 @@ def _read_model(path: Path, source: Path) -> Any:
 
 
 def _with_model(data: dict, source: Path) -> Hand:
-    reject_unknown(data, MODEL_FIELDS, source)
-    model = source.parent / str(data["model"])
+    config = validated(ModelHandConfig, data, source)
+    model = source.parent / config.model
     existing_file(model, "hand model file")
     options = HandOptions(
-        name=str(data["name"]) if "name" in data else None,
-        palm_link=str(data["palm_link"]) if "palm_link" in data else None,
-        fingertips=_names(data, "fingertips", source),
-        finger_names=_names(data, "finger_names", source),
-        pads=_pads(data.get("pads"), source),
-        grasping=_names(data, "grasping_fingers", source),
-        approach=_approach(data.get("approach"), source),
-        compliance_m=number(data.get("compliance_m", DEFAULT_COMPLIANCE_M), source, "compliance_m", minimum=0.0),
+        name=config.name,
+        palm_link=config.palm_link,
+        fingertips=None if config.fingertips is None else tuple(config.fingertips),
+        finger_names=None if config.finger_names is None else tuple(config.finger_names),
+        pads=_pads(config.pads, source),
+        grasping=None if config.grasping_fingers is None else tuple(config.grasping_fingers),
+        approach=_approach(config.approach, source),
+        compliance_m=config.compliance_m,
     )
     hand = hand_from_tree(_read_model(model, source), model, options)
-    sources = data.get("sources") or {}
-    if not isinstance(sources, dict):
-        raise BadInputError(source, "field 'sources' must map what to where it came from")
-    return replace(hand, sources={str(k): str(v) for k, v in sources.items()})
+    return replace(hand, sources=dict(config.sources))
 
 
 def _with_base(data: dict, path: Path, seen: tuple[Path, ...] = ()) -> dict:

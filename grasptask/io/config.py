@@ -9,13 +9,12 @@ from __future__ import annotations
 
 import dataclasses
 import json
-import math
+import types
 import typing
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Annotated, Any, TypeVar
 
-import numpy as np
 import yaml
 from pydantic import ConfigDict, Field, Strict, TypeAdapter, ValidationError
 
@@ -88,31 +87,60 @@ def validated(schema: type[T], data: Mapping[str, Any], source: str | Path) -> T
         return TypeAdapter(schema).validate_python(data)
     except ValidationError as exc:
         # a misspelt key explains a missing one, so an unknown key is named first
-        errors = sorted(exc.errors(), key=lambda e: e["type"] not in ("unexpected_keyword_argument", "extra_forbidden"))
+        # and of a union's members, the one the value was meant for (a mapping is not a literal's word)
+        errors = sorted(exc.errors(), key=_first)
         raise BadInputError(source, _problem(schema, errors[0])) from None
+
+
+def _first(error: Any) -> int:
+    kind = error["type"]
+    if kind in ("unexpected_keyword_argument", "extra_forbidden"):
+        return 0
+    return 2 if kind in ("literal_error", "dataclass_type", "model_type") else 1
 
 
 def _problem(schema: type, error: Any) -> str:
     """One of pydantic's errors as this project's one line: ``field 'a.b': must be ..., got ...``."""
-    loc = [part for part in error["loc"] if part != "__root__"]
+    # pydantic names the member of a union it tried (TaskFrame, literal[...]): not a key of the file
+    loc = [p for p in error["loc"] if isinstance(p, int) or (p[:1].islower() and "[" not in p and p != "__root__")]
     key = "".join(f"[{part + 1}]" if isinstance(part, int) else f".{part}" for part in loc).lstrip(".")
     message = str(error["msg"]).removeprefix("Value error, ").replace("Input should be", "must be")
     if error["type"] in ("unexpected_keyword_argument", "extra_forbidden"):
         return f"unknown field '{key}' (allowed: {', '.join(_keys(schema, loc[:-1]))})"
+    if error["type"] == "missing" and loc and isinstance(loc[-1], int):  # a fixed-length list cut short
+        parent = key.rsplit("[", 1)[0]
+        return f"field '{parent}': too few numbers (number {loc[-1] + 1} is missing)"
     if error["type"] == "missing":
         return f"missing field '{key}'"
     if not key:
         return message
-    return f"field '{key}': {message}, got {error.get('input')!r}"
+    given = error.get("input")
+    got = "" if isinstance(given, dict) else f", got {given!r}"  # a whole section is too long to quote
+    return f"field '{key}': {message[:1].lower()}{message[1:]}{got}"
 
 
 def _keys(schema: Any, path: list[Any]) -> list[str]:
     """The keys a schema allows at ``path`` (a nested schema's, for an unknown key inside it)."""
+    current = schema
     for part in path:
-        schema = typing.get_type_hints(schema).get(str(part))
-        if not dataclasses.is_dataclass(schema):
-            return []
-    return sorted(f.name for f in dataclasses.fields(schema))
+        current = _inner(current)
+        if typing.get_origin(current) is dict:  # a mapping's entry: its values' schema
+            current = typing.get_args(current)[1]
+        elif typing.get_origin(current) in (list, tuple):  # a list's item
+            current = typing.get_args(current)[0]
+        elif dataclasses.is_dataclass(current):
+            current = typing.get_type_hints(current).get(str(part))
+    current = _inner(current)
+    return sorted(f.name for f in dataclasses.fields(current)) if dataclasses.is_dataclass(current) else []
+
+
+def _inner(hint: Any) -> Any:
+    """A hint's schema: ``X | None`` is X."""
+    if isinstance(hint, types.UnionType) or typing.get_origin(hint) is typing.Union:
+        found = [a for a in typing.get_args(hint) if a is not type(None)]
+        schemas = [a for a in found if dataclasses.is_dataclass(a)]
+        return found[0] if len(found) == 1 else schemas[0] if len(schemas) == 1 else hint
+    return hint
 
 
 def read_json(path: str | Path) -> dict[str, Any]:
@@ -125,46 +153,3 @@ def read_json(path: str | Path) -> dict[str, Any]:
     if not isinstance(data, dict):
         raise BadInputError(path, "expected a JSON object at the top level")
     return data
-
-
-def require(mapping: dict[str, Any], key: str, source: str | Path, kind: type | tuple[type, ...] = object) -> Any:
-    """``mapping[key]``, or a one-line error naming the file and field."""
-    if key not in mapping:
-        raise BadInputError(source, f"missing field '{key}'")
-    value = mapping[key]
-    if not isinstance(value, kind):
-        expected = kind.__name__ if isinstance(kind, type) else " or ".join(k.__name__ for k in kind)
-        raise BadInputError(source, f"field '{key}' must be {expected}, got {value!r}")
-    return value
-
-
-def reject_unknown(mapping: dict[str, Any], allowed: set[str], source: str | Path, where: str = "") -> None:
-    unknown = sorted(set(mapping) - allowed)
-    if unknown:
-        raise BadInputError(source, f"unknown field '{where}{unknown[0]}' (allowed: {', '.join(sorted(allowed))})")
-
-
-def number(value: Any, source: str | Path, name: str, *, positive: bool = False, minimum: float | None = None) -> float:
-    """``value`` as a finite float, or a one-line error naming the field (``positive``: above 0)."""
-    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
-        raise BadInputError(source, f"field '{name}' must be a number, got {value!r}")
-    if positive and not value > 0:
-        raise BadInputError(source, f"field '{name}' must be positive, got {value!r}")
-    if minimum is not None and value < minimum:
-        raise BadInputError(source, f"field '{name}' must be at least {minimum:g}, got {value!r}")
-    return float(value)
-
-
-def whole(value: Any, source: str | Path, name: str, minimum: int = 0) -> int:
-    """``value`` as an int of at least ``minimum``, or a one-line error naming the field."""
-    if isinstance(value, bool) or not isinstance(value, int) or value < minimum:
-        raise BadInputError(source, f"field '{name}' must be a whole number >= {minimum}, got {value!r}")
-    return value
-
-
-def numbers(value: Any, source: str | Path, name: str, length: int | None = None) -> np.ndarray:
-    """A list of finite numbers (of ``length`` when given) as an array, or a one-line error naming the field."""
-    if not isinstance(value, list | tuple) or (length is not None and len(value) != length):
-        size = f"{length} numbers" if length is not None else "a list of numbers"
-        raise BadInputError(source, f"field '{name}' must be {size}, got {value!r}")
-    return np.array([number(v, source, f"{name}[{k + 1}]") for k, v in enumerate(value)], dtype=float)

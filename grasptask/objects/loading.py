@@ -47,23 +47,19 @@ from typing import Any
 
 import numpy as np
 import trimesh
-from scipy.spatial.transform import Rotation
 
 from grasptask.errors import BadInputError, existing_file
-from grasptask.io.config import load_yaml, number, numbers, reject_unknown, require, whole
+from grasptask.io.config import load_yaml
+from grasptask.objects.config import GPConfig, MeshConfig, SuperquadricConfig, SymmetryConfig, object_schema
 from grasptask.objects.gp import GPImplicitSurface
-from grasptask.objects.mesh_file import CLOUD_SUFFIXES, MESH_SUFFIXES, read_cloud, read_mesh, unit_scale
-from grasptask.objects.mesh_object import GRID_SPACING_M, MeshObject, PointCloudObject
+from grasptask.objects.mesh_file import CLOUD_SUFFIXES, MESH_SUFFIXES, read_cloud, read_mesh
+from grasptask.objects.mesh_object import MeshObject, PointCloudObject
 from grasptask.objects.superquadric import Superquadric
 from grasptask.objects.surface import ImplicitObject, Symmetry
 from grasptask.paths import DEFAULT_OBJECT
 
-#: the largest half-size of an object, in metres: a hand grasps nothing bigger
-MAX_SIZE_M = 2.0
 #: a task frame's origin at least this deep inside the object (m), unless the YAML allows it outside
 FRAME_DEPTH_M = 0.005
-#: the task frames a word can name: the object's centre of volume and principal axes, or the file's own frame
-FRAME_WORDS = ("centre", "origin")
 #: what --unit, --mass and --task-frame set, as fields of a mesh object's YAML
 OVERRIDES = ("unit", "mass_kg", "task_frame")
 
@@ -80,7 +76,13 @@ def load_object(
     if config is not None:
         return object_from_config(config, path, say)
     if path.suffix.lower() in MESH_SUFFIXES + CLOUD_SUFFIXES:
-        return mesh_object(existing_file(path, "object file"), {}, path, say)
+        source = existing_file(path, "object file")
+        bare = (
+            MeshConfig(type="mesh", points=str(source))
+            if _is_cloud(source)
+            else MeshConfig(type="mesh", mesh=str(source))
+        )
+        return mesh_object(source, bare, path, say)
     return object_from_config(load_yaml(path), path, say)
 
 
@@ -112,85 +114,43 @@ def object_config(path: str | Path, **overrides: Any) -> dict[str, Any] | None:
 def object_from_config(data: dict[str, Any], path: Path, say: Callable[[str], Any] = print) -> ImplicitObject:
     """An object from a config's mapping; ``path`` is the config's file, which relative paths start from and
     messages name."""
-    kind = require(data, "type", path, str)
-    common = {"type", "name", "description", "symmetry"}
-    symmetry = _symmetry(data.get("symmetry"), path)
-    name = str(data.get("name", path.stem))
-    if kind == "superquadric":
-        reject_unknown(data, common | {"size_m", "exponents", "pose"}, path)
-        size = numbers(data.get("size_m"), path, "size_m", 3)
-        e1, e2 = numbers(data.get("exponents"), path, "exponents", 2)
-        if np.any(size < 1e-3) or np.any(size > MAX_SIZE_M) or not (0.05 <= e1 <= 2 and 0.05 <= e2 <= 2):
-            raise BadInputError(path, f"need 3 half-sizes in [0.001, {MAX_SIZE_M:g}] m and exponents in [0.05, 2]")
-        pose = _frame(data.get("pose"), path, "pose", "position_m")
-        return Superquadric(size, float(e1), float(e2), pose[:3, :3], pose[:3, 3], name, symmetry)
-    if kind == "gp":
-        allowed = {"mesh", "points_csv", "n_support", "max_support", "tolerance_m", "seed", "n_samples"}
-        reject_unknown(data, common | allowed, path)
-        n_support = whole(data.get("n_support", 250), path, "n_support", minimum=4)
-        max_support = whole(data.get("max_support", 500), path, "max_support", minimum=n_support)
-        tolerance = number(data.get("tolerance_m", 5e-4), path, "tolerance_m", positive=True)
-        seed = whole(data.get("seed", 0), path, "seed")
-        points, normals = _surface_samples(path, data)
+    config = object_schema(data, path)
+    symmetry = _symmetry(config.symmetry)
+    name = config.name or path.stem
+    if isinstance(config, SuperquadricConfig):
+        pose = config.pose.matrix()
+        e1, e2 = config.exponents
+        return Superquadric(np.array(config.size_m), e1, e2, pose[:3, :3], pose[:3, 3], name, symmetry)
+    if isinstance(config, GPConfig):
+        points, normals = _surface_samples(path, config)
         gp = GPImplicitSurface.fit(
-            points, normals, n_support=n_support, max_support=max_support, tolerance=tolerance, seed=seed, name=name
+            points,
+            normals,
+            n_support=config.n_support,
+            max_support=config.max_support,
+            tolerance=config.tolerance_m,
+            seed=config.seed,
+            name=name,
         )
         return replace(gp, symmetry=symmetry)
-    if kind == "mesh":
-        fields = {"mesh", "points", "unit", "pose", "task_frame", "task_frame_outside", "mass_kg", "grid_spacing_m"}
-        reject_unknown(data, common | fields, path)
-        keys = [k for k in ("mesh", "points") if k in data]
-        if len(keys) != 1:
-            raise BadInputError(path, "a mesh object needs one of 'mesh' (a triangle mesh) or 'points' (a point cloud)")
-        source = path.parent / str(require(data, keys[0], path, str))
-        if not source.is_file():
-            raise BadInputError(path, f"field '{keys[0]}': file not found: {source}")
-        return mesh_object(source, data, path, say, cloud=keys[0] == "points")
-    raise BadInputError(path, f"unknown object type '{kind}' (known: superquadric, gp, mesh)")
+    key = "mesh" if config.mesh is not None else "points"
+    source = path.parent / str(getattr(config, key))
+    if not source.is_file():
+        raise BadInputError(path, f"field '{key}': file not found: {source}")
+    return mesh_object(source, config, path, say)
 
 
-def _frame(value: object, path: Path, name: str, position_key: str) -> np.ndarray:
-    """A 4 x 4 transform from ``{position_key: [x, y, z], rotation_rpy_deg: [r, p, y]}``."""
-    value = value or {}
-    if not isinstance(value, dict):
-        raise BadInputError(path, f"field '{name}' must be a mapping, got {value!r}")
-    reject_unknown(value, {position_key, "rotation_rpy_deg"}, path, f"{name}.")
-    frame = np.eye(4)
-    rpy = numbers(value.get("rotation_rpy_deg", [0, 0, 0]), path, f"{name}.rotation_rpy_deg", 3)
-    frame[:3, :3] = Rotation.from_euler("xyz", rpy, degrees=True).as_matrix()
-    frame[:3, 3] = numbers(value.get(position_key, [0, 0, 0]), path, f"{name}.{position_key}", 3)
-    if np.abs(frame[:3, 3]).max() > MAX_SIZE_M:
-        raise BadInputError(path, f"field '{name}.{position_key}' must lie within {MAX_SIZE_M:g} m of the origin")
-    return frame
-
-
-def mesh_object(
-    source: Path, data: dict, path: Path, say: Callable[[str], Any] = print, cloud: bool | None = None
-) -> ImplicitObject:
+def mesh_object(source: Path, config: MeshConfig, path: Path, say: Callable[[str], Any] = print) -> ImplicitObject:
     """A mesh or point cloud in its task frame (``task_frame`` in the file's own frame, after ``unit``; by
     default, ``centre`` for a bare file and ``origin`` for a YAML's), checked to lie inside the object."""
-    unit = str(data.get("unit", "m"))
-    unit_scale(unit, path)
-    pose = _frame(data.get("pose"), path, "pose", "position_m")
-    mass = number(data["mass_kg"], path, "mass_kg", positive=True) if "mass_kg" in data else None
-    spacing = number(data.get("grid_spacing_m", GRID_SPACING_M), path, "grid_spacing_m", positive=True)
-    if not 5e-4 <= spacing <= 0.01:
-        raise BadInputError(path, f"field 'grid_spacing_m' must lie in [0.0005, 0.01] m, got {spacing}")
-    outside = data.get("task_frame_outside", False)
-    if not isinstance(outside, bool):
-        raise BadInputError(path, f"field 'task_frame_outside' must be true or false, got {outside!r}")
-    name = str(data.get("name", source.stem))
-    symmetry = _symmetry(data.get("symmetry"), path)
-    if cloud is None:  # a file given directly
-        cloud = _is_cloud(source)
-    rule = data.get("task_frame", "centre" if path == source else "origin")
-    if isinstance(rule, str) and rule not in FRAME_WORDS:
-        raise BadInputError(
-            path, f"field 'task_frame' must be a mapping or one of {', '.join(FRAME_WORDS)}, got {rule!r}"
-        )
+    unit, mass, spacing = config.unit, config.mass_kg, config.grid_spacing_m
+    pose = config.pose.matrix()
+    name = config.name or source.stem
+    symmetry = _symmetry(config.symmetry)
+    rule = config.task_frame if config.task_frame is not None else ("centre" if path == source else "origin")
     found: ImplicitObject
     repairs: list[str] = []  # said once the object is known to be good: a refused file gets one line
-    if cloud:
+    if config.points is not None:
         points = read_cloud(source, unit)
         found = PointCloudObject(points.points, points.normals, name, symmetry, mass, None, spacing)
     else:
@@ -200,9 +160,10 @@ def mesh_object(
     elif rule == "origin":
         task_frame = np.eye(4)
     else:
-        task_frame = _frame(rule, path, "task_frame", "origin_m")
+        assert not isinstance(rule, str)
+        task_frame = rule.matrix()
     label = rule if isinstance(rule, str) else "given"
-    if not outside:
+    if not config.task_frame_outside:
         _check_inside(found, task_frame[:3, 3], path, label)
     for repair in repairs:
         say(repair)
@@ -298,32 +259,19 @@ def object_files(path: str | Path) -> list[Path]:
     return [path, *(p for p in named if p.is_file())]
 
 
-SYMMETRY_AXES = {"rotation_axis": ("z", "any"), "flip_axis": ("z",)}
+def _symmetry(config: SymmetryConfig | None) -> Symmetry | None:
+    return None if config is None else config.as_dict()
 
 
-def _symmetry(value: object, path: Path) -> Symmetry | None:
-    if value is None:
-        return None
-    if not isinstance(value, dict):
-        raise BadInputError(path, f"field 'symmetry' must be a mapping, got {value!r}")
-    reject_unknown(value, set(SYMMETRY_AXES), path, "symmetry.")
-    for key, allowed in SYMMETRY_AXES.items():
-        if key in value and value[key] not in allowed:
-            raise BadInputError(path, f"field 'symmetry.{key}' must be one of {', '.join(allowed)}, got {value[key]!r}")
-    return {str(k): str(v) for k, v in value.items()}
-
-
-def _surface_samples(path: Path, data: dict) -> tuple[np.ndarray, np.ndarray]:
-    if "mesh" in data:
-        mesh_path = path.parent / str(data["mesh"])
+def _surface_samples(path: Path, config: GPConfig) -> tuple[np.ndarray, np.ndarray]:
+    if config.mesh is not None:
+        mesh_path = path.parent / config.mesh
         if not mesh_path.is_file():
             raise BadInputError(path, f"mesh file not found: {mesh_path}")
-        count = whole(data.get("n_samples", 6000), path, "n_samples", minimum=100)
-        return MeshObject(read_mesh(mesh_path)).surface_samples(count)
-    if "points_csv" in data:
-        csv = path.parent / str(data["points_csv"])
-        if not csv.is_file():
-            raise BadInputError(path, f"point file not found: {csv}")
-        cloud = read_cloud(csv)
-        return cloud.points, cloud.normals
-    raise BadInputError(path, "a gp object needs 'mesh' or 'points_csv'")
+        return MeshObject(read_mesh(mesh_path)).surface_samples(config.n_samples)
+    assert config.points_csv is not None
+    csv = path.parent / config.points_csv
+    if not csv.is_file():
+        raise BadInputError(path, f"point file not found: {csv}")
+    cloud = read_cloud(csv)
+    return cloud.points, cloud.normals

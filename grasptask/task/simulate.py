@@ -29,11 +29,12 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from pydantic.dataclasses import dataclass as schema
 from scipy import signal, stats
 from scipy.spatial.transform import Rotation
 
 from grasptask.errors import BadInputError
-from grasptask.io.config import load_yaml, reject_unknown, require
+from grasptask.io.config import SCHEMA, load_yaml, validated
 from grasptask.task.frames import transform_wrenches, wrench_transform
 from grasptask.task.tool import ToolConfig
 
@@ -61,12 +62,21 @@ def trials(config: dict[str, Any]) -> list[Trial]:
     ]
 
 
+@schema(frozen=True, config=SCHEMA)
+class SimulateFile:
+    """The simulator config's sections (``configs/simulate.yaml``); each holds the model's parameters."""
+
+    protocol: dict[str, Any]
+    sensor: dict[str, Any]
+    subjects: dict[str, Any]
+    tasks: dict[str, Any]
+    description: str = ""
+
+
 def load_config(path: str | Path) -> dict[str, Any]:
     """Load and check a simulator config; every section the model reads must be present."""
     config = load_yaml(path)
-    reject_unknown(config, {"protocol", "sensor", "subjects", "tasks", "description"}, path)
-    for key in ("protocol", "sensor", "subjects", "tasks"):
-        require(config, key, path, dict)
+    validated(SimulateFile, config, path)
     for task in TASK_GRASPS:
         if task not in config["tasks"]:
             raise BadInputError(path, f"missing task section 'tasks.{task}'")

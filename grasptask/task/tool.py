@@ -16,15 +16,81 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Annotated
 
 import numpy as np
+from pydantic import Field, Strict
+from pydantic.dataclasses import dataclass as schema
 from scipy.spatial.transform import Rotation
 
 from grasptask.errors import BadInputError
-from grasptask.io.config import load_yaml, reject_unknown, require
+from grasptask.io.config import SCHEMA, Real, load_yaml, validated
 from grasptask.task.units import UNIT_TABLES
 
 CANONICAL_COLUMNS = ("t", "fx", "fy", "fz", "tx", "ty", "tz")
+Text = Annotated[str, Strict(), Field(min_length=1)]
+Vector = tuple[Real, Real, Real]
+
+
+@schema(frozen=True, config=SCHEMA)
+class SensorFile:
+    """The sensor frame's pose in the object frame: a position, and roll-pitch-yaw or a rotation matrix."""
+
+    position_m: Vector = (0.0, 0.0, 0.0)
+    #: fixed-axis roll (x), pitch (y), yaw (z), applied in that order
+    rotation_rpy_deg: Vector = (0.0, 0.0, 0.0)
+    rotation_matrix: tuple[Vector, Vector, Vector] | None = None
+    #: the header frame_id of the sensor's ROS messages, checked when given
+    frame_id: str = ""
+
+    def rotation(self) -> np.ndarray:
+        if self.rotation_matrix is None:
+            return np.asarray(Rotation.from_euler("xyz", self.rotation_rpy_deg, degrees=True).as_matrix())
+        rotation = np.asarray(self.rotation_matrix, dtype=float)
+        if not np.allclose(rotation @ rotation.T, np.eye(3), atol=1e-6) or np.linalg.det(rotation) < 0:
+            raise ValueError("field 'sensor.rotation_matrix' must be a 3x3 rotation matrix")
+        return rotation
+
+
+@schema(frozen=True, config=SCHEMA)
+class ColumnsFile:
+    """The recording's column name for each canonical column it names differently."""
+
+    t: Text | None = None
+    fx: Text | None = None
+    fy: Text | None = None
+    fz: Text | None = None
+    tx: Text | None = None
+    ty: Text | None = None
+    tz: Text | None = None
+
+
+@schema(frozen=True, config=SCHEMA)
+class UnitsFile:
+    """The recordings' units, unless the manifest's columns say otherwise."""
+
+    force_unit: Text | None = None
+    torque_unit: Text | None = None
+    time_unit: Text | None = None
+
+    def __post_init__(self) -> None:
+        for key, table in UNIT_TABLES.items():
+            unit = getattr(self, key)
+            if unit is not None and unit not in table:
+                raise ValueError(f"unknown unit '{unit}' in 'units.{key}' (known: {', '.join(table)})")
+
+
+@schema(frozen=True, config=SCHEMA)
+class ToolFile:
+    """A tool config file's schema."""
+
+    name: Text
+    description: str = ""
+    sensor: SensorFile = SensorFile()
+    columns: ColumnsFile = ColumnsFile()
+    #: recording columns to drop
+    ignore_columns: list[Text] = field(default_factory=list)
+    units: UnitsFile = UnitsFile()
 
 
 @dataclass(frozen=True)
@@ -41,45 +107,19 @@ class ToolConfig:
 
 def load_tool(path: str | Path) -> ToolConfig:
     path = Path(path)
-    data = load_yaml(path)
-    reject_unknown(data, {"name", "description", "sensor", "columns", "ignore_columns", "units"}, path)
-    sensor = data.get("sensor", {})
-    if not isinstance(sensor, dict):
-        raise BadInputError(path, "field 'sensor' must be a mapping")
-    reject_unknown(sensor, {"position_m", "rotation_rpy_deg", "rotation_matrix", "frame_id"}, path, "sensor.")
-    position = _vector(sensor.get("position_m", [0, 0, 0]), 3, path, "sensor.position_m")
-    if "rotation_matrix" in sensor:
-        rotation = np.asarray(sensor["rotation_matrix"], dtype=float)
-        if rotation.shape != (3, 3) or not np.allclose(rotation @ rotation.T, np.eye(3), atol=1e-6):
-            raise BadInputError(path, "field 'sensor.rotation_matrix' must be a 3x3 rotation matrix")
-    else:
-        rpy = _vector(sensor.get("rotation_rpy_deg", [0, 0, 0]), 3, path, "sensor.rotation_rpy_deg")
-        rotation = Rotation.from_euler("xyz", rpy, degrees=True).as_matrix()
-    columns = data.get("columns", {}) or {}
-    if not isinstance(columns, dict):
-        raise BadInputError(path, "field 'columns' must map canonical names to recording column names")
-    reject_unknown(columns, set(CANONICAL_COLUMNS), path, "columns.")
-    units = data.get("units", {}) or {}
-    reject_unknown(units, set(UNIT_TABLES), path, "units.")
-    for key, unit in units.items():
-        if unit not in UNIT_TABLES[key]:
-            raise BadInputError(path, f"unknown unit '{unit}' in 'units.{key}' (known: {', '.join(UNIT_TABLES[key])})")
-    return ToolConfig(
-        name=str(require(data, "name", path, str)),
-        sensor_position=position,
-        sensor_rotation=rotation,
-        columns={str(k): str(v) for k, v in columns.items()},
-        ignore_columns=tuple(str(c) for c in data.get("ignore_columns", []) or []),
-        units={str(k): str(v) for k, v in units.items()},
-        frame_id=str(sensor.get("frame_id", "") or ""),
-    )
-
-
-def _vector(value, n: int, path: Path, name: str) -> np.ndarray:
+    tool = validated(ToolFile, load_yaml(path), path)
     try:
-        array = np.asarray(value, dtype=float)
-    except (TypeError, ValueError):
-        array = np.empty(0)
-    if array.shape != (n,) or not np.all(np.isfinite(array)):
-        raise BadInputError(path, f"field '{name}' must be a list of {n} finite numbers, got {value!r}")
-    return array
+        rotation = tool.sensor.rotation()
+    except ValueError as exc:
+        raise BadInputError(path, str(exc)) from None
+    columns = {name: getattr(tool.columns, name) for name in CANONICAL_COLUMNS}
+    units = {key: getattr(tool.units, key) for key in UNIT_TABLES}
+    return ToolConfig(
+        name=tool.name,
+        sensor_position=np.array(tool.sensor.position_m, dtype=float),
+        sensor_rotation=rotation,
+        columns={k: v for k, v in columns.items() if v is not None},
+        ignore_columns=tuple(tool.ignore_columns),
+        units={k: v for k, v in units.items() if v is not None},
+        frame_id=tool.sensor.frame_id,
+    )
