@@ -6,6 +6,7 @@ import os
 import signal
 import threading
 from pathlib import Path
+from typing import Any
 
 import click
 
@@ -34,9 +35,15 @@ class _Group(click.Group):
 
     def invoke(self, ctx):
         main_thread = threading.current_thread() is threading.main_thread()
-        if main_thread:  # a parent may hand down a mask that blocks them, and a stop must always get through
+        previous: dict[int, Any] = {}
+        if main_thread:
+            # a parent may hand down SIGINT ignored or a mask that blocks it (a test runner's or a script's
+            # background job): a stop must get through from the start, as it does once a sweep runs
             signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT, signal.SIGTERM})
-        previous = signal.signal(signal.SIGTERM, _interrupt) if main_thread else None
+            previous = {
+                signal.SIGINT: signal.signal(signal.SIGINT, signal.default_int_handler),
+                signal.SIGTERM: signal.signal(signal.SIGTERM, _interrupt),
+            }
         try:
             return super().invoke(ctx)
         except BadInputError as exc:
@@ -50,8 +57,8 @@ class _Group(click.Group):
             click.echo("interrupted: nothing half-written was kept", err=True)
             raise click.exceptions.Exit(130) from None
         finally:
-            if previous is not None:
-                signal.signal(signal.SIGTERM, previous)
+            for number, handler in previous.items():
+                signal.signal(number, handler)
 
 
 @click.group(cls=_Group, context_settings={"help_option_names": ["-h", "--help"]})

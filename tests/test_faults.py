@@ -16,6 +16,7 @@ import pandas as pd
 import pytest
 from processes import alive, wait_for
 
+from grasptask.errors import BadInputError
 from grasptask.io.artifacts import Provenance, StagedOutput
 from grasptask.io.locking import lock_path
 from grasptask.io.sweep_log import read_log
@@ -333,9 +334,9 @@ def test_artifact_names_from_inputs_stay_inside_the_output_folder(tmp_path):
     assert not (tmp_path / "escaped.png").exists() and not (tmp_path / "o").exists()
 
 
-def test_a_stop_gets_through_a_signal_mask_handed_down_by_the_parent(tasks, tmp_path):
-    """A process started with SIGINT and SIGTERM blocked (a parent's thread may hand its mask down) still stops
-    on the first Ctrl-C, rather than solving on with the signal pending."""
+def test_a_stop_gets_through_a_mask_the_parent_hands_down(tasks, tmp_path):
+    """A process started with SIGINT and SIGTERM blocked (a test runner's thread hands its mask down) still
+    stops on the first SIGINT, rather than solving on with the signal pending."""
     blocked = {signal.SIGINT, signal.SIGTERM}
     sweep = subprocess.Popen(
         command(tasks, tmp_path, "--executor", "serial", "--starts", "12"),
@@ -346,6 +347,30 @@ def test_a_stop_gets_through_a_signal_mask_handed_down_by_the_parent(tasks, tmp_
     sweep.send_signal(signal.SIGINT)
     _, err = sweep.communicate(timeout=60)
     assert sweep.returncode == 130 and "interrupted" in err, err
+
+
+def test_a_command_takes_sigint_even_where_the_parent_ignored_it(cli, tmp_path, monkeypatch):
+    """A script's background job starts with SIGINT ignored; a command still stops on it, from its start (a sweep
+    did only once its stop handler was in place, and a SIGINT before that was lost)."""
+    import grasptask.stages
+
+    seen = {}
+
+    def distances(ellipsoids, out):
+        seen["handler"] = signal.getsignal(signal.SIGINT)
+        seen["blocked"] = signal.pthread_sigmask(signal.SIG_BLOCK, set())
+        raise BadInputError(ellipsoids, "seen")  # the command ends here, as on any bad input
+
+    monkeypatch.setattr(grasptask.stages, "run_distances", distances, raising=False)
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        assert cli("distances", tmp_path / "e.parquet", "--out", tmp_path / "o").exit_code == 2
+    finally:
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+        after = signal.signal(signal.SIGINT, previous)
+    assert seen["handler"] is signal.default_int_handler and signal.SIGINT not in seen["blocked"]
+    assert after is signal.SIG_IGN  # the caller's own handler is given back
 
 
 def test_a_ctrl_c_before_any_start_is_solved_says_nothing_was_kept(tasks, tmp_path):

@@ -72,16 +72,22 @@ def shown(value: Any) -> str:
     if dataclasses.is_dataclass(value):
         value = dataclasses.asdict(value)  # type: ignore[arg-type]
     if isinstance(value, dict):
-        return ", ".join(f"`{k}: {json.dumps(v)}`" for k, v in value.items())
+        return ", ".join(f"`{k}: {json.dumps(v)}`" for k, v in value.items()) or "`{}`"
     return f"`{json.dumps(list(value) if isinstance(value, tuple) else value)}`"
 
 
 def settings_block(module: str, name: str) -> str:
     schema = getattr(importlib.import_module(module), name)
-    defaults, meaning = schema(), meanings(schema)
+    meaning = meanings(schema)
     lines = ["| key | default | what it means |", "|---|---|---|"]
     for field in dataclasses.fields(schema):
-        lines.append(f"| `{field.name}` | {shown(getattr(defaults, field.name))} | {meaning.get(field.name, '')} |")
+        if field.default is not dataclasses.MISSING:
+            default = shown(field.default)
+        elif field.default_factory is not dataclasses.MISSING:
+            default = shown(field.default_factory())
+        else:
+            default = "required"
+        lines.append(f"| `{field.name}` | {default} | {meaning.get(field.name, '')} |")
     return "\n".join(lines) + "\n"
 
 

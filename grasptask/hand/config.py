@@ -132,17 +132,22 @@ class ApproachConfig:
 class ModelHandConfig:
     """A YAML that adds to a URDF or MJCF file (``model``, relative to the YAML) what the file cannot say."""
 
+    #: the URDF or MJCF file, relative to this YAML
     model: Text
+    #: what the report and the records call the hand (default: the model's name)
     name: Text | None = None
     description: str = ""
     #: the link the fingers start from (default: the root link)
     palm_link: Text | None = None
     #: one fingertip link per finger (default: the last link with collision geometry of each chain)
     fingertips: Names | None = None
+    #: what the report and the records call each finger, in the order of fingertips
     finger_names: Names | None = None
+    #: the fingers that grasp (default: all)
     grasping_fingers: Names | None = None
     #: a pad per fingertip link, in place of the one fitted to its geometry
     pads: dict[str, PadConfig] = field(default_factory=dict)
+    #: the palm's approach direction, {z: [...], x: [...]} in the palm frame (default: from the palm to the pads)
     approach: ApproachConfig | None = None
     #: where each value came from
     sources: dict[str, str] = field(default_factory=dict)

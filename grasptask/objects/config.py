@@ -75,6 +75,7 @@ class SymmetryConfig:
 class SuperquadricConfig:
     """``type: superquadric``: the paper's object model, e.g. its 20 x 2 cm tool."""
 
+    #: superquadric
     type: Literal["superquadric"]
     #: half-sizes a1, a2, a3 (m)
     size_m: tuple[HalfSize, HalfSize, HalfSize]
@@ -82,8 +83,10 @@ class SuperquadricConfig:
     exponents: tuple[Exponent, Exponent]
     #: the superquadric's frame in the object frame
     pose: Pose = Pose()
+    #: what the report and the records call the object (default: the file's name)
     name: Text | None = None
     description: str = ""
+    #: the object's symmetry, for clustering grasps: {rotation_axis: z or any, flip_axis: z}
     symmetry: SymmetryConfig | None = None
 
 
@@ -91,6 +94,7 @@ class SuperquadricConfig:
 class GPConfig:
     """``type: gp``: a Gaussian-process implicit surface fitted to a mesh's or a point file's samples."""
 
+    #: gp
     type: Literal["gp"]
     #: a triangle mesh to sample (relative to the config file) ...
     mesh: Text | None = None
@@ -104,8 +108,10 @@ class GPConfig:
     seed: Count = 0
     #: surface samples drawn from the mesh
     n_samples: Annotated[int, Strict(), Field(ge=100)] = 6000
+    #: what the report and the records call the object (default: the file's name)
     name: Text | None = None
     description: str = ""
+    #: the object's symmetry, for clustering grasps: {rotation_axis: z or any, flip_axis: z}
     symmetry: SymmetryConfig | None = None
 
     def __post_init__(self) -> None:
@@ -119,6 +125,7 @@ class GPConfig:
 class MeshConfig:
     """``type: mesh``: a triangle mesh or a point cloud with normals, as it was downloaded or scanned."""
 
+    #: mesh
     type: Literal["mesh"]
     #: a triangle mesh (relative to the config file) ...
     mesh: Text | None = None
@@ -137,8 +144,10 @@ class MeshConfig:
     mass_kg: Positive | None = None
     #: the synthesis surrogate's grid (m); finer for blades and thin shafts
     grid_spacing_m: Annotated[float, Strict(), Field(ge=5e-4, le=0.01)] = GRID_SPACING_M
+    #: what the report and the records call the object (default: the file's name)
     name: Text | None = None
     description: str = ""
+    #: the object's symmetry, for clustering grasps: {rotation_axis: z or any, flip_axis: z}
     symmetry: SymmetryConfig | None = None
 
     def __post_init__(self) -> None:

@@ -96,12 +96,15 @@ Text = Annotated[str, Strict(), Field(min_length=1)]
 class StageFile:
     """One stage of a pipeline file: the grasptask command it runs, its arguments, what it reads and makes."""
 
+    #: the grasptask command, as typed after grasptask (e.g. synthesize, or pipeline run)
     run: Text
     #: what the stage makes: it reruns when any of them is missing or changed
     outputs: Annotated[list[Text], Field(min_length=1)]
     #: what the runner calls the stage (default: stage-N)
     name: Text | None = None
+    #: its arguments, as typed
     args: list[Argument] = field(default_factory=list)
+    #: files or folders the stage reads that its arguments do not name (its default configs)
     inputs: list[Text] = field(default_factory=list)
 
 
@@ -109,6 +112,7 @@ class StageFile:
 class PipelineFile:
     """A pipeline file's schema (``grasptask pipeline run FILE``)."""
 
+    #: the pipeline's name
     name: Text
     stages: Annotated[list[StageFile], Field(min_length=1)]
     description: str = ""
