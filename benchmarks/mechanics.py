@@ -88,7 +88,7 @@ def report(r: dict) -> str:
             "verify: median {:.1f} ms, p90 {:.1f} ms per grasp (target < 20 ms; {}/{} perturbed accepted)".format(
                 v["median"] * 1e3, v["p90"] * 1e3, v["accepted"], v["grasps"]
             ),
-            "one-off surface index per object: ball {:.2f} s, tool {:.2f} s, mug (GP) {:.1f} s".format(
+            "one-off surface index per object: ball {:.2f} s, tool {:.2f} s, mug (mesh) {:.1f} s".format(
                 r["surface_index_ball_s"], r["surface_index_tool_s"], r["surface_index_mug_s"]
             ),
         ]
