@@ -150,6 +150,16 @@ def test_a_bad_pipeline_file_is_one_line_naming_the_key(tmp_path, text, problem)
             "model: h.urdf\npads: {tip: {point_m: [0, 0], normal: [1, 0, 0], tangent: [0, 1, 0]}}\n",
             "field 'pads.tip.point_m'",
         ),
+        (
+            "object",
+            "type: mesh\nmesh: m.stl\ntask_frame: {origin: [0, 0, 0]}\n",
+            "unknown field 'task_frame.origin' (allowed: origin_m, rotation_rpy_deg)",
+        ),
+        (
+            "hand",
+            "model: h.urdf\npads: {FF_TIP: {point_m: [0, 0, 0], normal: [1, 0, 0], tangent: [0, 1, 0], radius_m: -1}}\n",
+            "field 'pads.FF_TIP.radius_m': must be greater than or equal to 0",
+        ),
         ("hand", "model: h.urdf\ncompliance_m: -0.001\n", "field 'compliance_m': must be greater than or equal to 0"),
         ("hand", "model: h.urdf\nfingertip: [a, b]\n", "unknown field 'fingertip' (allowed: approach, compliance_m,"),
         ("tool", "name: t\nsensor: {position_m: [0, 0, x]}\n", "field 'sensor.position_m[3]': must be a valid number"),

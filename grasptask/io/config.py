@@ -101,12 +101,14 @@ def _first(error: Any) -> int:
 
 def _problem(schema: type, error: Any) -> str:
     """One of pydantic's errors as this project's one line: ``field 'a.b': must be ..., got ...``."""
-    # pydantic names the member of a union it tried (TaskFrame, literal[...]): not a key of the file
-    loc = [p for p in error["loc"] if isinstance(p, int) or (p[:1].islower() and "[" not in p and p != "__root__")]
+    raw = [part for part in error["loc"] if part != "__root__"]
+    loc, _ = _walk(schema, raw)
     key = "".join(f"[{part + 1}]" if isinstance(part, int) else f".{part}" for part in loc).lstrip(".")
     message = str(error["msg"]).removeprefix("Value error, ").replace("Input should be", "must be")
     if error["type"] in ("unexpected_keyword_argument", "extra_forbidden"):
-        return f"unknown field '{key}' (allowed: {', '.join(_keys(schema, loc[:-1]))})"
+        _, holder = _walk(schema, raw[:-1])
+        keys = sorted(f.name for f in dataclasses.fields(holder)) if dataclasses.is_dataclass(holder) else []
+        return f"unknown field '{key}' (allowed: {', '.join(keys)})"
     if error["type"] == "missing" and loc and isinstance(loc[-1], int):  # a fixed-length list cut short
         parent = key.rsplit("[", 1)[0]
         return f"field '{parent}': too few numbers (number {loc[-1] + 1} is missing)"
@@ -119,28 +121,49 @@ def _problem(schema: type, error: Any) -> str:
     return f"field '{key}': {message[:1].lower()}{message[1:]}{got}"
 
 
-def _keys(schema: Any, path: list[Any]) -> list[str]:
-    """The keys a schema allows at ``path`` (a nested schema's, for an unknown key inside it)."""
+def _walk(schema: Any, loc: list[Any]) -> tuple[list[Any], Any]:
+    """An error's location as the file's keys, and the schema found there. Where the schema is a union of
+    several kinds, pydantic names the kind it tried (``TaskFrame``, ``literal[...]``); that is no key of the
+    file, so it is left out, and the walk goes on in that kind."""
+    keys: list[Any] = []
     current = schema
-    for part in path:
+    parts = list(loc)
+    while parts:
         current = _inner(current)
-        if typing.get_origin(current) is dict:  # a mapping's entry: its values' schema
-            current = typing.get_args(current)[1]
-        elif typing.get_origin(current) in (list, tuple):  # a list's item
-            current = typing.get_args(current)[0]
+        members = _members(current)
+        if len(members) > 1:
+            tag = parts.pop(0)
+            current = next((m for m in members if getattr(m, "__name__", None) == tag), None)
+            continue
+        part = parts.pop(0)
+        keys.append(part)
+        origin, args = typing.get_origin(current), typing.get_args(current)
+        if origin is dict:
+            current = args[1]
+        elif origin is list or (origin is tuple and args[-1:] == (Ellipsis,)):
+            current = args[0]
+        elif origin is tuple and isinstance(part, int) and part < len(args):
+            current = args[part]
         elif dataclasses.is_dataclass(current):
             current = typing.get_type_hints(current).get(str(part))
-    current = _inner(current)
-    return sorted(f.name for f in dataclasses.fields(current)) if dataclasses.is_dataclass(current) else []
+        else:
+            current = None
+    return keys, _inner(current)
+
+
+def _members(hint: Any) -> list[Any]:
+    """The kinds a union allows, but None."""
+    if isinstance(hint, types.UnionType) or typing.get_origin(hint) is typing.Union:
+        return [a for a in typing.get_args(hint) if a is not type(None)]
+    return [hint]
 
 
 def _inner(hint: Any) -> Any:
-    """A hint's schema: ``X | None`` is X."""
-    if isinstance(hint, types.UnionType) or typing.get_origin(hint) is typing.Union:
-        found = [a for a in typing.get_args(hint) if a is not type(None)]
-        schemas = [a for a in found if dataclasses.is_dataclass(a)]
-        return found[0] if len(found) == 1 else schemas[0] if len(schemas) == 1 else hint
-    return hint
+    """A hint's schema: ``X | None`` is X, and ``Annotated[X, ...]`` is X."""
+    while typing.get_origin(hint) is typing.Annotated:
+        hint = typing.get_args(hint)[0]
+    members = _members(hint)
+    return members[0] if len(members) == 1 else hint
 
 
 def read_json(path: str | Path) -> dict[str, Any]:
