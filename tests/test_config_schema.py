@@ -157,7 +157,7 @@ def test_a_bad_pipeline_file_is_one_line_naming_the_key(tmp_path, text, problem)
         ),
         (
             "hand",
-            "model: h.urdf\npads: {FF_TIP: {point_m: [0, 0, 0], normal: [1, 0, 0], tangent: [0, 1, 0], radius_m: -1}}"
+            "model: h.urdf\npads: {FF_TIP: {point_m: [0, 0, 0], normal: [1, 0, 0], tangent: [0, 1, 0], radius_m: -1}}",
             "field 'pads.FF_TIP.radius_m': must be greater than or equal to 0",
         ),
         ("hand", "model: h.urdf\ncompliance_m: -0.001\n", "field 'compliance_m': must be greater than or equal to 0"),
