@@ -11,10 +11,8 @@ from pydantic import Field, Strict
 from pydantic.dataclasses import dataclass
 
 from grasptask.hand.model import DEFAULT_COMPLIANCE_M
-from grasptask.io.config import SCHEMA, NonNegative, Positive, Real
+from grasptask.io.config import SCHEMA, NonNegative, Positive, Real, Text, Vector
 
-Vector = tuple[Real, Real, Real]
-Text = Annotated[str, Strict(), Field(min_length=1)]
 Names = Annotated[list[Text], Field(min_length=1)]
 #: a sample's place along a link, as a fraction of its length
 Along = Annotated[float, Strict(), Field(ge=0, le=1)]

@@ -36,6 +36,10 @@ Share = Annotated[float, Strict(), Field(gt=0, le=1)]
 Count = Annotated[int, Strict(), Field(ge=0)]
 #: true or false, never 1 or "yes"
 Flag = Annotated[bool, Strict()]
+#: a name or a path: text, never empty
+Text = Annotated[str, Strict(), Field(min_length=1)]
+#: three numbers: a point or a direction
+Vector = tuple[Real, Real, Real]
 
 T = TypeVar("T")
 

@@ -12,15 +12,13 @@ from pydantic.dataclasses import dataclass
 from scipy.spatial.transform import Rotation
 
 from grasptask.errors import BadInputError
-from grasptask.io.config import SCHEMA, Count, Flag, Positive, Real, validated
+from grasptask.io.config import SCHEMA, Count, Flag, Positive, Text, Vector, validated
 from grasptask.objects.mesh_file import UNITS
 from grasptask.objects.mesh_object import GRID_SPACING_M
 
 #: the largest half-size of an object, in metres: a hand grasps nothing bigger
 MAX_SIZE_M = 2.0
 
-Triple = tuple[Real, Real, Real]
-Text = Annotated[str, Strict(), Field(min_length=1)]
 #: a half-size of a superquadric (m)
 HalfSize = Annotated[float, Strict(), Field(ge=1e-3, le=MAX_SIZE_M)]
 #: a superquadric's exponent: 0.05 is nearly a box, 1 an ellipsoid, 2 a diamond
@@ -31,8 +29,8 @@ Exponent = Annotated[float, Strict(), Field(ge=0.05, le=2)]
 class Pose:
     """A frame in the file's or the world's coordinates: a position (m) and roll, pitch, yaw about fixed x, y, z."""
 
-    position_m: Triple = (0.0, 0.0, 0.0)
-    rotation_rpy_deg: Triple = (0.0, 0.0, 0.0)
+    position_m: Vector = (0.0, 0.0, 0.0)
+    rotation_rpy_deg: Vector = (0.0, 0.0, 0.0)
 
     def __post_init__(self) -> None:
         if max(abs(v) for v in self.position_m) > MAX_SIZE_M:
@@ -49,8 +47,8 @@ class Pose:
 class TaskFrame:
     """Where the task's wrenches act, in the file's frame after ``unit``."""
 
-    origin_m: Triple = (0.0, 0.0, 0.0)
-    rotation_rpy_deg: Triple = (0.0, 0.0, 0.0)
+    origin_m: Vector = (0.0, 0.0, 0.0)
+    rotation_rpy_deg: Vector = (0.0, 0.0, 0.0)
 
     def __post_init__(self) -> None:
         if max(abs(v) for v in self.origin_m) > MAX_SIZE_M:

@@ -34,7 +34,7 @@ from pydantic.dataclasses import dataclass as pydantic_dataclass
 
 from grasptask.errors import BadInputError
 from grasptask.io.artifacts import config_hash, path_hash, write_json_atomic
-from grasptask.io.config import SCHEMA, load_yaml, validated
+from grasptask.io.config import SCHEMA, Text, load_yaml, validated
 from grasptask.io.locking import folder_lock
 
 
@@ -89,7 +89,6 @@ class Outcome:
 
 #: a stage argument as a YAML file may give it: text, or a number (["--starts", 4] is "--starts 4")
 Argument = Annotated[str, Strict()] | Annotated[int, Strict()] | Annotated[float, Strict()]
-Text = Annotated[str, Strict(), Field(min_length=1)]
 
 
 @pydantic_dataclass(frozen=True, config=SCHEMA)

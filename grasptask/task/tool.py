@@ -16,20 +16,16 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Annotated
 
 import numpy as np
-from pydantic import Field, Strict
 from pydantic.dataclasses import dataclass as schema
 from scipy.spatial.transform import Rotation
 
 from grasptask.errors import BadInputError
-from grasptask.io.config import SCHEMA, Real, load_yaml, validated
+from grasptask.io.config import SCHEMA, Text, Vector, load_yaml, validated
 from grasptask.task.units import UNIT_TABLES
 
 CANONICAL_COLUMNS = ("t", "fx", "fy", "fz", "tx", "ty", "tz")
-Text = Annotated[str, Strict(), Field(min_length=1)]
-Vector = tuple[Real, Real, Real]
 
 
 @schema(frozen=True, config=SCHEMA)
