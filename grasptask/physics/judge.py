@@ -16,14 +16,13 @@ from grasptask.grasp.grasp import Grasp
 from grasptask.grasp.settings import load_grasp_settings
 from grasptask.io.artifacts import StagedOutput
 from grasptask.objects import load_object
-from grasptask.physics.settings import load_physics_settings
+from grasptask.physics.settings import PhysicsSettings, load_physics_settings
 
 if TYPE_CHECKING:
     from grasptask.hand.model import Hand
     from grasptask.objects.surface import ImplicitObject
     from grasptask.physics.protocol import PhysicsResult
     from grasptask.physics.scene import ObjectBody
-    from grasptask.physics.settings import PhysicsSettings
     from grasptask.records.sweeps import SolvedGrasps
     from grasptask.task.model import TaskModel
 
