@@ -16,7 +16,7 @@ from grasptask.hand import load_hand
 from grasptask.hand.model import Hand
 from grasptask.io.config import read_json
 from grasptask.io.tables import read_table
-from grasptask.paths import DEFAULT_GRASP_CONFIG, DEFAULT_HAND, DEFAULT_OBJECT
+from grasptask.paths import DEFAULT_GRASP_CONFIG, DEFAULT_HAND, DEFAULT_OBJECT, ROOT
 from grasptask.records.solutions import fingers_in, grasp_from_row, implausible_column, joint_columns
 
 
@@ -59,7 +59,7 @@ class SweepFiles:
             chosen = used.get(key, default)
             if chosen is not None and not isinstance(chosen, (str, Path)):
                 raise BadInputError(run_file, f"field '{key}' must be a path, got {chosen!r}")
-            return None if chosen is None else _recorded(Path(chosen), run_file.parent)
+            return None if chosen is None else recorded_path(Path(chosen), run_file.parent)
 
         recorded = used.get("fingers")
         if recorded is not None and not (isinstance(recorded, list) and all(isinstance(f, str) for f in recorded)):
@@ -83,12 +83,13 @@ class SweepFiles:
         )
 
 
-def _recorded(path: Path, beside: Path) -> Path:
+def recorded_path(path: Path, beside: Path) -> Path:
     """A path a sweep's ``run.json`` recorded. Older sweeps recorded them relative to where they ran: such a path
-    is taken from the working directory when it is there, else from the ``run.json``'s folder and its parents."""
+    is taken from the working directory when it is there, else from the ``run.json``'s folder and its parents,
+    else from the project (the bundled configs)."""
     if path.is_absolute() or path.exists():
         return path
-    for folder in (beside.resolve(), *beside.resolve().parents):
+    for folder in (beside.resolve(), *beside.resolve().parents, ROOT):
         if (folder / path).exists():
             return folder / path
     return path

@@ -16,11 +16,12 @@ from grasptask.hand.model import Hand
 from grasptask.io.artifacts import StagedOutput, file_stem
 from grasptask.io.config import read_json
 from grasptask.objects import load_object
-from grasptask.paths import DEFAULT_GRASP_CONFIG, DEFAULT_HAND, DEFAULT_OBJECT, PAPER_ELLIPSOID_TABLES, ROOT
+from grasptask.paths import DEFAULT_GRASP_CONFIG, DEFAULT_HAND, DEFAULT_OBJECT, PAPER_ELLIPSOID_TABLES
 from grasptask.progress import progress
 from grasptask.records.reference import PaperSynthesis
 from grasptask.records.scene import grasp_scene
 from grasptask.records.solutions import contacts_from_row, fingers_in, grasp_from_row, joint_columns, normals_from_row
+from grasptask.records.sweeps import recorded_path
 from grasptask.report import paper_tables
 from grasptask.report.distance_plots import plot_embedding, plot_heatmap
 from grasptask.report.ellipsoid_plots import load_samples_or_note, plot_task_ellipsoids
@@ -197,12 +198,12 @@ def distances_section(results: ResultsFolder, writer: Writer) -> Section:
     return section
 
 
-def _reference_path(path: str, fallback: Path) -> Path:
-    """A config path recorded in run.json, relative to where the sweep ran or to the project."""
-    for candidate in (Path(path), ROOT / path):
-        if candidate.is_file():
-            return candidate
-    return fallback
+def _reference_path(sweep: SweepResult, key: str, fallback: Path) -> Path:
+    """A file the sweep's run.json recorded under ``key``, found as every stage finds it; ``fallback`` (the
+    package's default) when it records none or the file has gone."""
+    value = sweep.run.get(key)
+    found = recorded_path(Path(value), sweep.folder) if isinstance(value, str) and value else None
+    return found if found is not None and found.is_file() else fallback
 
 
 #: the one sentence that says what the report's Q is
@@ -216,7 +217,7 @@ def sweep_hand(sweep: SweepResult, hands: dict[Path, Hand]) -> tuple[Hand, list[
     """The grasping hand of ``sweep`` (its ``run.json``'s hand and fingers) and its fingers; a table that is
     not that hand's (a BarrettHand's optima under a human ``run.json``) is one line. ``hands`` caches loads."""
 
-    hand_path = _reference_path(sweep.run.get("hand", ""), DEFAULT_HAND)
+    hand_path = _reference_path(sweep, "hand", DEFAULT_HAND)
     whole = hands.get(hand_path) or hands.setdefault(hand_path, load_hand(hand_path))
     fingers = sweep.run.get("fingers") or fingers_in(list(sweep.optima.columns), list(whole.fingers))
     known = len(fingers) >= 2 and all(f in whole.fingers for f in fingers)
@@ -309,9 +310,8 @@ def grasps_section(
             section.blocks.append(Note(f"{task}: no verified grasp among {len(sweep.solutions)} starts"))
             continue
         section.blocks.append(Note(_task_card(task, sweep, read_physics(results, sweep))))
-        run = sweep.run
-        object_path = _reference_path(run.get("object", ""), DEFAULT_OBJECT)
-        settings = load_grasp_settings(_reference_path(run.get("grasp_config", ""), DEFAULT_GRASP_CONFIG))
+        object_path = _reference_path(sweep, "object", DEFAULT_OBJECT)
+        settings = load_grasp_settings(_reference_path(sweep, "grasp_config", DEFAULT_GRASP_CONFIG))
         hand, fingers = sweep_hand(sweep, hands)
         if object_path not in objects:
             obj = load_object(object_path)
