@@ -66,7 +66,6 @@ def _approach(approach: ApproachConfig | None, source: Path) -> np.ndarray | Non
 
 
 def _read_model(path: Path, source: Path) -> Any:
-
     suffix = path.suffix.lower()
     if suffix in URDF_SUFFIXES:
         return read_urdf(path)

@@ -58,7 +58,6 @@ def mesh_spheres(
     most :data:`BOUND_M` outside it. Other links get the fewest fitted spheres that reach no farther, or, where
     :data:`MAX_SPHERES` cannot (a sharp 2 x 3 x 5 cm box needs 215 at 2.5 mm, every edge and corner its own),
     the closest that so few can, or the box's spheres if they reach less far."""
-
     vertices, faces = np.asarray(vertices, float), np.asarray(faces, int)
     points, normals = surface_samples(vertices, faces, BOUND_M / 2)
     boxed = mesh_box(vertices, np.eye(4))  # a thin plate's box takes thousands of spheres: not measured
@@ -143,7 +142,6 @@ def _greedy_cover(
     points: np.ndarray, tree: cKDTree, centre: np.ndarray, radius: np.ndarray, most: int | None
 ) -> list[int] | None:
     """Candidates chosen one by one, each the one that holds the most points not yet held, until all are."""
-
     members = tree.query_ball_point(centre, radius)
     lengths = np.array([len(m) for m in members])
     columns = np.concatenate([np.asarray(m, dtype=int) for m in members])

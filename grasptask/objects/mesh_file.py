@@ -72,7 +72,6 @@ def non_manifold_edges(mesh: trimesh.Trimesh) -> int:
 
 def holes(mesh: trimesh.Trimesh) -> list[float]:
     """The diameter of each hole (each closed loop of open edges), largest first, in the mesh's units."""
-
     edges = mesh.edges_sorted[trimesh.grouping.group_rows(mesh.edges_sorted, require_count=1)]
     if len(edges) == 0:
         return []

@@ -64,7 +64,6 @@ class Judge:
 
     @classmethod
     def of(cls, solved: SolvedGrasps, task: TaskModel, object_path: Path, grasp_config: Path, physics: Path) -> Judge:
-
         obj = load_object(object_path, say=lambda _: None)
         friction = load_grasp_settings(grasp_config).friction_coefficient
         return cls(solved, task, Holding.of(obj, friction, physics))

@@ -125,7 +125,6 @@ def check_screenshot_path(path: str | Path) -> None:
 def _coloured(png: bytes) -> np.ndarray:
     """Which pixels are not a grey (white background, grey grid and object, black text): the hand, the contacts,
     the cones and the task's axes."""
-
     from matplotlib.image import imread  # deferred: matplotlib, only to read a screenshot
 
     rgb = imread(io.BytesIO(png), format="png")[..., :3]
@@ -139,7 +138,6 @@ def _coloured_pixels(png: bytes) -> int:
 def _edge_pixels(png: bytes, area: dict, band: int = EDGE_BAND_PX) -> int:
     """Drawn pixels (coloured, or the object's mid grey) within ``band`` of the plot area's border (``area``:
     plotly's ``l, t, w, h`` in pixels): a scene the camera crops runs into it."""
-
     from matplotlib.image import imread  # deferred: matplotlib, only to read a screenshot
 
     rgb = imread(io.BytesIO(png), format="png")[..., :3]

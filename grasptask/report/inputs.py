@@ -42,7 +42,6 @@ class SweepResult:
     def paper_setup(self) -> bool:
         """Whether the paper's figures apply: one of its tasks, by the human hand, on its tool. A sugar box's Q
         beside the paper's tool's says nothing."""
-
         hand, obj = Path(str(self.run.get("hand", ""))), Path(str(self.run.get("object", "")))
         human = hand.parent.resolve() == DEFAULT_HAND.parent.resolve() and hand.name.startswith("human")
         tool = obj.is_file() and obj.resolve() == DEFAULT_OBJECT.resolve()
@@ -225,7 +224,6 @@ class PhysicsOutcome:
 def read_physics(results: ResultsFolder, sweep: SweepResult) -> PhysicsOutcome | None:
     """The physics check of ``sweep``'s task: ``grasptask physics``'s output under ``physics/<task>/`` when
     there is one, else ``synthesize --physics``'s beside the sweep; None when neither ran."""
-
     folders = [results.physics / sweep.folder.name]
     for folder in results.physics_folders():  # wherever `grasptask physics --out` put it, for this task
         try:

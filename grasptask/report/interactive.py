@@ -211,7 +211,6 @@ def ellipsoid_view(task: str, model: np.ndarray, recordings: list[np.ndarray], c
 
 
 def mesh_digest(mesh: trimesh.Trimesh) -> str:
-
     digest = hashlib.sha1(np.asarray(mesh.vertices, dtype=np.float32).tobytes())
     digest.update(np.asarray(mesh.faces, dtype=np.int64).tobytes())
     return digest.hexdigest()[:16]

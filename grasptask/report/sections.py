@@ -56,7 +56,6 @@ class Writer:
 
     def view(self, name: str, figure: Any, caption: str, height: int) -> View:
         """An interactive view of the plotly ``figure``, its element id made unique and safe from ``name``."""
-
         key = f"view-{file_stem(name)}"
         if key in self.views:
             key = f"{key}_{len(self.views)}"
@@ -76,7 +75,6 @@ def _run_missing(what: str, command: str) -> Note:
 
 
 def ellipsoid_tables_section(results: ResultsFolder, writer: Writer) -> Section:
-
     section = Section(
         "tables",
         "Task ellipsoids beside the paper (Tables 1-10)",
@@ -120,7 +118,6 @@ def ellipsoid_tables_section(results: ResultsFolder, writer: Writer) -> Section:
 
 
 def ellipsoid_figures_section(results: ResultsFolder, writer: Writer) -> Section:
-
     section = Section("ellipsoids", "Force and torque ellipsoids (Figures 2, 7, 10)")
     if not results.ellipsoids.is_file() or not results.task_models.is_file():
         section.blocks.append(
@@ -166,7 +163,6 @@ def ellipsoid_figures_section(results: ResultsFolder, writer: Writer) -> Section
 
 
 def distances_section(results: ResultsFolder, writer: Writer) -> Section:
-
     section = Section("distances", "Distances between task ellipsoids (Figure 9)")
     needed = (results.distances, results.distance_summary, results.ellipsoids)
     if not all(p.is_file() for p in needed):
@@ -216,7 +212,6 @@ Q_MEANING = (
 def sweep_hand(sweep: SweepResult, hands: dict[Path, Hand]) -> tuple[Hand, list[str]]:
     """The grasping hand of ``sweep`` (its ``run.json``'s hand and fingers) and its fingers; a table that is
     not that hand's (a BarrettHand's optima under a human ``run.json``) is one line. ``hands`` caches loads."""
-
     hand_path = _reference_path(sweep, "hand", DEFAULT_HAND)
     whole = hands.get(hand_path) or hands.setdefault(hand_path, load_hand(hand_path))
     fingers = sweep.run.get("fingers") or fingers_in(list(sweep.optima.columns), list(whole.fingers))
@@ -240,7 +235,6 @@ def _no_sweeps(results: ResultsFolder) -> Note:
 def sweeps_section(
     results: ResultsFolder, sweeps: dict[str, SweepResult], paper: PaperSynthesis, writer: Writer
 ) -> Section:
-
     optima = " / ".join(str(paper.optima.get(t, "?")) for t in ("drawing", "cutting", "screwdriving"))
     paper_said = (
         f" The paper reports {paper.seconds} per solution (AMPL + IPOPT on a 2.4 GHz Opteron) and {optima} local "
@@ -289,7 +283,6 @@ def grasps_section(
 ) -> Section:
     """Per task a line of its figures, then each distinct optimum as a view and two fixed viewpoints, and the
     table of Q. ``hands``: the hands already loaded for these sweeps (a mesh hand's sphere cover takes seconds)."""
-
     section = Section(
         "grasps",
         "Your grasps: per task, its best grasp first, then every other distinct optimum",
@@ -420,7 +413,6 @@ def physics_table(outcomes: dict[str, PhysicsOutcome], sweeps: dict[str, SweepRe
 
 
 def physics_section(results: ResultsFolder, sweeps: dict[str, SweepResult], writer: Writer) -> Section:
-
     section = Section(
         "physics",
         "Physics check: the grasps held in MuJoCo against each task's own wrenches",

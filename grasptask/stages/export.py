@@ -69,7 +69,6 @@ def run_export(
     ``every_start``, each verified start (``start_017``), and ``out/grasps.json`` listing them. Inputs not
     given are those the sweep's ``run.json`` records. Each grasp is verified again, for the contact forces and
     activations per task wrench that the verifier's LP finds; the record says whether it still passes."""
-
     solutions = Path(solutions)
     files = SweepFiles.of(solutions, hand, object_path, grasp_config, fingers, tasks, task)
     tasks_file, task_name = files.named_task(solutions)

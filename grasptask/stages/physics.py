@@ -67,7 +67,6 @@ class PhysicsInputs:
 def _judge_for(inputs: PhysicsInputs) -> Judge:
     """The judge of ``inputs`` (resolved): its grasps, task model, object, settings, strength and friction; the
     first grasp's scene built, so that a hand file MuJoCo cannot compile is one line before any worker starts."""
-
     assert inputs.hand is not None and inputs.object is not None and inputs.grasp_config is not None
     assert inputs.tasks is not None and inputs.task is not None, "resolved() first"
     model = load_task_model(inputs.tasks, inputs.task)
@@ -103,7 +102,6 @@ def run_physics(
     """Check every solved grasp of ``inputs.solutions``; writes ``out/physics.parquet`` (one row per start),
     ``out/physics_summary.json`` and ``out/physics_trace.parquet`` (the best verified grasp's motion over the
     protocol), and returns the table."""
-
     inputs = inputs.resolved()
     if workers < 1:
         raise BadInputError("physics", "--workers must be at least 1")
@@ -119,7 +117,6 @@ def run_physics(
 def _judge_all(
     judge: Judge, inputs: PhysicsInputs, out: str | Path, workers: int, echo: Callable[[str], Any]
 ) -> pd.DataFrame:
-
     indices = list(range(len(judge.solved.rows)))
     counts = {"held": 0, "dropped": 0}
     with Progress(len(indices), f"physics {inputs.task}", "grasps") as shown:

@@ -262,7 +262,6 @@ def run_synthesize(options: SynthesisOptions, echo: Callable[[str], Any] = print
 
     Every input is checked, and a worker has built the model, before anything of an earlier sweep in the
     folder is touched; the folder is locked for the run."""
-
     prepared = _prepare(options)
     folder = options.folder
     with folder_lock(folder, f"synthesize {options.task}"):

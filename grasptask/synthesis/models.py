@@ -83,7 +83,6 @@ def build_solver(
 def held_axis(obj: ImplicitObject, task: TaskModel, tolerance: float | None) -> tuple[np.ndarray, np.ndarray] | None:
     """The object's axis of revolution when the grasp's turn about it is to be held: the object has one and the
     task is at most ``tolerance`` asymmetric about it (None: never held)."""
-
     axis = obj.revolution_axis()
     if tolerance is None or axis is None or axis_asymmetry(task.weights, task.axes, *axis) > tolerance:
         return None

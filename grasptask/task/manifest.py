@@ -161,7 +161,6 @@ def _entry(path: Path, row_number: int, row: dict[str, str]) -> RecordingEntry:
 
 def _bag_fields(row: dict[str, str], recording: Path, fail) -> tuple[str, tuple[float | None, float | None]]:
     """A bag row's topic and time window, checked; a recording that is not a bag may have neither."""
-
     topic = row.get("topic", "").strip()
     bounds: list[float | None] = []
     for name in ("start_s", "end_s"):
