@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from grasptask.grasp.grasp import Grasp
+from grasptask.physics.judge import Holding
 from grasptask.records.solutions import grasp_columns
 from grasptask.synthesis.models import Solver, assign
 from grasptask.verifier.verify import Verification, verify
@@ -18,7 +19,6 @@ if TYPE_CHECKING:
     from grasptask.grasp.settings import GraspSettings
     from grasptask.hand.model import Hand
     from grasptask.objects.surface import ImplicitObject
-    from grasptask.physics.judge import Holding
     from grasptask.synthesis.backends import SolveResult
     from grasptask.synthesis.model import GraspNLP
     from grasptask.task.model import TaskModel
@@ -46,9 +46,7 @@ class Judges:
         # what the NLP saw of a mesh's or point cloud's surface, to record its error at each contact
         self.surrogate = distance_function(nlp.surrogate.grid) if nlp.surrogate is not None else None
         self.physics: Holding | None = None
-        if physics_path:
-            from grasptask.physics.judge import Holding  # MuJoCo and CoACD, only when asked
-
+        if physics_path:  # MuJoCo and CoACD load here, only when asked
             self.physics = Holding.of(obj, settings.friction_coefficient, Path(physics_path))
 
     def judge(self, solver: Solver, result: SolveResult) -> tuple[dict, Verification, np.ndarray] | None:
