@@ -144,7 +144,7 @@ class ModelHandConfig:
     #: the fingers that grasp (default: all)
     grasping_fingers: Names | None = None
     #: a pad per fingertip link, in place of the one fitted to its geometry
-    pads: dict[str, PadConfig] = field(default_factory=dict)
+    pads: dict[str | int, PadConfig] = field(default_factory=dict)  # a link named 3 is written 3
     #: the palm's approach direction, {z: [...], x: [...]} in the palm frame (default: from the palm to the pads)
     approach: ApproachConfig | None = None
     #: where each value came from

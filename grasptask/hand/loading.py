@@ -40,7 +40,7 @@ def _unit(value: tuple[float, float, float], source: Path, name: str) -> np.ndar
     return v / np.linalg.norm(v)
 
 
-def _pads(pads: dict[str, PadConfig], source: Path) -> dict[str, Pad]:
+def _pads(pads: dict[str | int, PadConfig], source: Path) -> dict[str, Pad]:
     found = {}
     for link, spec in pads.items():
         where = f"pads.{link}"
@@ -49,7 +49,9 @@ def _pads(pads: dict[str, PadConfig], source: Path) -> dict[str, Pad]:
         tangent = tangent - (tangent @ normal) * normal
         if np.linalg.norm(tangent) < 1e-6:
             raise BadInputError(source, f"field '{where}.tangent' is parallel to the normal")
-        found[link] = Pad(np.array(spec.point_m, dtype=float), normal, tangent / np.linalg.norm(tangent), spec.radius_m)
+        found[str(link)] = Pad(
+            np.array(spec.point_m, dtype=float), normal, tangent / np.linalg.norm(tangent), spec.radius_m
+        )
     return found
 
 
