@@ -169,6 +169,11 @@ def test_a_bad_pipeline_file_is_one_line_naming_the_key(tmp_path, text, problem)
             "unknown field 'columns.force_x' (allowed: fx, fy, fz, t, tx, ty, tz)",
         ),
         ("tool", "name: t\nunits: {torque_unit: lbf.in}\n", "unknown unit 'lbf.in' in 'units.torque_unit'"),
+        (
+            "tool",
+            "name: t\nsensor: {rotation_matrix: [[1, 0, 0], [0, 1, 0], [0, 0, -1]]}\n",
+            "field 'sensor': rotation_matrix must be a 3x3 rotation matrix",
+        ),
     ],
 )
 def test_object_hand_and_tool_files_name_the_key_at_fault(tmp_path, kind, text, problem):

@@ -35,12 +35,12 @@ def benchmark(name: str) -> ModuleType:
     return module
 
 
-def machine_line(results: dict) -> str:
+def machine_line(name: str, results: dict) -> str:
     machine = results.get("machine", {})
     cpu = machine.get("cpu", {}).get("model")
     cores = machine.get("cpus")
     where = ", ".join(x for x in (f"{cores} cores" if cores else "", cpu or "") if x)
-    return f"*Measured by `benchmarks/{{name}}.py`{' on ' + where if where else ''}.*"
+    return f"*Measured by `benchmarks/{name}.py`{' on ' + where if where else ''}.*"
 
 
 def results_block(name: str) -> str:
@@ -50,7 +50,7 @@ def results_block(name: str) -> str:
         body = module.markdown_table(results)
     else:
         body = "\n".join(f"- {line}" for line in module.report(results).splitlines())
-    return f"{body}\n\n{machine_line(results).format(name=name)}\n"
+    return f"{body}\n\n{machine_line(name, results)}\n"
 
 
 def meanings(schema: type) -> dict[str, str]:

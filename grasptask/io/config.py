@@ -65,7 +65,8 @@ def load_yaml(path: str | Path) -> dict[str, Any]:
     if path.stat().st_size > MAX_CONFIG_BYTES:
         raise BadInputError(path, f"larger than {MAX_CONFIG_BYTES >> 20} MB: not a config file")
     try:
-        data = yaml.load(path.read_text(), Loader=_NoAliasLoader)  # noqa: S506 - a SafeLoader subclass
+        text = path.read_text()
+        data = yaml.load(text, Loader=_NoAliasLoader)  # noqa: S506 - a SafeLoader subclass
     except UnicodeDecodeError as exc:
         raise BadInputError(path, "not a text file") from exc
     except yaml.YAMLError as exc:
@@ -73,15 +74,15 @@ def load_yaml(path: str | Path) -> dict[str, Any]:
         raise BadInputError(
             path, f"invalid YAML: {getattr(exc, 'problem', exc)}", row=None if line is None else line + 1
         ) from exc
-    if data is None and _only_comments(path):
+    if data is None and _only_comments(text):
         return {}
     if not isinstance(data, dict):
         raise BadInputError(path, "expected a mapping at the top level")
     return data
 
 
-def _only_comments(path: Path) -> bool:
-    lines = [line.strip() for line in path.read_text().splitlines()]
+def _only_comments(text: str) -> bool:
+    lines = [line.strip() for line in text.splitlines()]
     return any(lines) and all(not line or line.startswith("#") for line in lines)
 
 

@@ -21,7 +21,6 @@ import numpy as np
 from pydantic.dataclasses import dataclass as schema
 from scipy.spatial.transform import Rotation
 
-from grasptask.errors import BadInputError
 from grasptask.io.config import SCHEMA, Text, Vector, load_yaml, validated
 from grasptask.task.units import UNIT_TABLES
 
@@ -39,13 +38,16 @@ class SensorFile:
     #: the header frame_id of the sensor's ROS messages, checked when given
     frame_id: str = ""
 
+    def __post_init__(self) -> None:
+        if self.rotation_matrix is not None:
+            rotation = np.asarray(self.rotation_matrix, dtype=float)
+            if not np.allclose(rotation @ rotation.T, np.eye(3), atol=1e-6) or np.linalg.det(rotation) < 0:
+                raise ValueError("rotation_matrix must be a 3x3 rotation matrix")
+
     def rotation(self) -> np.ndarray:
         if self.rotation_matrix is None:
             return np.asarray(Rotation.from_euler("xyz", self.rotation_rpy_deg, degrees=True).as_matrix())
-        rotation = np.asarray(self.rotation_matrix, dtype=float)
-        if not np.allclose(rotation @ rotation.T, np.eye(3), atol=1e-6) or np.linalg.det(rotation) < 0:
-            raise ValueError("field 'sensor.rotation_matrix' must be a 3x3 rotation matrix")
-        return rotation
+        return np.asarray(self.rotation_matrix, dtype=float)
 
 
 @schema(frozen=True, config=SCHEMA)
@@ -104,16 +106,12 @@ class ToolConfig:
 def load_tool(path: str | Path) -> ToolConfig:
     path = Path(path)
     tool = validated(ToolFile, load_yaml(path), path)
-    try:
-        rotation = tool.sensor.rotation()
-    except ValueError as exc:
-        raise BadInputError(path, str(exc)) from None
     columns = {name: getattr(tool.columns, name) for name in CANONICAL_COLUMNS}
     units = {key: getattr(tool.units, key) for key in UNIT_TABLES}
     return ToolConfig(
         name=tool.name,
         sensor_position=np.array(tool.sensor.position_m, dtype=float),
-        sensor_rotation=rotation,
+        sensor_rotation=tool.sensor.rotation(),
         columns={k: v for k, v in columns.items() if v is not None},
         ignore_columns=tuple(tool.ignore_columns),
         units={k: v for k, v in units.items() if v is not None},
