@@ -23,6 +23,7 @@ compliance, median seconds per start at most 1.5x today's. Results are saved aft
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import sys
 import tempfile
@@ -78,15 +79,22 @@ def check_prerequisites(hands: list[str]) -> None:
 def routes(folder: Path) -> dict[str, tuple[Path, bool]]:
     """Each route's grasp config, and whether it is a neighbour (run on fewer starts)."""
     found = {"today": (TODAY, False), "default": (DEFAULT, False)}
-    default = yaml.safe_load(DEFAULT.read_text())
+    default = settings_of(DEFAULT)
     for key, change in NEIGHBOURS:
         value = round(float(default[key]) + change, 3)
         if not 0 < value <= 1:
             continue
         path = folder / f"grasp_{key}_{value}.yaml"
-        path.write_text(yaml.safe_dump({**default, key: value}))
+        path.write_text(yaml.safe_dump({**(yaml.safe_load(DEFAULT.read_text()) or {}), key: value}))
         found[f"{key}={value}"] = (path, True)
     return found
+
+
+def settings_of(config: Path) -> dict:
+    """Every grasp setting a config file gives, its defaults included (a shipped file sets only differences)."""
+    from grasptask.grasp.settings import load_grasp_settings
+
+    return dataclasses.asdict(load_grasp_settings(config))
 
 
 def _median(values: pd.Series) -> float | None:
@@ -141,7 +149,7 @@ def main(
         for route, (config, neighbour) in routes(tmp).items():
             if only and route not in only:
                 continue
-            results["routes"][route] = {"grasp_config": yaml.safe_load(config.read_text()), "hands": {}}
+            results["routes"][route] = {"grasp_config": settings_of(config), "hands": {}}
             for hand in hands:
                 compliance = load_hand(HANDS[hand]).compliance_m
                 entry = results["routes"][route]["hands"].setdefault(hand, {})

@@ -148,7 +148,7 @@ def main(
         run_fit_task([tmp / "rec" / "manifest.csv"], tmp / "tasks")
         tasks = tmp / "tasks" / "task_models.json"
         unplaced = tmp / "solver_unplaced.yaml"
-        unplaced.write_text(yaml.safe_dump({**yaml.safe_load(solver.read_text()), "placement": False}))
+        unplaced.write_text(yaml.safe_dump({**(yaml.safe_load(solver.read_text()) or {}), "placement": False}))
 
         def options(task, out, backend="casadi", starts=n_starts, workers=2, config=solver):
             return SynthesisOptions(
