@@ -1,7 +1,8 @@
 """Grasps with room to spare, synthesis and the physics judge in one run: for the human 3-finger
 hand, the Allegro and the Barrett on the tool, drawing, cutting and screw driving, each of
 
-- ``today``: the route before the margin, ``configs/grasp_paper.yaml`` (no margin, a fixed pad point);
+- ``paper_model``: the paper's contact model, ``configs/grasp_paper.yaml`` (no margin, a fixed pad point, four
+  cone edges): the route before the margin;
 - ``default``: ``configs/grasp.yaml`` (the margin and rolling contacts);
 - the neighbours of the default: ``activation_max``, ``motor_activation_max`` and ``friction_scale`` each 0.1
   either side of it, on every third start (``--neighbour-starts``);
@@ -10,14 +11,14 @@ is synthesized from the starts, and every verified grasp is then held in MuJoCo 
 hand's real strength and friction (the physics judge as shipped). Per route, hand and task: the verified
 fraction, the fraction of the verified grasps physics holds, the median strength and friction margins, the
 deepest penetration of a verified grasp (the verifier's, on the hand's true geometry, and MuJoCo's at the start
-of the hold), and the median seconds per start over today's, in the same run.
+of the hold), and the median seconds per start over the paper model's, in the same run.
 
     python benchmarks/margins.py [--starts N] [--hands human3,allegro,barrett] [--neighbour-starts N]
     python benchmarks/margins.py --routes NAME,... [--keep]  # some routes again (--keep: the others' results kept)
     python benchmarks/margins.py --table                    # the saved results as a table
 
 Targets (default route): held >= 90% and verified >= 80% per hand x task, penetration at most the hand's
-compliance, median seconds per start at most 1.5x today's. Results are saved after every sweep
+compliance, median seconds per start at most 1.5x the paper model's. Results are saved after every sweep
 (benchmarks/results/margins.json), so an interrupted run keeps what it did.
 """
 
@@ -52,7 +53,7 @@ HANDS = {
     "allegro": ROOT / "configs/hands/allegro.yaml",
     "barrett": ROOT / "configs/hands/barrett_bh8_282.urdf",
 }
-TODAY, DEFAULT = ROOT / "configs/grasp_paper.yaml", ROOT / "configs/grasp.yaml"
+PAPER_MODEL, DEFAULT = ROOT / "configs/grasp_paper.yaml", ROOT / "configs/grasp.yaml"
 #: the default's neighbours: (key, change)
 NEIGHBOURS = (
     ("activation_max", -0.1),
@@ -72,13 +73,13 @@ def check_prerequisites(hands: list[str]) -> None:
     for name in hands:
         if name not in HANDS:
             raise SystemExit(f"unknown hand '{name}' (known: {', '.join(HANDS)})")
-    for path in (TODAY, DEFAULT):
+    for path in (PAPER_MODEL, DEFAULT):
         load_grasp_settings(path)
 
 
 def routes(folder: Path) -> dict[str, tuple[Path, bool]]:
     """Each route's grasp config, and whether it is a neighbour (run on fewer starts)."""
-    found = {"today": (TODAY, False), "default": (DEFAULT, False)}
+    found = {"paper_model": (PAPER_MODEL, False), "default": (DEFAULT, False)}
     default = settings_of(DEFAULT)
     for key, change in NEIGHBOURS:
         value = round(float(default[key]) + change, 3)
@@ -174,17 +175,18 @@ def main(
                     save(name, results)  # partial results survive an interruption
     compare(results)
     save_and_print(name, results, markdown_table)
+    print(summary(results))
     return results
 
 
 def compare(results: dict) -> None:
-    """Each route's median seconds per start over today's, and the default route's targets."""
-    today = results["routes"].get("today", {}).get("hands", {})
+    """Each route's median seconds per start over the paper model's, and the default route's targets."""
+    paper = results["routes"].get("paper_model", {}).get("hands", {})
     for entry in results["routes"].values():
         for hand, tasks in entry["hands"].items():
             for task, f in tasks.items():
-                base = today.get(hand, {}).get(task, {}).get("median_s_per_start")
-                f["median_over_today"] = f["median_s_per_start"] / base if base else None
+                base = paper.get(hand, {}).get(task, {}).get("median_s_per_start")
+                f["median_over_paper_model"] = f["median_s_per_start"] / base if base else None
     default = results["routes"].get("default", {}).get("hands", {})
     results["targets"] = {
         hand: {
@@ -193,7 +195,9 @@ def compare(results: dict) -> None:
             "penetration_within_compliance": all(
                 (f["deepest_penetration_mm"] or 0) <= f["compliance_mm"] + 0.1 for f in tasks.values()
             ),
-            "median_within_1_5x_today": all((f["median_over_today"] or np.inf) <= 1.5 for f in tasks.values()),
+            "median_within_1_5x_paper_model": all(
+                (f["median_over_paper_model"] or np.inf) <= 1.5 for f in tasks.values()
+            ),
         }
         for hand, tasks in default.items()
     }
@@ -206,13 +210,13 @@ def _cell(value: float | None, form: str) -> str:
 def markdown_table(results: dict) -> str:
     lines = [
         "| route | hand | task | verified | held | strength margin | friction needed | deepest (mm) | s/start "
-        "(x today) |",
+        "(x paper model) |",
         "|---|---|---|---|---|---|---|---|---|",
     ]
     for route, entry in results["routes"].items():
         for hand, tasks in entry["hands"].items():
             for task, f in tasks.items():
-                ratio = f" ({f['median_over_today']:.2f}x)" if f.get("median_over_today") else ""
+                ratio = f" ({f['median_over_paper_model']:.2f}x)" if f.get("median_over_paper_model") else ""
                 lines.append(
                     f"| {route} | {hand} | {task} | {f['verified_fraction']:.0%} | "
                     f"{_cell(f['held_of_verified'], '.0%')} | {_cell(f['median_strength_margin'], '.2f')} | "
@@ -220,6 +224,65 @@ def markdown_table(results: dict) -> str:
                     f"{_cell(f['deepest_penetration_mm'], '.2f')} | {f['median_s_per_start']:.2f}{ratio} |"
                 )
     return "\n".join(lines)
+
+
+def _span(values: list, form: str = ".0%") -> str:
+    shown = [v for v in values if v is not None]
+    if not shown:
+        return "-"
+    low, high = format(min(shown), form), format(max(shown), form)
+    return low if low == high else f"{low.rstrip('%')}-{high}"
+
+
+def summary(results: dict) -> str:
+    """What the run says of the default route against the paper model's, one line each: the docs' prose."""
+    default = results["routes"].get("default", {}).get("hands", {})
+    paper = results["routes"].get("paper_model", {}).get("hands", {})
+    if not default:
+        return "The default route has not been run yet."
+
+    def every(route: dict, key: str) -> list:
+        return [f[key] for tasks in route.values() for f in tasks.values()]
+
+    missed = [
+        f"{hand} {task}"
+        for hand, tasks in default.items()
+        for task, f in tasks.items()
+        if (f["held_of_verified"] or 0) < 0.9 or f["verified_fraction"] < 0.8
+    ]
+    verdict = f"miss their targets on {', '.join(missed)}" if missed else "are at target for every hand and task"
+    deepest = "; ".join(
+        f"{hand} {max(f['deepest_penetration_mm'] or 0 for f in tasks.values()):.2f} mm (compliance "
+        f"{next(iter(tasks.values()))['compliance_mm']:.1f} mm)"
+        for hand, tasks in default.items()
+    )
+    largest = "; ".join(
+        f"{hand} {_span([f['largest_strength_margin'] for f in tasks.values()], '.2f')}"
+        for hand, tasks in default.items()
+    )
+    ratios = {hand: [f.get("median_over_paper_model") for f in tasks.values()] for hand, tasks in default.items()}
+    over = sum((r or np.inf) > 1.5 for values in ratios.values() for r in values)
+    pace = (
+        "within 1.5x the paper model's on every pair"
+        if not over
+        else f"over 1.5x the paper model's on {over} of {len(every(default, 'starts'))} pairs"
+    )
+    speeds = "; ".join(
+        f"{hand} " + " / ".join("-" if r is None else f"{r:.2f}" for r in values) for hand, values in ratios.items()
+    )
+    return "\n".join(
+        [
+            f"**Held and verified {verdict}**: physics holds {_span(every(default, 'held_of_verified'))} of the "
+            f"verified grasps (target 90%; the paper model {_span(every(paper, 'held_of_verified'))}), and "
+            f"{_span(every(default, 'verified_fraction'))} of the starts are verified (target 80%; the paper model "
+            f"{_span(every(paper, 'verified_fraction'))}).",
+            f"**Penetration**, the deepest verified grasp per hand: {deepest}; the verifier allows 0.1 mm more.",
+            f"**Margins.** Median strength margins {_span(every(default, 'median_strength_margin'), '.2f')}, friction "
+            f"needed {_span(every(default, 'median_friction_margin'), '.2f')} of mu. The largest strength margin any "
+            f"start reached: {largest}.",
+            f"**Speed is {pace}** (drawing / cutting / screw driving, times the paper model's median): {speeds}.",
+        ]
+    )
 
 
 if __name__ == "__main__":

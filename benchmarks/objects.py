@@ -195,6 +195,7 @@ def main(
                     print(f"{obj} {task}: physics holds {figures['physics']['held_of_verified']:.0%}", flush=True)
                 save(name, results)  # partial results survive an interruption
     save_and_print(name, compare(results), markdown_table)
+    print(summary(results))
     return results
 
 
@@ -218,6 +219,39 @@ def markdown_table(results: dict) -> str:
                 f"{f['p90_s_per_start']:.1f} | {per} | {f['verified_fraction']:.0%} | "
                 f"{first_attempt_cell(f.get('first_attempt'))} | {f['distinct_optima']} | {_held(f)} |"
             )
+    return "\n".join(lines)
+
+
+def _span(values: list, form: str = ".0%") -> str:
+    shown = [v for v in values if v is not None]
+    if not shown:
+        return "-"
+    low, high = format(min(shown), form), format(max(shown), form)
+    return low if low == high else f"{low.rstrip('%')}-{high}"
+
+
+def summary(results: dict) -> str:
+    """What the run says of each object against the tool's, one line each: the docs' prose is made from it."""
+    lines = []
+    for name, entry in results["objects"].items():
+        tasks = entry["tasks"].values()
+        held = [t.get("physics", {}).get("held_of_verified") for t in tasks]
+        speed = (
+            "" if name == "tool" else f", {_span([t.get('median_over_tool') for t in tasks], '.1f')}x the tool's median"
+        )
+        lines.append(
+            f"**{name}**: {_span([t['verified_fraction'] for t in tasks])} of the starts verified{speed}, "
+            f"{_span([t['ms_per_iteration'] for t in tasks], '.1f')} ms an iteration, first attempts verifying "
+            f"{_span([(t.get('first_attempt') or {}).get('verified_fraction') for t in tasks])}"
+            + (f"; physics holds {_span(held)} of the verified grasps" if any(h is not None for h in held) else "")
+            + f"; the model ready in {entry['build_s']:.1f} s."
+        )
+    missed = [
+        f"{name} ({', '.join(k for k, ok in targets.items() if not ok)})"
+        for name, targets in results.get("targets", {}).items()
+        if not all(targets.values())
+    ]
+    lines.append("**Targets missed**: " + "; ".join(missed) + "." if missed else "**Every target is met.**")
     return "\n".join(lines)
 
 

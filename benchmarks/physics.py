@@ -149,6 +149,7 @@ def main(folder: Path, found: list[tuple[str, str, Path]], workers: int, name: s
                 )
                 save(name, results)  # partial results survive an interruption
     save_and_print(name, results, markdown_table)
+    print(summary(results))
     return results
 
 
@@ -178,6 +179,51 @@ def markdown_table(results: dict) -> str:
                 f"{p['grip']['seconds_per_grasp_median']:.2f} |"
             )
     return "\n".join(lines)
+
+
+def _span(values: list[float | None], form: str = ".0%") -> str:
+    shown = [v for v in values if v is not None]
+    if not shown:
+        return "-"
+    low, high = format(min(shown), form), format(max(shown), form)
+    return low if low == high else f"{low.rstrip('%')}-{high}"
+
+
+def summary(results: dict) -> str:
+    """What the run says, one line each, against the targets: the docs' prose is made from it."""
+    judged = {
+        hand: {task: p for task, p in tasks.items() if all(k in p for k in PROTOCOLS)}
+        for hand, tasks in results["hands"].items()
+    }
+    pairs = [(f"{hand} {task}", p) for hand, tasks in judged.items() for task, p in tasks.items()]
+    if not pairs:
+        return "No sweep has been judged yet."
+    strong = [p["strong"]["held_of_counted"] for _, p in pairs]
+    weak = [p["weak"]["held_of_verified"] for _, p in pairs]
+    short = [name for name, p in pairs if (p["strong"]["held_of_counted"] or 0) < 0.95]
+    if any(v != 0 for v in weak):
+        short.append("the weak hand")
+    verdict = f"misses its validity target on {', '.join(short)}" if short else "is valid on every hand"
+    grip = {hand: _span([p["grip"]["held_of_verified"] for p in tasks.values()]) for hand, tasks in judged.items()}
+    seconds = [p["grip"]["seconds_per_grasp_median"] for _, p in pairs]
+    slow = [f"{name} ({s:.2f} s)" for (name, _), s in zip(pairs, seconds, strict=True) if s > 1.5]
+    over = f"; over it: {', '.join(slow)}" if slow else ""
+    agree = {key: sum(p["grip"]["agreement"][key] for _, p in pairs) for key in pairs[0][1]["grip"]["agreement"]}
+    return "\n".join(
+        [
+            f"**The judge {verdict}.** With ten times the strength and twice the friction it holds {_span(strong)} of "
+            f"the verified grasps of every hand and task (target 95%); at 1% of the strength {_span(weak)} (target "
+            "none).",
+            f"**At the real strength it holds {_span([p['grip']['held_of_verified'] for _, p in pairs])}** of the "
+            "verified grasps: " + "; ".join(f"{hand} {span}" for hand, span in grip.items()) + ". The spring "
+            f"controller holds {_span([p['spring']['held_of_verified'] for _, p in pairs])} of the same grasps.",
+            f"**The grip controller takes {_span(seconds, '.2f')} s per grasp** (median per hand and task, one core; "
+            f"target 1.5 s{over}).",
+            f"**Against the verifier** (grip, real strength, every sweep): {agree['verified_and_held']} grasps both "
+            f"accept, {agree['verified_and_dropped']} only the verifier, {agree['rejected_and_held']} only physics, "
+            f"{agree['rejected_and_dropped']} neither.",
+        ]
+    )
 
 
 if __name__ == "__main__":

@@ -144,6 +144,11 @@ def test_a_bad_pipeline_file_is_one_line_naming_the_key(tmp_path, text, problem)
         ),
         ("object", "type: mesh\nmesh: m.stl\nmass_kg: heavy\n", "field 'mass_kg': must be a valid number"),
         ("object", "type: mesh\nmesh: m.stl\ntask_frame: {origin_m: [0, 0, .nan]}\n", "task_frame"),
+        (
+            "object",
+            "type: superquadric\nsize_m: [0.01, 0.01, 0.1]\nexponents: [1, 1]\npose: {position_m: [0, 3, 0]}\n",
+            "field 'pose.position_m[2]': must be less than or equal to 2",
+        ),
         ("object", "type: gp\nn_support: 4\n", "a gp object needs one of 'mesh' or 'points_csv'"),
         (
             "hand",

@@ -12,6 +12,7 @@ from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
 from grasptask.errors import BadInputError
+from grasptask.grasp.settings import load_grasp_settings
 from grasptask.objects import load_object
 from grasptask.objects.mesh_object import MeshObject, PointCloudObject
 from tests.test_bad_input import assert_rejected
@@ -255,7 +256,7 @@ def test_the_verifiers_feedback_turns_a_narrow_miss_into_a_verified_grasp(simula
                 tasks,
                 "cutting",
                 solver=replace(solver, feedback_rounds=rounds),
-                settings_path=str(settings),
+                settings=load_grasp_settings(settings),
             )
         )
         for rounds in (0, solver.feedback_rounds)

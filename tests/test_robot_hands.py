@@ -10,6 +10,7 @@ from hypothesis import strategies as st
 from pyomo.repn import generate_standard_repn
 
 from grasptask.errors import BadInputError
+from grasptask.grasp.settings import GraspSettings, load_grasp_settings
 from grasptask.hand import forward, load_hand
 from grasptask.hand.tendons import activation_for
 from tests.test_hand import assert_contact_jacobians_match_finite_differences
@@ -316,10 +317,11 @@ def test_each_hand_holds_each_task_within_a_few_starts(simulated, hand_name, tas
     path, fingers = HOLDING_HANDS[hand_name]
     tasks = simulated[0] / "tasks" / "task_models.json"
     solver = load_solver_config("configs/solver.yaml")
-    settings = "configs/grasp_paper.yaml" if (hand_name, task) in WITHOUT_MARGIN else ""
+    paper = (hand_name, task) in WITHOUT_MARGIN
+    settings = load_grasp_settings("configs/grasp_paper.yaml") if paper else GraspSettings()
     context = SolverContext(
         Job(str(path), "configs/objects/tool.yaml", str(tasks), task, solver=solver, fingers=fingers,
-            settings_path=settings)
+            settings=settings)
     )  # fmt: skip
     tried = []
     for start in subset(make_starts(context.bounds), 12)[:5]:
@@ -348,9 +350,9 @@ def test_a_start_the_verifier_rejects_is_solved_again_from_an_opened_hand(simula
     solver = replace(load_solver_config("configs/solver.yaml"), torque_axes=None, first_posture=0.5)
     assert solver.retry_postures
     # the paper's contact model: with the margin the Barrett holds screw driving from few starts (docs/margins.md)
-    paper = "configs/grasp_paper.yaml"
+    paper = load_grasp_settings("configs/grasp_paper.yaml")
     context = SolverContext(
-        Job(str(BARRETT), "configs/objects/tool.yaml", tasks, "screwdriving", solver=solver, settings_path=paper)
+        Job(str(BARRETT), "configs/objects/tool.yaml", tasks, "screwdriving", solver=solver, settings=paper)
     )
     starts = make_starts(context.bounds)
     rescued = None
@@ -370,7 +372,7 @@ def test_a_start_the_verifier_rejects_is_solved_again_from_an_opened_hand(simula
             tasks,
             "screwdriving",
             solver=replace(solver, retry_postures=()),
-            settings_path=paper,
+            settings=paper,
         )
     ).solve(starts[start_id])
     assert once["attempts"] == 1 and not once["verified"]

@@ -3,6 +3,8 @@
 - ``<!-- results: NAME -->`` becomes the table that ``benchmarks/NAME.py`` makes of
   ``benchmarks/results/NAME.json`` (its ``markdown_table``, or its printed ``report`` as a list), and the machine
   it was measured on. Rerunning a benchmark rewrites its file, and the next build shows it.
+- ``<!-- summary: NAME -->`` becomes what the run says, a list made by that benchmark's ``summary`` of the same
+  file, so that the prose's figures cannot go stale either.
 - ``<!-- settings: MODULE.CLASS -->`` becomes a config schema's keys, defaults and meanings (the ``#:``
   comments above each field), so that no default is written twice.
 """
@@ -22,6 +24,7 @@ from typing import Any
 ROOT = Path(__file__).resolve().parents[1]
 BENCHMARKS = ROOT / "benchmarks"
 MARK = re.compile(r"<!-- results: ([a-z_]+) -->")
+SUMMARY = re.compile(r"<!-- summary: ([a-z_]+) -->")
 SETTINGS = re.compile(r"<!-- settings: ([a-z_.]+)\.([A-Za-z]+) -->")
 
 
@@ -43,14 +46,22 @@ def machine_line(name: str, results: dict) -> str:
     return f"*Measured by `benchmarks/{name}.py`{' on ' + where if where else ''}.*"
 
 
+def saved(name: str) -> dict:
+    return json.loads((BENCHMARKS / "results" / f"{name}.json").read_text())
+
+
+def bullets(text: str) -> str:
+    return "\n".join(f"- {line}" for line in text.splitlines())
+
+
 def results_block(name: str) -> str:
-    results = json.loads((BENCHMARKS / "results" / f"{name}.json").read_text())
-    module = benchmark(name)
-    if hasattr(module, "markdown_table"):
-        body = module.markdown_table(results)
-    else:
-        body = "\n".join(f"- {line}" for line in module.report(results).splitlines())
+    results, module = saved(name), benchmark(name)
+    body = module.markdown_table(results) if hasattr(module, "markdown_table") else bullets(module.report(results))
     return f"{body}\n\n{machine_line(name, results)}\n"
+
+
+def summary_block(name: str) -> str:
+    return bullets(benchmark(name).summary(saved(name))) + "\n"
 
 
 def meanings(schema: type) -> dict[str, str]:
@@ -93,4 +104,5 @@ def settings_block(module: str, name: str) -> str:
 
 def on_page_markdown(markdown: str, **_: Any) -> str:
     markdown = MARK.sub(lambda match: results_block(match.group(1)), markdown)
+    markdown = SUMMARY.sub(lambda match: summary_block(match.group(1)), markdown)
     return SETTINGS.sub(lambda match: settings_block(match.group(1), match.group(2)), markdown)

@@ -21,6 +21,9 @@ MAX_SIZE_M = 2.0
 
 #: a half-size of a superquadric (m)
 HalfSize = Annotated[float, Strict(), Field(ge=1e-3, le=MAX_SIZE_M)]
+#: a coordinate of a point of the object or its task frame (m)
+Coordinate = Annotated[float, Strict(), Field(ge=-MAX_SIZE_M, le=MAX_SIZE_M)]
+Position = tuple[Coordinate, Coordinate, Coordinate]
 #: a superquadric's exponent: 0.05 is nearly a box, 1 an ellipsoid, 2 a diamond
 Exponent = Annotated[float, Strict(), Field(ge=0.05, le=2)]
 
@@ -29,12 +32,8 @@ Exponent = Annotated[float, Strict(), Field(ge=0.05, le=2)]
 class Pose:
     """A frame in the file's or the world's coordinates: a position (m) and roll, pitch, yaw about fixed x, y, z."""
 
-    position_m: Vector = (0.0, 0.0, 0.0)
+    position_m: Position = (0.0, 0.0, 0.0)
     rotation_rpy_deg: Vector = (0.0, 0.0, 0.0)
-
-    def __post_init__(self) -> None:
-        if max(abs(v) for v in self.position_m) > MAX_SIZE_M:
-            raise ValueError(f"position_m must lie within {MAX_SIZE_M:g} m of the origin")
 
     def matrix(self) -> np.ndarray:
         frame = np.eye(4)
@@ -47,12 +46,8 @@ class Pose:
 class TaskFrame:
     """Where the task's wrenches act, in the file's frame after ``unit``."""
 
-    origin_m: Vector = (0.0, 0.0, 0.0)
+    origin_m: Position = (0.0, 0.0, 0.0)
     rotation_rpy_deg: Vector = (0.0, 0.0, 0.0)
-
-    def __post_init__(self) -> None:
-        if max(abs(v) for v in self.origin_m) > MAX_SIZE_M:
-            raise ValueError(f"origin_m must lie within {MAX_SIZE_M:g} m of the origin")
 
     def matrix(self) -> np.ndarray:
         return Pose(self.origin_m, self.rotation_rpy_deg).matrix()

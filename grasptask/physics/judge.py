@@ -13,10 +13,9 @@ import numpy as np
 import pandas as pd
 
 from grasptask.grasp.grasp import Grasp
-from grasptask.grasp.settings import load_grasp_settings
 from grasptask.io.artifacts import StagedOutput
 from grasptask.objects import load_object
-from grasptask.physics.settings import PhysicsSettings, load_physics_settings
+from grasptask.physics.settings import PhysicsSettings
 
 if TYPE_CHECKING:
     from grasptask.hand.model import Hand
@@ -40,11 +39,10 @@ class Holding:
     strength: float = 1.0
 
     @classmethod
-    def of(cls, obj: ImplicitObject, friction: float, physics: Path) -> Holding:
+    def of(cls, obj: ImplicitObject, friction: float, settings: PhysicsSettings, strength: float = 1.0) -> Holding:
         from grasptask.physics.scene import object_body  # deferred: MuJoCo
 
-        settings = load_physics_settings(physics)
-        return cls(obj, friction, settings, object_body(obj, settings))
+        return cls(obj, friction, settings, object_body(obj, settings), strength)
 
     def hold(self, hand: Hand, grasp: Grasp, task: TaskModel, trace: bool = False) -> PhysicsResult:
         from grasptask.physics.protocol import hold_grasp  # deferred: MuJoCo
@@ -63,10 +61,17 @@ class Judge:
     holding: Holding
 
     @classmethod
-    def of(cls, solved: SolvedGrasps, task: TaskModel, object_path: Path, grasp_config: Path, physics: Path) -> Judge:
+    def of(
+        cls,
+        solved: SolvedGrasps,
+        task: TaskModel,
+        object_path: Path,
+        friction: float,
+        settings: PhysicsSettings,
+        strength: float = 1.0,
+    ) -> Judge:
         obj = load_object(object_path, say=lambda _: None)
-        friction = load_grasp_settings(grasp_config).friction_coefficient
-        return cls(solved, task, Holding.of(obj, friction, physics))
+        return cls(solved, task, Holding.of(obj, friction, settings, strength))
 
     def check_scene(self) -> None:
         """Build the first solved grasp's scene, so that a hand file MuJoCo cannot compile is one line here,

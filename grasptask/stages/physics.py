@@ -15,12 +15,13 @@ from typing import Any
 import pandas as pd
 
 from grasptask.errors import BadInputError
+from grasptask.grasp.settings import load_grasp_settings
 from grasptask.io.artifacts import Provenance, StagedOutput
 from grasptask.io.locking import check_writable, folder_lock
 from grasptask.io.orphans import die_with_parent
 from grasptask.paths import DEFAULT_PHYSICS_CONFIG
 from grasptask.physics.judge import Judge, best_grasp_trace, write_physics_results
-from grasptask.physics.settings import Controller
+from grasptask.physics.settings import Controller, load_physics_settings
 from grasptask.progress import Progress
 from grasptask.records.sweeps import SweepFiles, read_grasps
 from grasptask.task.model import load_task_model
@@ -71,11 +72,10 @@ def _judge_for(inputs: PhysicsInputs) -> Judge:
     assert inputs.tasks is not None and inputs.task is not None, "resolved() first"
     model = load_task_model(inputs.tasks, inputs.task)
     solved = read_grasps(inputs.solutions, inputs.hand, inputs.fingers)
-    judge = Judge.of(solved, model, inputs.object, inputs.grasp_config, inputs.physics_config)
-    holding = judge.holding
-    settings = replace(holding.settings, controller=inputs.controller or holding.settings.controller)
-    friction = holding.friction * inputs.friction_scale
-    judge = replace(judge, holding=replace(holding, settings=settings, strength=inputs.strength, friction=friction))
+    settings = load_physics_settings(inputs.physics_config)
+    settings = replace(settings, controller=inputs.controller or settings.controller)
+    friction = load_grasp_settings(inputs.grasp_config).friction_coefficient * inputs.friction_scale
+    judge = Judge.of(solved, model, inputs.object, friction, settings, inputs.strength)
     judge.check_scene()
     return judge
 

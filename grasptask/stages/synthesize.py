@@ -129,7 +129,7 @@ LOG_FILE = "solutions.jsonl"
 class _Prepared:
     """Everything a sweep needs, read and checked before anything on disk is touched."""
 
-    job: Any
+    job: Job
     starts: list
     fingers: list[str]
     symmetry: Symmetry | None
@@ -148,9 +148,8 @@ def _prepare(options: SynthesisOptions) -> _Prepared:
     plain_name(options.task, options.tasks, "task name")
     solver = load_solver_config(options.solver_config)
     check_ipopt_options(solver.ipopt, options.solver_config)
-    load_grasp_settings(options.grasp_config)
-    if options.physics is not None:
-        load_physics_settings(options.physics)
+    settings = load_grasp_settings(options.grasp_config)
+    physics = load_physics_settings(options.physics) if options.physics is not None else None
     hand = load_hand(options.hand)
     if options.fingers:
         try:
@@ -186,9 +185,9 @@ def _prepare(options: SynthesisOptions) -> _Prepared:
         task=options.task,
         backend=options.backend,
         solver=solver,
-        settings_path=os.path.abspath(options.grasp_config),
+        settings=settings,
         fingers=hand.grasping,
-        physics_path=os.path.abspath(options.physics) if options.physics is not None else "",
+        physics=physics,
         object_overrides=tuple(options.object_overrides.items()),
     )
     return _Prepared(
@@ -308,6 +307,7 @@ def run_synthesize(options: SynthesisOptions, echo: Callable[[str], Any] = print
             fingers=prepared.fingers,
             paper=prepared.paper,
             object_facts=prepared.object_facts,
+            job=prepared.job,
         )
 
 
@@ -350,9 +350,10 @@ def summarise(
     fingers: list[str],
     paper: PaperSynthesis,
     object_facts: dict[str, Any] | None = None,
+    job: Job | None = None,
 ) -> dict:
     """Write the sweep's ``solutions.parquet``, ``optima.parquet`` and ``run.json`` from its rows; the run
-    summary."""
+    summary. With the ``job``'s physics settings, also the physics check's summary and its best grasp's trace."""
     import casadi  # deferred, as the solver stack is: only for their versions
     import pyomo.version  # deferred with casadi
 
@@ -404,7 +405,7 @@ def summarise(
     }
     config = {k: str(v) for k, v in asdict(options).items() if k != "out"}
     inputs = [options.tasks, options.hand, options.object_used, options.solver_config, options.grasp_config]
-    judge = _physics_judge(options, solutions, fingers) if options.physics is not None else None
+    judge = _physics_judge(options, solutions, fingers, job) if job is not None and job.physics is not None else None
     with StagedOutput(options.folder, Provenance.of("synthesize", config, inputs, options.seed)) as staged:
         staged.write_parquet("solutions.parquet", solutions)
         staged.write_parquet("optima.parquet", optima)
@@ -419,16 +420,17 @@ def summarise(
     return run
 
 
-def _physics_judge(options: SynthesisOptions, solutions: pd.DataFrame, fingers: list[str]) -> Any:
+def _physics_judge(options: SynthesisOptions, solutions: pd.DataFrame, fingers: list[str], job: Job) -> Any:
     """The physics check's judge over this sweep's own solutions, for the best grasp's trace and the summary
     (the workers checked every verified start already)."""
     from grasptask.physics.judge import Judge  # deferred: MuJoCo
 
-    assert options.physics is not None
+    assert job.physics is not None
     hand = load_hand(options.hand).with_grasping(fingers).grasping_hand()
     rows = [
         (row, None if pd.isna(row.get("palm_x", np.nan)) else grasp_from_row(row, hand.joint_names))
         for row in solutions.to_dict("records")
     ]
     task = load_task_model(options.tasks, options.task)
-    return Judge.of(SolvedGrasps(hand, rows), task, options.object_used, options.grasp_config, options.physics)
+    friction = job.settings.friction_coefficient
+    return Judge.of(SolvedGrasps(hand, rows), task, options.object_used, friction, job.physics)

@@ -12,9 +12,10 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from grasptask.grasp.settings import GraspSettings, load_grasp_settings
+from grasptask.grasp.settings import GraspSettings
 from grasptask.hand import load_hand
 from grasptask.objects import load_object
+from grasptask.physics.settings import PhysicsSettings
 from grasptask.records import solutions as schema
 from grasptask.synthesis.config import SolverConfig
 from grasptask.synthesis.feedback import Limits, tightened
@@ -29,7 +30,8 @@ if TYPE_CHECKING:  # the solver stack loads in the workers, not where a Job is m
 
 @dataclass(frozen=True)
 class Job:
-    """Everything a worker needs to rebuild the model; plain paths and values, so it pickles."""
+    """Everything a worker needs to rebuild the model; plain paths and values, so it pickles. The settings are
+    read and checked once, where the sweep is prepared."""
 
     hand_path: str
     object_path: str
@@ -37,11 +39,11 @@ class Job:
     task: str
     backend: str = "casadi"
     solver: SolverConfig = SolverConfig()
-    settings_path: str = ""
+    settings: GraspSettings = GraspSettings()
     #: the grasping fingers, when not the hand file's own choice
     fingers: tuple[str, ...] | None = None
-    #: a physics config: each verified grasp is also held in MuJoCo (grasptask.physics); "": not
-    physics_path: str = ""
+    #: each verified grasp is also held in MuJoCo with these (grasptask.physics); None: not
+    physics: PhysicsSettings | None = None
     #: --unit, --mass and --task-frame for the object, as (field, value) pairs (grasptask.objects.load_object)
     object_overrides: tuple[tuple[str, Any], ...] = ()
 
@@ -66,11 +68,11 @@ class SolverContext:
             self.hand = self.hand.with_grasping(job.fingers)
         self.obj = load_object(job.object_path, **dict(job.object_overrides))
         self.task = load_task_models(job.tasks_path)[job.task]
-        self.settings = load_grasp_settings(job.settings_path) if job.settings_path else GraspSettings()
+        self.settings = job.settings
         self.models = build_models(self.hand, self.obj, self.task, self.settings, job.solver, job.backend)
         self.nlp = self.models.first.nlp
         self.size = self.models.size
-        self.judges = Judges(self.hand, self.obj, self.task, self.settings, self.nlp, job.physics_path)
+        self.judges = Judges(self.hand, self.obj, self.task, self.settings, self.nlp, job.physics)
         self.nominal = Limits(
             self.settings.activation_cap(self.nlp.hand.capability.kind) - self.settings.activation_margin,
             np.full(len(self.nlp.hand.fingers), self.settings.pad_angle_max_deg),

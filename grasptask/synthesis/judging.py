@@ -4,7 +4,6 @@ with the NLP."""
 
 from __future__ import annotations
 
-from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -19,6 +18,7 @@ if TYPE_CHECKING:
     from grasptask.grasp.settings import GraspSettings
     from grasptask.hand.model import Hand
     from grasptask.objects.surface import ImplicitObject
+    from grasptask.physics.settings import PhysicsSettings
     from grasptask.synthesis.backends import SolveResult
     from grasptask.synthesis.model import GraspNLP
     from grasptask.task.model import TaskModel
@@ -35,7 +35,7 @@ class Judges:
         task: TaskModel,
         settings: GraspSettings,
         nlp: GraspNLP,
-        physics_path: str = "",
+        physics: PhysicsSettings | None = None,
     ):
         from grasptask.synthesis.spline import distance_function  # CasADi: the solver stack, loaded in workers
 
@@ -46,8 +46,8 @@ class Judges:
         # what the NLP saw of a mesh's or point cloud's surface, to record its error at each contact
         self.surrogate = distance_function(nlp.surrogate.grid) if nlp.surrogate is not None else None
         self.physics: Holding | None = None
-        if physics_path:  # MuJoCo and CoACD load here, only when asked
-            self.physics = Holding.of(obj, settings.friction_coefficient, Path(physics_path))
+        if physics is not None:  # MuJoCo and CoACD load here, only when asked
+            self.physics = Holding.of(obj, settings.friction_coefficient, physics)
 
     def judge(self, solver: Solver, result: SolveResult) -> tuple[dict, Verification, np.ndarray] | None:
         """IPOPT's point read back and checked by the verifier (None: no point), with the point itself."""
