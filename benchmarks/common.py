@@ -140,3 +140,12 @@ def first_attempt_cell(figures: dict | None) -> str:
     if not figures or figures["median_s_per_start"] is None:
         return "-"
     return f"{figures['median_s_per_start']:.2f}, {figures['verified_fraction']:.0%}"
+
+
+def span(values: list, form: str = ".0%") -> str:
+    """The range of the figures given, as the docs print it ("93-100%"); None figures left out."""
+    shown = [v for v in values if v is not None]
+    if not shown:
+        return "-"
+    low, high = format(min(shown), form), format(max(shown), form)
+    return low if low == high else f"{low.rstrip('%')}-{high}"

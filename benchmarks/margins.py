@@ -44,6 +44,7 @@ from common import (  # noqa: E402
     print_saved,
     save,
     save_and_print,
+    span,
     sweep_parser,
 )
 
@@ -226,14 +227,6 @@ def markdown_table(results: dict) -> str:
     return "\n".join(lines)
 
 
-def _span(values: list, form: str = ".0%") -> str:
-    shown = [v for v in values if v is not None]
-    if not shown:
-        return "-"
-    low, high = format(min(shown), form), format(max(shown), form)
-    return low if low == high else f"{low.rstrip('%')}-{high}"
-
-
 def summary(results: dict) -> str:
     """What the run says of the default route against the paper model's, one line each: the docs' prose."""
     default = results["routes"].get("default", {}).get("hands", {})
@@ -257,7 +250,7 @@ def summary(results: dict) -> str:
         for hand, tasks in default.items()
     )
     largest = "; ".join(
-        f"{hand} {_span([f['largest_strength_margin'] for f in tasks.values()], '.2f')}"
+        f"{hand} {span([f['largest_strength_margin'] for f in tasks.values()], '.2f')}"
         for hand, tasks in default.items()
     )
     ratios = {hand: [f.get("median_over_paper_model") for f in tasks.values()] for hand, tasks in default.items()}
@@ -272,13 +265,13 @@ def summary(results: dict) -> str:
     )
     return "\n".join(
         [
-            f"**Held and verified {verdict}**: physics holds {_span(every(default, 'held_of_verified'))} of the "
-            f"verified grasps (target 90%; the paper model {_span(every(paper, 'held_of_verified'))}), and "
-            f"{_span(every(default, 'verified_fraction'))} of the starts are verified (target 80%; the paper model "
-            f"{_span(every(paper, 'verified_fraction'))}).",
+            f"**Held and verified {verdict}**: physics holds {span(every(default, 'held_of_verified'))} of the "
+            f"verified grasps (target 90%; the paper model {span(every(paper, 'held_of_verified'))}), and "
+            f"{span(every(default, 'verified_fraction'))} of the starts are verified (target 80%; the paper model "
+            f"{span(every(paper, 'verified_fraction'))}).",
             f"**Penetration**, the deepest verified grasp per hand: {deepest}; the verifier allows 0.1 mm more.",
-            f"**Margins.** Median strength margins {_span(every(default, 'median_strength_margin'), '.2f')}, friction "
-            f"needed {_span(every(default, 'median_friction_margin'), '.2f')} of mu. The largest strength margin any "
+            f"**Margins.** Median strength margins {span(every(default, 'median_strength_margin'), '.2f')}, friction "
+            f"needed {span(every(default, 'median_friction_margin'), '.2f')} of mu. The largest strength margin any "
             f"start reached: {largest}.",
             f"**Speed is {pace}** (drawing / cutting / screw driving, times the paper model's median): {speeds}.",
         ]

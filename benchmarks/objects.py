@@ -43,6 +43,7 @@ from common import (  # noqa: E402
     save,
     save_and_print,
     solver_option,
+    span,
     sweep_parser,
 )
 
@@ -222,14 +223,6 @@ def markdown_table(results: dict) -> str:
     return "\n".join(lines)
 
 
-def _span(values: list, form: str = ".0%") -> str:
-    shown = [v for v in values if v is not None]
-    if not shown:
-        return "-"
-    low, high = format(min(shown), form), format(max(shown), form)
-    return low if low == high else f"{low.rstrip('%')}-{high}"
-
-
 def summary(results: dict) -> str:
     """What the run says of each object against the tool's, one line each: the docs' prose is made from it."""
     lines = []
@@ -237,13 +230,13 @@ def summary(results: dict) -> str:
         tasks = entry["tasks"].values()
         held = [t.get("physics", {}).get("held_of_verified") for t in tasks]
         speed = (
-            "" if name == "tool" else f", {_span([t.get('median_over_tool') for t in tasks], '.1f')}x the tool's median"
+            "" if name == "tool" else f", {span([t.get('median_over_tool') for t in tasks], '.1f')}x the tool's median"
         )
         lines.append(
-            f"**{name}**: {_span([t['verified_fraction'] for t in tasks])} of the starts verified{speed}, "
-            f"{_span([t['ms_per_iteration'] for t in tasks], '.1f')} ms an iteration, first attempts verifying "
-            f"{_span([(t.get('first_attempt') or {}).get('verified_fraction') for t in tasks])}"
-            + (f"; physics holds {_span(held)} of the verified grasps" if any(h is not None for h in held) else "")
+            f"**{name}**: {span([t['verified_fraction'] for t in tasks])} of the starts verified{speed}, "
+            f"{span([t['ms_per_iteration'] for t in tasks], '.1f')} ms an iteration, first attempts verifying "
+            f"{span([(t.get('first_attempt') or {}).get('verified_fraction') for t in tasks])}"
+            + (f"; physics holds {span(held)} of the verified grasps" if any(h is not None for h in held) else "")
             + f"; the model ready in {entry['build_s']:.1f} s."
         )
     missed = [

@@ -36,7 +36,7 @@ import pandas as pd
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT / "benchmarks"), str(ROOT)]
-from common import RESULTS, print_saved, save, save_and_print, sweep_parser  # noqa: E402
+from common import RESULTS, print_saved, save, save_and_print, span, sweep_parser  # noqa: E402
 
 TASKS = ("drawing", "cutting", "screwdriving")
 #: (controller, strength, friction scale) of each protocol
@@ -181,14 +181,6 @@ def markdown_table(results: dict) -> str:
     return "\n".join(lines)
 
 
-def _span(values: list[float | None], form: str = ".0%") -> str:
-    shown = [v for v in values if v is not None]
-    if not shown:
-        return "-"
-    low, high = format(min(shown), form), format(max(shown), form)
-    return low if low == high else f"{low.rstrip('%')}-{high}"
-
-
 def summary(results: dict) -> str:
     """What the run says, one line each, against the targets: the docs' prose is made from it."""
     judged = {
@@ -204,20 +196,20 @@ def summary(results: dict) -> str:
     if any(v != 0 for v in weak):
         short.append("the weak hand")
     verdict = f"misses its validity target on {', '.join(short)}" if short else "is valid on every hand"
-    grip = {hand: _span([p["grip"]["held_of_verified"] for p in tasks.values()]) for hand, tasks in judged.items()}
+    grip = {hand: span([p["grip"]["held_of_verified"] for p in tasks.values()]) for hand, tasks in judged.items()}
     seconds = [p["grip"]["seconds_per_grasp_median"] for _, p in pairs]
     slow = [f"{name} ({s:.2f} s)" for (name, _), s in zip(pairs, seconds, strict=True) if s > 1.5]
     over = f"; over it: {', '.join(slow)}" if slow else ""
     agree = {key: sum(p["grip"]["agreement"][key] for _, p in pairs) for key in pairs[0][1]["grip"]["agreement"]}
     return "\n".join(
         [
-            f"**The judge {verdict}.** With ten times the strength and twice the friction it holds {_span(strong)} of "
-            f"the verified grasps of every hand and task (target 95%); at 1% of the strength {_span(weak)} (target "
+            f"**The judge {verdict}.** With ten times the strength and twice the friction it holds {span(strong)} of "
+            f"the verified grasps of every hand and task (target 95%); at 1% of the strength {span(weak)} (target "
             "none).",
-            f"**At the real strength it holds {_span([p['grip']['held_of_verified'] for _, p in pairs])}** of the "
+            f"**At the real strength it holds {span([p['grip']['held_of_verified'] for _, p in pairs])}** of the "
             "verified grasps: " + "; ".join(f"{hand} {span}" for hand, span in grip.items()) + ". The spring "
-            f"controller holds {_span([p['spring']['held_of_verified'] for _, p in pairs])} of the same grasps.",
-            f"**The grip controller takes {_span(seconds, '.2f')} s per grasp** (median per hand and task, one core; "
+            f"controller holds {span([p['spring']['held_of_verified'] for _, p in pairs])} of the same grasps.",
+            f"**The grip controller takes {span(seconds, '.2f')} s per grasp** (median per hand and task, one core; "
             f"target 1.5 s{over}).",
             f"**Against the verifier** (grip, real strength, every sweep): {agree['verified_and_held']} grasps both "
             f"accept, {agree['verified_and_dropped']} only the verifier, {agree['rejected_and_held']} only physics, "
