@@ -63,7 +63,7 @@ def fingerprint(tasks_path: Path, n_starts: int = 12, seed: int = 0, nl_dir: Pat
         tasks_path=str(tasks_path),
         task="drawing",
         solver=solver,
-        settings_path=str(DEFAULT_GRASP_CONFIG),
+        settings=settings,
     )
     context = SolverContext(job)
     rows = []
