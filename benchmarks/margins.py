@@ -81,13 +81,15 @@ def check_prerequisites(hands: list[str]) -> None:
 def routes(folder: Path) -> dict[str, tuple[Path, bool]]:
     """Each route's grasp config, and whether it is a neighbour (run on fewer starts)."""
     found = {"paper_model": (PAPER_MODEL, False), "default": (DEFAULT, False)}
+    from grasptask.io.config import load_yaml
+
     default = settings_of(DEFAULT)
     for key, change in NEIGHBOURS:
         value = round(float(default[key]) + change, 3)
         if not 0 < value <= 1:
             continue
         path = folder / f"grasp_{key}_{value}.yaml"
-        path.write_text(yaml.safe_dump({**(yaml.safe_load(DEFAULT.read_text()) or {}), key: value}))
+        path.write_text(yaml.safe_dump({**load_yaml(DEFAULT), key: value}))
         found[f"{key}={value}"] = (path, True)
     return found
 

@@ -207,7 +207,7 @@ def summary(results: dict) -> str:
             f"the verified grasps of every hand and task (target 95%); at 1% of the strength {span(weak)} (target "
             "none).",
             f"**At the real strength it holds {span([p['grip']['held_of_verified'] for _, p in pairs])}** of the "
-            "verified grasps: " + "; ".join(f"{hand} {span}" for hand, span in grip.items()) + ". The spring "
+            "verified grasps: " + "; ".join(f"{hand} {held}" for hand, held in grip.items()) + ". The spring "
             f"controller holds {span([p['spring']['held_of_verified'] for _, p in pairs])} of the same grasps.",
             f"**The grip controller takes {span(seconds, '.2f')} s per grasp** (median per hand and task, one core; "
             f"target 1.5 s{over}).",
