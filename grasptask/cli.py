@@ -421,15 +421,8 @@ def synthesize(
     )
     try:
         run = stages.run_synthesize(options, echo=click.echo)
-    except KeyboardInterrupt:
-        log = out / task / "solutions.jsonl"
-        kept = sum(1 for line in log.read_text().splitlines() if line.strip()) if log.is_file() else 0
-        said = (
-            f"{kept} finished starts are kept in {log}; rerun with --resume"
-            if kept
-            else "stopped before any start was solved; nothing of this run was kept"
-        )
-        click.echo(f"interrupted: {said}", err=True)
+    except stages.SweepInterrupted as stop:
+        click.echo(f"interrupted: {stop}", err=True)
         raise click.exceptions.Exit(130) from None
     seconds = run["seconds_per_start"]
     click.echo(
@@ -626,21 +619,57 @@ def pipeline():
 @pipeline.command("run")
 @click.argument("pipeline_file", type=click.Path(path_type=Path))
 @click.option("--force", is_flag=True, help="Run every stage even if its inputs and config are unchanged.")
-@click.option("--dry-run", is_flag=True, help="Say which stages would run, run nothing.")
+@click.option(
+    "--dry-run", is_flag=True, help="Check every stage's command line and say which would run; run and write nothing."
+)
 def pipeline_run(pipeline_file, force, dry_run):
-    """Run PIPELINE_FILE's stages in order, skipping a stage whose inputs and config are unchanged."""
-    spec, outcome = stages.run_pipeline_file(pipeline_file, run_stage, force=force, dry_run=dry_run, echo=click.echo)
+    """Run PIPELINE_FILE's stages in order, skipping a stage whose inputs and config are unchanged. Every
+    stage's command line is checked first; a sweep stage stopped part-way goes on where it stopped."""
+    spec, outcome = stages.run_pipeline_file(
+        pipeline_file, run_stage, force=force, dry_run=dry_run, echo=click.echo, check=check_stage
+    )
     if outcome.failed:
         raise click.exceptions.Exit(outcome.exit_code)
-    if spec.final_message:
+    if spec.final_message and not dry_run:
         click.echo(spec.final_message)
+
+
+def _stage_command(stage) -> click.Command:
+    """The command a pipeline stage's command line runs, its options parsed and checked as Click would parse
+    them, without running it; a command line Click refuses is one line naming the stage."""
+    args = [*stage.run, *stage.args]
+    command: click.Command = main
+    ctx = click.Context(main, info_name="grasptask")
+    try:
+        while isinstance(command, click.Group):  # a group's own options are none a stage gives
+            name, found, args = command.resolve_command(ctx, args)
+            if found is None or name is None:
+                raise click.UsageError(f"No such command {name!r}.")
+            command, ctx = found, click.Context(found, info_name=name, parent=ctx)
+        command.make_context(ctx.info_name, list(args), parent=ctx.parent)
+    except click.exceptions.Exit:  # --help
+        pass
+    except click.UsageError as exc:
+        raise BadInputError(stage.name, f"grasptask {' '.join(stage.run)}: {exc.format_message()}") from None
+    return command
+
+
+def check_stage(stage) -> None:
+    """A pipeline stage's command line as Click would take it, or one line naming the stage: what ``pipeline
+    run`` checks of every stage before it runs any."""
+    _stage_command(stage)
 
 
 def run_stage(stage) -> int:
     """Run one pipeline stage's command in this process; its exit code. A command line Click refuses (an
-    unknown command or option) is one line naming the stage, not Click's usage block."""
+    unknown command or option) is one line naming the stage, not Click's usage block. A stage to resume runs
+    with ``--resume`` when its command has that option."""
+    args = [*stage.run, *stage.args]
+    resumable = any("--resume" in getattr(p, "opts", ()) for p in _stage_command(stage).params)
+    if getattr(stage, "resume", False) and resumable and "--resume" not in args:
+        args.append("--resume")
     try:
-        code = main.main(args=[*stage.run, *stage.args], prog_name="grasptask", standalone_mode=False)
+        code = main.main(args=args, prog_name="grasptask", standalone_mode=False)
     except click.UsageError as exc:
         raise BadInputError(stage.name, f"grasptask {' '.join(stage.run)}: {exc.format_message()}") from None
     return code if isinstance(code, int) else 0

@@ -382,3 +382,58 @@ def test_a_ctrl_c_before_any_start_is_solved_says_nothing_was_kept(tasks, tmp_pa
     _, err = sweep.communicate(timeout=120)
     assert sweep.returncode == 130 and "nothing of this run was kept" in err and "--resume" not in err, err
     assert not log_rows(tmp_path)  # the sweep's log, if the folder was made before the stop, holds no start
+
+
+def test_a_rerun_that_fails_on_a_full_disk_leaves_the_finished_sweep_resumable(tasks, small_disk):
+    """A finished seed-0 sweep run again with another seed on a full disk: the rerun fails, and the finished
+    sweep's log, sweep.json and results are as they were, so that --resume with seed 0 still takes it."""
+    assert run_sweep(tasks, small_disk, "--starts", "2", "--executor", "serial").returncode == 0
+    folder = small_disk / "drawing"
+    before = {name: (folder / name).read_bytes() for name in ("solutions.jsonl", "sweep.json", "run.json")}
+    filler = fill(small_disk)
+    failed = run_sweep(tasks, small_disk, "--starts", "2", "--executor", "serial", "--seed", "5")
+    assert failed.returncode == 2 and "Traceback" not in failed.stderr, failed.stderr
+    assert {name: (folder / name).read_bytes() for name in before} == before
+    assert not list(folder.glob(".*.new"))
+    filler.unlink()
+    resumed = run_sweep(tasks, small_disk, "--starts", "2", "--executor", "serial", "--resume")
+    assert resumed.returncode == 0 and "2 already done" in resumed.stdout, resumed.stderr
+
+
+def test_a_rerun_stopped_before_its_first_row_leaves_the_finished_sweep(tasks, tmp_path):
+    assert run_sweep(tasks, tmp_path, "--starts", "2", "--executor", "serial").returncode == 0
+    folder = tmp_path / "drawing"
+    before = {name: (folder / name).read_bytes() for name in ("solutions.jsonl", "sweep.json")}
+    sweep = start_sweep(tasks, tmp_path, "--starts", "2", "--executor", "serial", "--seed", "5")
+    assert sweep.stdout is not None and "already done" in sweep.stdout.readline()
+    sweep.send_signal(signal.SIGINT)
+    _, err = sweep.communicate(timeout=120)
+    assert sweep.returncode == 130 and "the sweep that was here is kept as it was" in err, err
+    assert {name: (folder / name).read_bytes() for name in before} == before
+
+
+def test_a_pipeline_goes_on_with_a_sweep_stage_stopped_part_way(tasks, tmp_path):
+    """A Ctrl-C during a pipeline's sweep stage: the next plain run resumes the sweep itself, with every row
+    the first run finished kept, where it used to refuse the unfinished sweep with and without --force."""
+    import yaml
+
+    out = tmp_path / "grasps"
+    args = ["--tasks", str(tasks), "--task", "drawing", "--out", str(out), "--solver-config", str(FAST),
+            "--starts", "6", "--executor", "serial"]  # fmt: skip
+    stage = {"name": "sweep", "run": "synthesize", "args": args, "outputs": [str(out / "drawing" / "run.json")]}
+    pipeline = tmp_path / "pipeline.yaml"
+    state = tmp_path / "state.json"
+    pipeline.write_text(yaml.safe_dump({"name": "p", "state": str(state), "stages": [stage]}))
+    command = [sys.executable, "-m", "grasptask.cli", "pipeline", "run", str(pipeline)]
+    first = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    wait_for(lambda: len(log_rows(out)) >= 1, what="a finished start")
+    first.send_signal(signal.SIGINT)
+    first.communicate(timeout=120)
+    assert first.returncode == 130
+    kept = {r["start_id"]: r for r in log_rows(out)}
+    assert 1 <= len(kept) < 6 and json.loads(state.read_text())["sweep"]["running"]
+    again = subprocess.run(command, capture_output=True, text=True, timeout=300)
+    assert again.returncode == 0, again.stderr
+    assert "going on from there" in again.stdout and f"{len(kept)} already done" in again.stdout
+    rows = {r["start_id"]: r for r in log_rows(out)}
+    assert len(rows) == 6 and all(rows[k] == row for k, row in kept.items())

@@ -233,11 +233,9 @@ def test_the_verifiers_feedback_turns_a_narrow_miss_into_a_verified_grasp(simula
     tasks = str(simulated[0] / "tasks" / "task_models.json")
     # the whole model from the start (torque_axes None), so that only the feedback re-solves a rejected grasp, and
     # the mid-range joints these starts were narrow misses from
-    # and no wall-clock limit: on a loaded machine the two contexts' first attempts of one start ended apart
     shipped = load_solver_config("configs/solver.yaml")
     solver = replace(
         shipped,
-        ipopt={**shipped.ipopt, "max_wall_time": 600.0},
         first_posture=0.5,
         retry_postures=(),
         torque_axes=None,

@@ -334,7 +334,7 @@ def test_each_hand_holds_each_task_within_a_few_starts(simulated, hand_name, tas
 
 
 def test_a_start_the_verifier_rejects_is_solved_again_from_an_opened_hand(simulated):
-    """The BarrettHand's end-on screw-driving starts end in a locally infeasible ring grasp from mid-range
+    """Some of the BarrettHand's end-on screw-driving starts end in a locally infeasible ring grasp from mid-range
     joints; the retry postures of configs/solver.yaml solve them again from an opened hand. A retried row adds
     up every attempt's seconds and iterations and says how the first attempt did; without retry postures the
     same start is solved once."""
@@ -355,8 +355,11 @@ def test_a_start_the_verifier_rejects_is_solved_again_from_an_opened_hand(simula
         Job(str(BARRETT), "configs/objects/tool.yaml", tasks, "screwdriving", solver=solver, settings=paper)
     )
     starts = make_starts(context.bounds)
+    # end-on starts (palm normal within 37 degrees of the handle), in order: which of them fail from mid-range
+    # differs between processors (floating-point paths), so the first rescued one is taken, not a fixed one
+    end_on = [s.start_id for s in starts if abs(s.palm_rotation[2, 2]) > 0.8]
     rescued = None
-    for start_id in (18, 60, 4):  # end-on starts (palm normal along the handle) that fail from mid-range
+    for start_id in end_on:
         row = context.solve(starts[start_id])
         assert row["attempts"] == 1 or not row["first_attempt_verified"]
         if row["attempts"] > 1 and row["verified"]:

@@ -21,7 +21,6 @@ import json
 import math
 import os
 import sys
-from dataclasses import replace
 from pathlib import Path
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
@@ -43,8 +42,6 @@ Q_TOLERANCE = 1e-9
 
 def fingerprint(tasks_path: Path, n_starts: int = 12, seed: int = 0, nl_dir: Path | None = None) -> dict:
     solver = load_solver_config(DEFAULT_SOLVER_CONFIG)
-    # no wall-time limit: a start near it would end by the clock, and so depend on how busy the machine is
-    solver = replace(solver, ipopt={**solver.ipopt, "max_wall_time": 1e4})
     hand, obj = load_hand(DEFAULT_HAND), load_object(DEFAULT_OBJECT)
     settings = load_grasp_settings(DEFAULT_GRASP_CONFIG)
     models = load_task_models(tasks_path)

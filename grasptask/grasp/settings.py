@@ -20,8 +20,9 @@ class GraspSettings:
 
     #: mu
     friction_coefficient: Positive = 0.5
-    #: m, edges of the linearised friction cone (an octagon: within 8% of the round cone)
-    cone_edges: Annotated[int, Strict(), Field(ge=3)] = 8
+    #: m, edges of the linearised friction cone (an octagon: within 8% of the round cone; 32 edges are within
+    #: 0.5%, and the NLP grows with each)
+    cone_edges: Annotated[int, Strict(), Field(ge=3, le=32)] = 8
     #: the largest angle between a fingertip pad's normal and the inward surface normal
     pad_angle_max_deg: Annotated[float, Strict(), Field(gt=0, le=90)] = 45.0
     #: epsilon in phi >= epsilon (eq. 4)

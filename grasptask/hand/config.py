@@ -87,7 +87,7 @@ class PalmConfig:
     radius_m: Positive
     x_range_m: tuple[Real, Real]
     y_range_m: tuple[Real, Real]
-    grid: tuple[Annotated[int, Strict(), Field(ge=1)], Annotated[int, Strict(), Field(ge=1)]]
+    grid: tuple[Annotated[int, Strict(), Field(ge=1, le=50)], Annotated[int, Strict(), Field(ge=1, le=50)]]
 
 
 @dataclass(frozen=True, config=SCHEMA)

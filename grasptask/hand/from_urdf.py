@@ -46,15 +46,53 @@ def _shape(geometry, transform: np.ndarray, link: str, source: Path) -> Shape:
         path = resolve_mesh(geometry.mesh.filename, source)
         if path is None:
             raise BadInputError(source, f"link '{link}': collision mesh '{geometry.mesh.filename}' not found")
-        try:
-            mesh = trimesh.load(path, force="mesh")
+        try:  # unprocessed first: trimesh's processing drops vertices that are not finite without a word
+            mesh = trimesh.load(path, force="mesh", process=False)
         except Exception as exc:  # noqa: BLE001 - trimesh raises many kinds for a broken file
             raise BadInputError(path, f"link '{link}': not a mesh trimesh can read ({type(exc).__name__})") from exc
+        raw = np.asarray(getattr(mesh, "vertices", np.zeros((0, 3))), dtype=float)
+        bad = int((~np.isfinite(raw).all(axis=1)).sum()) if raw.ndim == 2 else 0
+        if bad:
+            raise BadInputError(
+                path, f"link '{link}': {bad} of the collision mesh's {len(raw)} vertices are not finite numbers"
+            )
+        if isinstance(mesh, trimesh.Trimesh):
+            mesh.process()
         scale = np.ones(3) if geometry.mesh.scale is None else np.broadcast_to(geometry.mesh.scale, 3)
         vertices = np.array(getattr(mesh, "vertices", np.zeros((0, 3))), dtype=np.float64) * scale
         faces = np.array(getattr(mesh, "faces", np.zeros((0, 3))), dtype=np.int64)
         return mesh_shape(vertices, faces, transform, link, path)
     return Shape([], np.zeros((0, 3)))
+
+
+def _unique_names(robot, source: Path) -> None:
+    """A link or joint defined twice is refused: the parser keeps one of them without a word."""
+    for kind, items in (("link", robot.links), ("joint", robot.joints)):
+        seen: set[str] = set()
+        for item in items:
+            if item.name in seen:
+                raise BadInputError(source, f"{kind} '{item.name}' is defined twice")
+            seen.add(item.name)
+
+
+def _check_inertial(link, source: Path) -> None:
+    """A link's mass and inertia as physics can use them: finite, the mass not negative, the inertia a
+    symmetric matrix with no negative principal moment."""
+    inertial = link.inertial
+    if inertial is None:
+        return
+    mass = np.nan if inertial.mass is None else float(inertial.mass)
+    inertia = np.zeros((3, 3)) if inertial.inertia is None else np.asarray(inertial.inertia, dtype=float)
+    origin = np.eye(4) if inertial.origin is None else np.asarray(inertial.origin, dtype=float)
+    if inertial.mass is not None and not (np.isfinite(mass) and mass >= 0):
+        raise BadInputError(source, f"link '{link.name}': inertial mass {mass} is not a mass (finite, >= 0)")
+    if not (np.isfinite(inertia).all() and np.isfinite(origin).all()):
+        raise BadInputError(source, f"link '{link.name}': its inertia or inertial origin is not finite")
+    moments = np.linalg.eigvalsh((inertia + inertia.T) / 2)
+    if moments.min() < -1e-12 * max(1.0, float(np.abs(moments).max())):
+        raise BadInputError(
+            source, f"link '{link.name}': inertia has a negative principal moment ({moments.min():.3g} kg.m^2)"
+        )
 
 
 def read_urdf(source: Path) -> Tree:
@@ -77,8 +115,10 @@ def read_urdf(source: Path) -> Tree:
     except (ValueError, KeyError, TypeError, AttributeError, etree.XMLSyntaxError) as exc:
         raise BadInputError(source, f"not a URDF yourdfpy can read ({type(exc).__name__}: {exc})") from exc
     robot = urdf.robot
+    _unique_names(robot, source)
     links = {}
     for link in robot.links:
+        _check_inertial(link, source)
         tree_link = TreeLink(link.name)
         for collision in link.collisions:
             origin = np.eye(4) if collision.origin is None else np.asarray(collision.origin, dtype=float)

@@ -100,10 +100,24 @@ class HandOptions:
     grasping: tuple[str, ...] | None = None
     approach: np.ndarray | None = None  # 3 x 3: the approach frame (z towards the object) in the palm frame
     compliance_m: float = DEFAULT_COMPLIANCE_M  # how far a fingertip gives at a contact
+    #: the YAML these came from: a choice of its that the model refuses is named there, by its key
+    config: Path | None = None
+
+    def fault(self, model: Path, key: str, problem: str) -> BadInputError:
+        """A refusal of the option ``key``: named in the YAML that set it, else in the model file."""
+        if self.config is None:
+            return BadInputError(model, problem)
+        return BadInputError(self.config, f"field '{key}': {problem} in {model.name}")
 
 
-def _check_finite(tree: Tree, source: Path) -> None:
-    """No NaN or inf anywhere in the file's numbers, named by the joint or link it came from."""
+#: how far (m) any joint origin or collision shape of a hand may lie from its link's frame: a hand is well
+#: inside this, and a file in millimetres read as metres is not
+MAX_REACH_M = 10.0
+
+
+def _check_values(tree: Tree, source: Path) -> None:
+    """No NaN or inf anywhere in the file's numbers and no origin or shape out of a hand's reach, each named by
+    the joint or link it came from: numbers like 1e30 overflow the kinematics."""
     for joint in tree.joints:
         scalars = [v for v in (joint.lower, joint.upper, joint.effort) if v is not None]
         if joint.mimic is not None:
@@ -111,10 +125,24 @@ def _check_finite(tree: Tree, source: Path) -> None:
         values: list[np.ndarray] = [joint.origin, joint.axis, np.array(scalars, dtype=float)]
         if not all(np.isfinite(v).all() for v in values):
             raise BadInputError(source, f"joint '{joint.name}': its origin, axis, limits or mimic are not finite")
+        reach = float(np.linalg.norm(joint.origin[:3, 3]))
+        if reach > MAX_REACH_M:
+            raise BadInputError(
+                source,
+                f"joint '{joint.name}': its origin lies {reach:.3g} m from link '{joint.parent}', beyond a hand's "
+                f"{MAX_REACH_M:g} m (is the file in millimetres?)",
+            )
     for link in tree.links.values():
         shapes = [c for c, _ in link.spheres] + [np.array([r for _, r in link.spheres])] + link.skin
         if not all(np.isfinite(v).all() for v in shapes):
             raise BadInputError(source, f"link '{link.name}': its collision geometry is not finite")
+        reach = max((float(np.abs(v).max()) for v in shapes if v.size), default=0.0)
+        if reach > MAX_REACH_M:
+            raise BadInputError(
+                source,
+                f"link '{link.name}': its collision geometry reaches {reach:.3g} m from the link's frame, beyond a "
+                f"hand's {MAX_REACH_M:g} m (is the file in millimetres?)",
+            )
 
 
 def _check(tree: Tree, source: Path) -> dict[str, TreeJoint]:
@@ -353,7 +381,13 @@ def _pads(
                 centre, radius, error = _mesh_pad(chain.tip_meshes, last.axis, closing, tip, source)
             else:
                 centre, radius = chain.tip_frame[:3, 3], 0.0
-            along = centre / max(np.linalg.norm(centre), 1e-12)  # from the last joint to the tip, in its frame
+            if np.linalg.norm(centre) < 1e-6:  # no way from the joint to the tip: no side it closes on
+                raise BadInputError(
+                    source,
+                    f"fingertip '{tip}' lies on its last joint '{last.name}' (a link of zero length): no pad can "
+                    "face the way it closes; place the pad under 'pads' in a hand YAML",
+                )
+            along = centre / np.linalg.norm(centre)  # from the last joint to the tip, in its frame
             normal = closing * np.cross(last.axis, centre)
             if np.linalg.norm(normal) < 1e-9:  # a tip on the joint's axis: face away from the palm
                 normal = np.cross(along, [0.0, 0.0, 1.0]) if abs(along[2]) < 0.9 else np.cross(along, [1.0, 0.0, 0.0])
@@ -461,15 +495,18 @@ def _approach(fingers: dict[str, Finger], options: HandOptions) -> np.ndarray:
 
 def hand_from_tree(tree: Tree, source: Path, options: HandOptions = HandOptions()) -> Hand:
     """The hand a parsed file describes (see the module docstring for the rules and the defaults)."""
-    _check_finite(tree, source)
+    _check_values(tree, source)
     into = _check(tree, source)
     palm = options.palm_link or _root(tree, into, source)
     if palm not in tree.links:
-        raise BadInputError(source, f"palm link '{palm}' is not defined")
+        raise options.fault(source, "palm_link", f"palm link '{palm}' is not defined")
     tips = list(options.fingertips) if options.fingertips else _default_tips(tree, into, palm)
     for tip in tips:
         if tip not in tree.links:
-            raise BadInputError(source, f"unknown fingertip '{tip}' (no such link)")
+            raise options.fault(source, "fingertips", f"unknown fingertip '{tip}' (no such link)")
+    for link in options.pads:
+        if link not in tips:
+            raise options.fault(source, f"pads.{link}", f"link '{link}' is not a fingertip ({', '.join(tips)})")
     for tip in tips:
         for other in tips:
             if other != tip and _hangs_from(into, other, tip):
@@ -486,7 +523,7 @@ def hand_from_tree(tree: Tree, source: Path, options: HandOptions = HandOptions(
         )
     names = list(options.finger_names) if options.finger_names else tips
     if len(names) != len(tips):
-        raise BadInputError(source, f"{len(names)} finger names for {len(tips)} fingertips")
+        raise options.fault(source, "finger_names", f"{len(names)} finger names for {len(tips)} fingertips")
     paths = {name: _path(into, palm, tip, source) for name, tip in zip(names, tips, strict=True)}
     owner: dict[str, str] = {}
     for name, path in paths.items():
@@ -529,12 +566,16 @@ def hand_from_tree(tree: Tree, source: Path, options: HandOptions = HandOptions(
     for finger in grasping:
         if finger not in fingers:
             known = ", ".join(fingers)
-            raise BadInputError(source, f"grasping finger '{finger}' is not a finger of this hand ({known})")
+            raise options.fault(
+                source, "grasping_fingers", f"grasping finger '{finger}' is not a finger of this hand ({known})"
+            )
     approach = _approach(fingers, options)
     rounded = [f.pad.radius for f in fingers.values() if f.pad.radius > 0]
     if rounded and options.compliance_m >= min(rounded):
-        raise BadInputError(
-            source, f"compliance {options.compliance_m} m is not below the fingertip radius {min(rounded)} m"
+        raise options.fault(
+            source,
+            "compliance_m",
+            f"compliance {options.compliance_m} m is not below the fingertip radius {min(rounded)} m",
         )
     return Hand(
         options.name or source.stem,

@@ -105,8 +105,13 @@ def write_text_atomic(path: Path, text: str) -> None:
         tmp.unlink(missing_ok=True)
 
 
+def json_text(payload: Any) -> str:
+    """``payload`` as the project's JSON files hold it: indented, keys sorted, numpy values as plain ones."""
+    return json.dumps(payload, indent=2, sort_keys=True, default=_jsonable) + "\n"
+
+
 def write_json_atomic(path: Path, payload: Any) -> None:
-    write_text_atomic(path, json.dumps(payload, indent=2, sort_keys=True, default=_jsonable) + "\n")
+    write_text_atomic(path, json_text(payload))
 
 
 _UNSAFE = re.compile(r"[^A-Za-z0-9._-]")

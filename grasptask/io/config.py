@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import re
 import types
 import typing
 from collections.abc import Mapping
@@ -43,37 +44,77 @@ Vector = tuple[Real, Real, Real]
 
 T = TypeVar("T")
 
+#: the most processes one command starts (--workers); more would only wait on each other's cores
+MAX_WORKERS = 64
+
 #: the largest config file read; every bundled one is under 10 kB
 MAX_CONFIG_BYTES = 1 << 20
 
 
-class _NoAliasLoader(yaml.SafeLoader):
-    """``yaml.safe_load`` without anchors and aliases: a few hundred bytes of nested aliases expand to
-    gigabytes (a "billion laughs"), and no config needs them."""
+#: the deepest nesting of lists and mappings a config may have; the deepest bundled one has 4 levels
+MAX_DEPTH = 32
+
+
+class _ConfigLoader(yaml.SafeLoader):
+    """``yaml.safe_load`` that cannot hang or lie: no anchors and aliases (a few hundred bytes of nested aliases
+    expand to gigabytes, a "billion laughs", and no config needs them), no nesting deeper than
+    :data:`MAX_DEPTH` (PyYAML composes recursively: thousands of levels end in a RecursionError), no key given
+    twice (PyYAML keeps the last without a word), and ``1e6`` or ``1.0e6`` read as numbers, as YAML 1.2 and
+    JSON read them (YAML 1.1 asks for a dot and a signed exponent, and reads them as text)."""
+
+    def __init__(self, stream: str):
+        super().__init__(stream)
+        self.depth = 0
 
     def compose_node(self, parent: Any, index: Any) -> Any:
-        if self.check_event(yaml.AliasEvent):
-            event = self.peek_event()
-            raise yaml.MarkedYAMLError(problem="aliases (*name) are not allowed", problem_mark=event.start_mark)
-        return super().compose_node(parent, index)
+        event = self.peek_event()
+        mark: Any = event.start_mark
+        if isinstance(event, yaml.AliasEvent):
+            raise yaml.MarkedYAMLError(problem="aliases (*name) are not allowed", problem_mark=mark)
+        if self.depth >= MAX_DEPTH:
+            raise yaml.MarkedYAMLError(problem=f"nested deeper than {MAX_DEPTH} levels", problem_mark=mark)
+        self.depth += 1
+        try:
+            return super().compose_node(parent, index)
+        finally:
+            self.depth -= 1
+
+    def construct_mapping(self, node: Any, deep: bool = False) -> Any:
+        first: dict[Any, int] = {}
+        for key_node, _ in node.value:
+            key = self.construct_object(key_node, deep=True)
+            if isinstance(key, typing.Hashable) and key in first:
+                raise yaml.MarkedYAMLError(
+                    problem=f"key {key!r} given twice (first on line {first[key] + 1})",
+                    problem_mark=key_node.start_mark,
+                )
+            if isinstance(key, typing.Hashable):
+                first[key] = key_node.start_mark.line
+        return super().construct_mapping(node, deep)
+
+
+_ConfigLoader.add_implicit_resolver(
+    "tag:yaml.org,2002:float",
+    re.compile(r"^[-+]?(?:[0-9][0-9_]*(?:\.[0-9_]*)?|\.[0-9_]+)[eE][-+]?[0-9]+$"),
+    list("-+0123456789."),
+)
 
 
 def load_yaml(path: str | Path) -> dict[str, Any]:
-    """A YAML mapping from ``path`` (safe types only, no aliases), or a one-line error naming the file. A file
-    with nothing but comments is the empty mapping: every key at its default."""
+    """A YAML mapping from ``path`` (safe types only, see :class:`_ConfigLoader`), or a one-line error naming
+    the file and the line. A file with nothing but comments is the empty mapping: every key at its default."""
     path = existing_file(path, "config file")
     if path.stat().st_size > MAX_CONFIG_BYTES:
         raise BadInputError(path, f"larger than {MAX_CONFIG_BYTES >> 20} MB: not a config file")
     try:
-        text = path.read_text()
-        data = yaml.load(text, Loader=_NoAliasLoader)  # noqa: S506 - a SafeLoader subclass
+        text = path.read_text(encoding="utf-8-sig")  # a byte-order mark, as some Windows editors write it
+        data = yaml.load(text, Loader=_ConfigLoader)  # noqa: S506 - a SafeLoader subclass
     except UnicodeDecodeError as exc:
         raise BadInputError(path, "not a text file") from exc
     except yaml.YAMLError as exc:
-        line = getattr(getattr(exc, "problem_mark", None), "line", None)
-        raise BadInputError(
-            path, f"invalid YAML: {getattr(exc, 'problem', exc)}", row=None if line is None else line + 1
-        ) from exc
+        mark = getattr(exc, "problem_mark", None)
+        where = "" if mark is None else f"line {mark.line + 1}: "
+        raise BadInputError(path, f"{where}invalid YAML: {getattr(exc, 'problem', exc)}") from exc
     if data is None and _only_comments(text):
         return {}
     if not isinstance(data, dict):

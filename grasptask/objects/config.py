@@ -18,6 +18,8 @@ from grasptask.objects.mesh_object import GRID_SPACING_M
 
 #: the largest half-size of an object, in metres: a hand grasps nothing bigger
 MAX_SIZE_M = 2.0
+#: a GP surface's support points: each iteration of a solve evaluates the kernel at every one
+MAX_SUPPORT = 2000
 
 #: a half-size of a superquadric (m)
 HalfSize = Annotated[float, Strict(), Field(ge=1e-3, le=MAX_SIZE_M)]
@@ -94,13 +96,13 @@ class GPConfig:
     #: ... or a CSV with columns x, y, z, nx, ny, nz (outward normals)
     points_csv: Text | None = None
     #: surface support points to start from (spread evenly)
-    n_support: Annotated[int, Strict(), Field(ge=4)] = 250
+    n_support: Annotated[int, Strict(), Field(ge=4, le=MAX_SUPPORT)] = 250
     #: more are added where the fit misses the surface by over tolerance_m
-    max_support: Count = 500
+    max_support: Annotated[int, Strict(), Field(ge=0, le=MAX_SUPPORT)] = 500
     tolerance_m: Positive = 5e-4
     seed: Count = 0
     #: surface samples drawn from the mesh
-    n_samples: Annotated[int, Strict(), Field(ge=100)] = 6000
+    n_samples: Annotated[int, Strict(), Field(ge=100, le=200_000)] = 6000
     #: what the report and the records call the object (default: the file's name)
     name: Text | None = None
     description: str = ""

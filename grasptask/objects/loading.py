@@ -83,7 +83,23 @@ def load_object(
             else MeshConfig(type="mesh", mesh=str(source))
         )
         return mesh_object(source, bare, path, say)
-    return object_from_config(load_yaml(path), path, say)
+    return object_from_config(load_yaml(_config_file(path)), path, say)
+
+
+#: an object config's suffixes; any other that is not a mesh's or a point cloud's is refused with the kinds
+CONFIG_SUFFIXES = (".yaml", ".yml")
+
+
+def _config_file(path: Path) -> Path:
+    """``path`` if it names an object config by its suffix: a file of another kind is not read as YAML."""
+    if path.suffix.lower() not in CONFIG_SUFFIXES:
+        kinds = ", ".join(MESH_SUFFIXES + tuple(s for s in CLOUD_SUFFIXES if s not in MESH_SUFFIXES))
+        raise BadInputError(
+            path,
+            f"unknown object file type '{path.suffix or path.name}': give an object YAML (.yaml), a mesh or a "
+            f"point cloud ({kinds})",
+        )
+    return path
 
 
 def object_config(path: str | Path, **overrides: Any) -> dict[str, Any] | None:
@@ -101,7 +117,7 @@ def object_config(path: str | Path, **overrides: Any) -> dict[str, Any] | None:
         source = existing_file(path, "object file").resolve()
         key = "points" if _is_cloud(path) else "mesh"
         return {"type": "mesh", "name": path.stem, key: str(source), "task_frame": "centre", **given}
-    data = load_yaml(path)
+    data = load_yaml(_config_file(path))
     if data.get("type") != "mesh":
         flags = ", ".join("--" + {"mass_kg": "mass", "task_frame": "task-frame"}.get(k, k) for k in given)
         raise BadInputError(path, f"{flags}: for a mesh or point-cloud object; this is a {data.get('type')!r} object")
@@ -254,7 +270,7 @@ def object_files(path: str | Path) -> list[Path]:
     path = Path(path)
     if path.suffix.lower() in MESH_SUFFIXES + CLOUD_SUFFIXES:
         return [path]
-    data = load_yaml(path)
+    data = load_yaml(_config_file(path))
     named = [path.parent / str(data[key]) for key in ("mesh", "points", "points_csv") if key in data]
     return [path, *(p for p in named if p.is_file())]
 

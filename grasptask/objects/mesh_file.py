@@ -24,6 +24,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 from grasptask.errors import BadInputError
+from grasptask.io.csv_format import sniff
 
 MESH_SUFFIXES = (".stl", ".obj", ".ply", ".glb", ".gltf", ".off")
 CLOUD_SUFFIXES = (".csv", ".ply")
@@ -103,14 +104,17 @@ def read_mesh(path: Path, unit: str = "m", say: Callable[[str], Any] = print) ->
     A hole wider than ``HOLE_FRACTION`` of the object is not guessed at: it is refused with its size, as is a mesh
     MeshFix cannot close."""
     scale = unit_scale(unit, path)
-    try:
-        loaded = trimesh.load(path, force="mesh")
+    try:  # unprocessed first: trimesh's processing drops vertices that are not finite without a word
+        loaded = trimesh.load(path, force="mesh", process=False)
     except Exception as exc:  # noqa: BLE001 - trimesh's loaders raise many kinds for a broken file
         raise BadInputError(path, f"not a mesh that trimesh can read ({type(exc).__name__})") from exc
     if not isinstance(loaded, trimesh.Trimesh) or len(loaded.faces) == 0:
         raise BadInputError(path, "holds no triangles")
-    mesh = loaded
-    done = []
+    mesh, done = loaded, []
+    dropped = _drop_non_finite(mesh, path)
+    if dropped:
+        done.append(dropped)
+    mesh.process()
     split = open_edges(mesh)
     mesh.merge_vertices(merge_tex=True, merge_norm=True)
     seams = split - open_edges(mesh)
@@ -136,6 +140,20 @@ def read_mesh(path: Path, unit: str = "m", say: Callable[[str], Any] = print) ->
     if done:
         say(f"{path}: repaired the mesh: {'; '.join(done)}")
     return mesh
+
+
+def _drop_non_finite(mesh: trimesh.Trimesh, path: Path) -> str:
+    """The faces on vertices that are not finite numbers dropped (a scan's failed points), and what was done;
+    a mesh with none left is refused with the count."""
+    bad: np.ndarray = ~np.isfinite(np.asarray(mesh.vertices)).all(axis=1)
+    if not bad.any():
+        return ""
+    keep = ~bad[mesh.faces].any(axis=1)
+    if not keep.any():
+        raise BadInputError(path, f"every face uses one of its {int(bad.sum())} vertices that are not finite numbers")
+    mesh.update_faces(keep)
+    mesh.remove_unreferenced_vertices()
+    return f"dropped {int((~keep).sum())} faces on {int(bad.sum())} vertices that are not finite numbers (NaN or inf)"
 
 
 def _meshfix(mesh: trimesh.Trimesh, path: Path, scale: float) -> tuple[trimesh.Trimesh, str]:
@@ -203,7 +221,7 @@ def _cloud_columns(path: Path) -> dict[str, np.ndarray]:
         raw = (getattr(loaded, "metadata", {}) or {}).get("_ply_raw", {}).get("vertex", {}).get("data", {})
         return {k: np.asarray(v, dtype=float).ravel() for k, v in raw.items()}
     try:
-        frame = pd.read_csv(path)
+        frame = pd.read_csv(path, **sniff(path).read_csv_options())
     except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:
         raise BadInputError(path, f"not a readable CSV ({type(exc).__name__})") from exc
     columns = {}

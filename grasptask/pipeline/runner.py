@@ -25,7 +25,7 @@ from __future__ import annotations
 import json
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Annotated, Any
 
@@ -45,6 +45,9 @@ class Stage:
     args: list[str]
     inputs: list[Path]
     outputs: list[Path]
+    #: the stage was stopped part-way with these same inputs: its command goes on from where it stopped (a
+    #: sweep's --resume) rather than refusing its unfinished outputs
+    resume: bool = False
 
     def input_paths(self) -> list[Path]:
         """Declared inputs plus any argument that names an existing path outside this stage's outputs."""
@@ -162,6 +165,10 @@ def _load_state(path: Path, force: bool) -> dict[str, dict]:
 
 
 def _save_state(path: Path, state: dict) -> None:
+    """The state written whole; an empty one is no file (a run that ran nothing leaves none)."""
+    if not state:
+        path.unlink(missing_ok=True)
+        return
     path.parent.mkdir(parents=True, exist_ok=True)
     write_json_atomic(path, state)
 
@@ -201,6 +208,9 @@ def _foreign_outputs(stage: Stage, record: dict) -> str | None:
     return None
 
 
+#: a command's exit code when Ctrl-C or SIGTERM stopped it
+INTERRUPTED = 130
+
 #: the pipeline files running in this process (a stage that runs its own pipeline would recurse for ever)
 _RUNNING: set[Path] = set()
 
@@ -211,18 +221,30 @@ def run_pipeline(
     force: bool = False,
     dry_run: bool = False,
     echo: Callable[[str], Any] = print,
+    check: Callable[[Stage], None] | None = None,
 ) -> Outcome:
     """Run ``spec``'s stages in order with ``runner`` (a stage in, its exit code out), skipping fresh ones.
-    A stage whose outputs someone else made or edited is not overwritten without ``force``. The state is
-    locked for the run: a second run of the same pipeline is refused with one line."""
+    ``check`` (a stage in, a :class:`BadInputError` out for a command line its command refuses) sees every
+    stage before any runs, so that a typo in the last stage costs no time and no state. A stage whose outputs
+    someone else made or edited is not overwritten without ``force``. The state is locked for the run: a
+    second run of the same pipeline is refused with one line. A dry run writes nothing, not even the lock."""
     running = spec.path.resolve()
     if running in _RUNNING:
         raise BadInputError(spec.path, "a stage runs this pipeline again: a pipeline cannot run itself")
+    for stage in spec.stages:
+        try:
+            if check is not None:
+                check(stage)
+        except BadInputError as exc:
+            raise BadInputError(spec.path, f"stage '{stage.name}': {exc.problem}") from None
     _RUNNING.add(running)
     began = time.perf_counter()
     try:
-        with folder_lock(spec.state_path, f"pipeline run {spec.path}"):
+        if dry_run:
             outcome = _run_locked(spec, runner, force, dry_run, echo)
+        else:
+            with folder_lock(spec.state_path, f"pipeline run {spec.path}"):
+                outcome = _run_locked(spec, runner, force, dry_run, echo)
     finally:
         _RUNNING.discard(running)
     if not dry_run:  # the one place a run's time is stated (the docs quote none)
@@ -267,23 +289,53 @@ def _run_locked(
         missing = next((p for p in stage.inputs if not p.exists()), None)
         if missing is not None:
             raise BadInputError(spec.path, f"stage '{stage.name}': its input {missing} does not exist")
-        start = time.perf_counter()
-        # recorded as running before it runs: should the run stop between the stage's commit and the save
-        # below, the next run knows these outputs for its own
-        state[stage.name] = {"key": stage.key(), "running": True, "started": time.time()}
-        _save_state(spec.state_path, state)
-        try:
-            code = runner(stage)
-        except BadInputError as exc:  # the command line itself is wrong (an unknown command or option)
-            raise BadInputError(spec.path, f"stage '{stage.name}': {exc.problem}") from None
+        if _interrupted(stage, record):
+            stage = replace(stage, resume=True)
+            echo(f"{label}: stopped part-way in the last run; going on from there")
+        code = _run_stage(spec, stage, state, runner)
         if code != 0:
             echo(f"{label}: failed with exit code {code}; later stages not run")
             outcome.failed, outcome.exit_code = stage.name, code
             return outcome
-        # the key is taken again after the run: a stage may have created inputs of its own (none do today)
-        seconds = round(time.perf_counter() - start, 3)
-        state[stage.name] = {"key": stage.key(), "outputs": _outputs_hash(stage), "seconds": seconds}
-        _save_state(spec.state_path, state)
         outcome.ran.append(stage.name)
-        echo(f"{label}: done in {seconds:.1f} s")
+        echo(f"{label}: done in {state[stage.name]['seconds']:.1f} s")
+        for output in stage.outputs:
+            if not output.exists():
+                echo(f"{label}: warning: its declared output {output} did not appear")
     return outcome
+
+
+def _interrupted(stage: Stage, record: dict) -> bool:
+    """The stage was running, with these same inputs, when the last run stopped: what it left is its own."""
+    return bool(record.get("running")) and record.get("key") == stage.key()
+
+
+def _run_stage(spec: PipelineSpec, stage: Stage, state: dict, runner: Callable[[Stage], int]) -> int:
+    """One stage run, its record saved; its exit code. It is recorded as running while it runs: should the run
+    stop between the stage's commit and the save after it, the next run knows these outputs for its own, and
+    one stopped part-way (exit code 130) goes on from there. A stage that fails otherwise without touching its
+    outputs (refused before it ran) leaves the record as it was."""
+    before, outputs = state.get(stage.name), _outputs_hash(stage)
+    start = time.perf_counter()
+    state[stage.name] = {"key": stage.key(), "running": True, "started": time.time()}
+    _save_state(spec.state_path, state)
+    refused: BadInputError | None = None
+    try:
+        code = runner(stage)
+    except BadInputError as exc:  # the command line itself is wrong (an unknown command or option)
+        code, refused = 2, exc
+    if code != 0:
+        if code != INTERRUPTED and _outputs_hash(stage) == outputs:
+            if before is None:
+                state.pop(stage.name)
+            else:
+                state[stage.name] = before
+            _save_state(spec.state_path, state)
+        if refused is not None:
+            raise BadInputError(spec.path, f"stage '{stage.name}': {refused.problem}") from None
+        return code
+    # the key is taken again after the run: a stage may have created inputs of its own (none do today)
+    seconds = round(time.perf_counter() - start, 3)
+    state[stage.name] = {"key": stage.key(), "outputs": _outputs_hash(stage), "seconds": seconds}
+    _save_state(spec.state_path, state)
+    return 0

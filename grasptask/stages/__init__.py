@@ -32,7 +32,7 @@ if TYPE_CHECKING:
     from grasptask.stages.pipeline import run_pipeline_file
     from grasptask.stages.report import ReportSummary, build_report
     from grasptask.stages.simulate import run_simulate
-    from grasptask.stages.synthesize import SynthesisOptions, run_synthesize, summarise
+    from grasptask.stages.synthesize import SweepInterrupted, SynthesisOptions, run_synthesize, summarise
     from grasptask.stages.verify import run_verify
 
 _LAZY = {
@@ -45,6 +45,7 @@ _LAZY = {
     "describe_hand": "grasptask.stages.hand",
     "HandDescription": "grasptask.stages.hand",
     "SynthesisOptions": "grasptask.stages.synthesize",
+    "SweepInterrupted": "grasptask.stages.synthesize",
     "run_synthesize": "grasptask.stages.synthesize",
     "summarise": "grasptask.stages.synthesize",
     "run_verify": "grasptask.stages.verify",
@@ -74,6 +75,7 @@ __all__ = [
     "PhysicsInputs",
     "Preprocess",
     "ReportSummary",
+    "SweepInterrupted",
     "SynthesisOptions",
     "build_report",
     "check_page",

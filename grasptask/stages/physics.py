@@ -17,6 +17,7 @@ import pandas as pd
 from grasptask.errors import BadInputError
 from grasptask.grasp.settings import load_grasp_settings
 from grasptask.io.artifacts import Provenance, StagedOutput
+from grasptask.io.config import MAX_WORKERS
 from grasptask.io.locking import check_writable, folder_lock
 from grasptask.io.orphans import die_with_parent
 from grasptask.paths import DEFAULT_PHYSICS_CONFIG
@@ -103,8 +104,8 @@ def run_physics(
     ``out/physics_summary.json`` and ``out/physics_trace.parquet`` (the best verified grasp's motion over the
     protocol), and returns the table."""
     inputs = inputs.resolved()
-    if workers < 1:
-        raise BadInputError("physics", "--workers must be at least 1")
+    if not 1 <= workers <= MAX_WORKERS:
+        raise BadInputError("physics", f"--workers must be from 1 to {MAX_WORKERS}, got {workers}")
     if inputs.strength <= 0 or inputs.friction_scale <= 0:
         raise BadInputError("physics", "--strength and --friction-scale must be positive")
     judge = _judge_for(inputs)  # every input checked here, before any work

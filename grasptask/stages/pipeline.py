@@ -15,8 +15,10 @@ def run_pipeline_file(
     force: bool = False,
     dry_run: bool = False,
     echo: Callable[[str], Any] = print,
+    check: Callable[[Stage], None] | None = None,
 ) -> tuple[PipelineSpec, Outcome]:
     """Load and run the pipeline file at ``path``; ``runner`` runs one stage's command and returns its exit
-    code (the CLI passes its own, so that the runner does not import the CLI)."""
+    code, ``check`` refuses a stage's command line before any runs (the CLI passes its own, so that the runner
+    does not import the CLI)."""
     spec = load_pipeline(path)
-    return spec, run_pipeline(spec, runner, force=force, dry_run=dry_run, echo=echo)
+    return spec, run_pipeline(spec, runner, force=force, dry_run=dry_run, echo=echo, check=check)

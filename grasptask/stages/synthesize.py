@@ -8,6 +8,7 @@ solver versions and model size (as the workers report it) to ``run.json``.
 
 from __future__ import annotations
 
+import errno
 import os
 import time
 from collections.abc import Callable
@@ -26,12 +27,12 @@ from grasptask.io.artifacts import (
     Provenance,
     StagedOutput,
     config_hash,
+    json_text,
     path_hash,
     plain_name,
-    write_json_atomic,
     write_text_atomic,
 )
-from grasptask.io.config import read_json
+from grasptask.io.config import MAX_WORKERS, read_json
 from grasptask.io.locking import folder_lock
 from grasptask.io.sweep_log import LogContents, LogWriter, read_log, rewrite_log
 from grasptask.objects import load_object
@@ -91,8 +92,10 @@ class SynthesisOptions:
             raise BadInputError("synthesize", f"unknown executor '{self.executor}' (known: {', '.join(EXECUTORS)})")
         if self.backend not in BACKENDS:
             raise BadInputError("synthesize", f"unknown solver '{self.backend}' (known: {', '.join(BACKENDS)})")
-        if self.workers < 1 or (self.starts is not None and self.starts < 1):
-            raise BadInputError("synthesize", "--workers and --starts must be at least 1")
+        if not 1 <= self.workers <= MAX_WORKERS:
+            raise BadInputError("synthesize", f"--workers must be from 1 to {MAX_WORKERS}, got {self.workers}")
+        if self.starts is not None and self.starts < 1:
+            raise BadInputError("synthesize", "--starts must be at least 1")
         if self.executor == "serial" and self.workers != 1:
             raise BadInputError(
                 "synthesize",
@@ -118,6 +121,20 @@ class SynthesisOptions:
         """The object the sweep records: the given file, or with --unit, --mass or --task-frame the config
         written beside its results (``object.yaml``), which the later stages then read."""
         return self.folder / OBJECT_FILE if self.object_overrides else self.object
+
+
+class SweepInterrupted(KeyboardInterrupt):
+    """A sweep stopped by Ctrl-C or SIGTERM; ``str()`` says what of it was kept, and how to go on."""
+
+    def __init__(self, kept: int, log: Path, untouched: bool):
+        self.kept, self.log = kept, log
+        if kept:
+            said = f"{kept} finished starts are kept in {log}; rerun with --resume"
+        elif untouched:
+            said = "stopped before any start was solved; the sweep that was here is kept as it was"
+        else:
+            said = "stopped before any start was solved; nothing of this run was kept"
+        super().__init__(said)
 
 
 DEFINITION_FILE = "sweep.json"
@@ -195,7 +212,7 @@ def _prepare(options: SynthesisOptions) -> _Prepared:
         subset(every, options.starts),
         list(hand.grasping),
         obj.symmetry,
-        solver.start_time_limit + solver.hang_grace_s,
+        solver.hang_after_s,
         definition,
         read_paper_synthesis(),
         config,
@@ -262,53 +279,64 @@ def run_synthesize(options: SynthesisOptions, echo: Callable[[str], Any] = print
     Every input is checked, and a worker has built the model, before anything of an earlier sweep in the
     folder is touched; the folder is locked for the run."""
     prepared = _prepare(options)
-    folder = options.folder
-    with folder_lock(folder, f"synthesize {options.task}"):
-        log = folder / LOG_FILE
+    with folder_lock(options.folder, f"synthesize {options.task}"):
+        log = options.folder / LOG_FILE
         done = read_log(log)
-        if options.resume:
-            _check_resume(folder, prepared, done)
-        else:
-            _check_fresh(folder, done)
-        rows = done.rows if options.resume else []
-        finished = {row["start_id"] for row in rows}
-        todo = [s for s in prepared.starts if s.start_id not in finished]
-        echo(f"{options.task}: {len(prepared.starts)} starts, {len(finished)} already done")
-        model_size = None if todo else _previous_run(folder).get("model_size")
-        workers = max(1, min(options.workers, len(todo)))
-        executor = make_executor(
-            prepared.job, options.executor, workers, prepared.hang_after_s, options.scheduler, notify=echo
-        )
-        wall_start = time.perf_counter()
-        with graceful_stop(notify=echo):
-            try:
-                if todo:
-                    model_size = executor.start()
-                    _say_model(model_size, prepared.paper, echo)
-                # the run is known to work: only now is the folder changed
-                folder.mkdir(parents=True, exist_ok=True)
-                for repair in done.repairs if options.resume else []:
+        rows: list[dict] = []  # this run's, as they finish: what a stop keeps
+        try:
+            return _run_locked(options, prepared, done, rows, echo)
+        except KeyboardInterrupt:
+            raise SweepInterrupted(len(rows), log, untouched=bool(done.rows) and not options.resume) from None
+
+
+def _run_locked(
+    options: SynthesisOptions, prepared: _Prepared, done: LogContents, rows: list[dict], echo: Callable[[str], Any]
+) -> dict:
+    """The sweep in its locked folder: the starts left solved, each row appended to ``rows`` and the log."""
+    folder, log = options.folder, options.folder / LOG_FILE
+    if options.resume:
+        _check_resume(folder, prepared, done)
+        rows.extend(done.rows)
+    else:
+        _check_fresh(folder, done)
+    finished = {row["start_id"] for row in rows}
+    todo = [s for s in prepared.starts if s.start_id not in finished]
+    echo(f"{options.task}: {len(prepared.starts)} starts, {len(finished)} already done")
+    model_size = None if todo else _previous_run(folder).get("model_size")
+    workers = max(1, min(options.workers, len(todo)))
+    executor = make_executor(prepared.job, options.executor, workers, prepared.hang_after_s, options.scheduler, echo)
+    wall_start = time.perf_counter()
+    with graceful_stop(notify=echo):
+        try:
+            if todo:
+                model_size = executor.start()
+                _say_model(model_size, prepared.paper, echo)
+            # the run is known to work: only now is the folder changed
+            folder.mkdir(parents=True, exist_ok=True)
+            first: Callable[[dict], None] | None = None
+            if options.resume:  # the same run goes on: its records are this run's already
+                for repair in done.repairs:
                     echo(f"{log}: {repair}")
-                if done.repairs or not options.resume:
+                if done.repairs:
                     rewrite_log(log, rows)
-                write_json_atomic(folder / DEFINITION_FILE, {"definition": prepared.definition})
-                if prepared.object_config is not None:
-                    write_text_atomic(folder / OBJECT_FILE, yaml.safe_dump(prepared.object_config, sort_keys=False))
-                if todo:  # a resumed sweep may have nothing left to solve
-                    _solve(executor, todo, rows, log, options.task, len(prepared.starts))
-            finally:
-                executor.close()
-        return summarise(
-            options,
-            rows,
-            model_size=model_size,
-            wall_seconds=time.perf_counter() - wall_start,
-            symmetry=prepared.symmetry,
-            fingers=prepared.fingers,
-            paper=prepared.paper,
-            object_facts=prepared.object_facts,
-            job=prepared.job,
-        )
+                _write_records(folder, prepared)
+            else:  # a finished sweep's records stay until this one has a row to replace them with
+                first = lambda row: _start_afresh(folder, prepared, row)  # noqa: E731
+            if todo:  # a resumed sweep may have nothing left to solve
+                _solve(executor, todo, rows, log, options.task, len(prepared.starts), first)
+        finally:
+            executor.close()
+    return summarise(
+        options,
+        rows,
+        model_size=model_size,
+        wall_seconds=time.perf_counter() - wall_start,
+        symmetry=prepared.symmetry,
+        fingers=prepared.fingers,
+        paper=prepared.paper,
+        object_facts=prepared.object_facts,
+        job=prepared.job,
+    )
 
 
 def _say_model(size: dict[str, Any], paper: PaperSynthesis, echo: Callable[[str], Any]) -> None:
@@ -323,21 +351,69 @@ def _say_model(size: dict[str, Any], paper: PaperSynthesis, echo: Callable[[str]
     )
 
 
-def _solve(executor: Any, todo: list, rows: list[dict], log: Path, task: str, total: int) -> None:
-    """Run the executor over ``todo``, appending each row to the log (and ``rows``), with progress."""
+def _records(folder: Path, prepared: _Prepared) -> dict[str, str]:
+    """What defines the run, as the files beside its log hold it: ``sweep.json`` and, with --unit, --mass or
+    --task-frame, ``object.yaml``."""
+    records = {DEFINITION_FILE: json_text({"definition": prepared.definition})}
+    if prepared.object_config is not None:
+        records[OBJECT_FILE] = yaml.safe_dump(prepared.object_config, sort_keys=False)
+    return records
+
+
+def _write_records(folder: Path, prepared: _Prepared) -> None:
+    for name, text in _records(folder, prepared).items():
+        write_text_atomic(folder / name, text)
+
+
+def _start_afresh(folder: Path, prepared: _Prepared, row: dict) -> None:
+    """A fresh sweep's records in place of a finished one's, once it has its first row: the records staged
+    beside, the log holding that row swapped in by one rename, then the records. A rerun that fails before (a
+    full disk, an early Ctrl-C) leaves the finished sweep as it was, and resumable."""
+    staged = {folder / name: folder / f".{name}.new" for name in _records(folder, prepared)}
+    try:
+        for path, text in zip(staged.values(), _records(folder, prepared).values(), strict=True):
+            write_text_atomic(path, text)
+        rewrite_log(folder / LOG_FILE, [row])
+    except OSError as exc:
+        for path in staged.values():
+            path.unlink(missing_ok=True)
+        reason = "no space left on device" if exc.errno == errno.ENOSPC else (exc.strerror or str(exc))
+        raise BadInputError(
+            folder, f"{reason} writing start {row.get('start_id')}; the sweep that was here is kept as it was"
+        ) from exc
+    for final, path in staged.items():
+        os.replace(path, final)
+
+
+def _solve(
+    executor: Any, todo: list, rows: list[dict], log: Path, task: str, total: int, first: Callable[[dict], None] | None
+) -> None:
+    """Run the executor over ``todo``, appending each row to the log (and ``rows``), with progress; the first
+    row goes to ``first`` when given, which starts the log afresh."""
     counts = {
         "verified": sum(bool(r.get("verified")) for r in rows),
         "failing": sum(not r.get("verified") for r in rows),
     }
-    with Progress(total, f"synthesize {task}", "starts", initial=len(rows)) as shown, LogWriter(log) as writer:
+    writer = None if first is not None else LogWriter(log)
+    with Progress(total, f"synthesize {task}", "starts", initial=len(rows)) as shown:
 
         def on_result(row: dict) -> None:
-            writer.append(row)
+            nonlocal writer
+            if writer is None:
+                assert first is not None
+                first(row)
+                writer = LogWriter(log)
+            else:
+                writer.append(row)
             rows.append(row)
             counts["verified" if row.get("verified") else "failing"] += 1
             shown.update(1, **counts)
 
-        executor.run(todo, on_result)
+        try:
+            executor.run(todo, on_result)
+        finally:
+            if writer is not None:
+                writer.close()
 
 
 def summarise(

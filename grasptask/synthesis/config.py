@@ -13,7 +13,7 @@ from typing import Annotated, Any
 from pydantic import AfterValidator, Field, Strict, field_validator
 from pydantic.dataclasses import dataclass
 
-from grasptask.io.config import SCHEMA, Count, Flag, Fraction, NonNegative, Positive, load_yaml, validated
+from grasptask.io.config import SCHEMA, Flag, Fraction, NonNegative, Positive, load_yaml, validated
 
 #: IPOPT's options (passed as ipopt.<name> through CasADi, or straight to cyipopt); a config's own are set over
 #: these. Why each is set so: docs/design/synthesis.md
@@ -25,8 +25,7 @@ IPOPT_DEFAULTS: dict[str, int | float | str] = {
     "compl_inf_tol": 1.0e-6,
     "acceptable_iter": 10,
     "acceptable_constr_viol_tol": 1.0e-6,  # an 'acceptable' exit must still be feasible
-    "max_iter": 1500,
-    "max_wall_time": 12.0,  # seconds per solve: a start that runs out is recorded as time-limit
+    "max_iter": 1500,  # a solve stops on its iterations, never on the clock: the same rows on a busy machine
     "mu_strategy": "adaptive",
     "alpha_for_y": "min-dual-infeas",  # the equality multipliers' step minimises the dual infeasibility
     "nlp_scaling_method": "gradient-based",
@@ -45,6 +44,16 @@ def _ipopt_value(value: Any) -> Any:
 
 #: an IPOPT option's value: a finite number or a word, never true/false (IPOPT itself checks the option)
 IpoptValue = Annotated[Any, AfterValidator(_ipopt_value)]
+
+#: the most IPOPT iterations one solve may be given: a start's solves stop on their iterations, so this bounds
+#: its time (an iteration takes 5-60 ms); the default is 1500
+MAX_ITERATIONS = 10_000
+#: IPOPT's clock limits, refused: where a solve stops would depend on how busy the machine is
+_CLOCK_OPTIONS = {"max_wall_time": "the wall clock", "max_cpu_time": "the CPU time"}
+#: a count of solves per start (retry postures, feedback rounds) above this is no real run's
+MAX_ROUNDS = 10
+#: a cap on IPOPT iterations
+Iterations = Annotated[int, Strict(), Field(ge=0, le=MAX_ITERATIONS)]
 
 
 @dataclass(frozen=True, config=SCHEMA)
@@ -77,11 +86,12 @@ class SolverConfig:
     default and check declared here once. The paper's model is ``retry_postures=()``, ``feedback_rounds=0``,
     ``torque_axes=None``, ``hold_axis_rotation=None`` and ``geometric_iterations=0``."""
 
-    #: IPOPT's options (tol, max_iter, max_wall_time per solve, ...); a file's own are set over these, and
-    #: options that would write files are refused
+    #: IPOPT's options (tol, max_iter per solve, ...); a file's own are set over these. Options that would write
+    #: files, or stop a solve on the clock (max_wall_time, max_cpu_time), are refused
     ipopt: dict[str, IpoptValue] = field(default_factory=lambda: dict(IPOPT_DEFAULTS))
-    #: a worker that has not reported this long after its start's time limit is taken as hung and replaced
-    hang_grace_s: Positive = 30.0
+    #: seconds of wall clock after which a start not yet reported is taken as hung, and its worker replaced: a
+    #: guard against a hung process, far above any solve (a start's solves stop on their iterations)
+    hang_after_s: Annotated[float, Strict(), Field(ge=60)] = 1800.0
     #: move the palm from its far-away start to the object, keeping its orientation, before IPOPT
     placement: Flag = True
     #: bounds on eq. 8's task forces and eq. 10's cone-edge forces (N) that no grasp worth finding reaches; null:
@@ -95,10 +105,10 @@ class SolverConfig:
     first_posture: Fraction = 0.5
     #: a start the verifier rejects is placed and solved again from each of these postures in turn (a hand opened
     #: a quarter, then nearly open), until one is verified; []: each start solved once
-    retry_postures: tuple[Fraction, ...] = (0.25, 0.1)
+    retry_postures: Annotated[tuple[Fraction, ...], Field(max_length=MAX_ROUNDS)] = (0.25, 0.1)
     #: a solved grasp the verifier rejects only on the torque check or the pad angle is solved again from itself
     #: with those limits tightened by what the verifier measured, up to this many times (synthesis.feedback)
-    feedback_rounds: Count = 2
+    feedback_rounds: Annotated[int, Strict(), Field(ge=0, le=MAX_ROUNDS)] = 2
     #: eq. 10 in the NLP for the task's this many longest axes; a grasp the verifier (which checks all six)
     #: rejects on its torque check is solved again with all six; null: the paper's model
     torque_axes: Annotated[int, Strict(), Field(ge=1, le=6)] | None = 4
@@ -107,19 +117,25 @@ class SolverConfig:
     hold_axis_rotation: NonNegative | None = 0.1
     #: a start's first IPOPT iterations, up to this many, are made on the model without eq. 10, whose iterations
     #: cost half as much; the first model goes on from where they stop (0: none). Formula objects only
-    geometric_iterations: Count = 20
+    geometric_iterations: Iterations = 20
     #: that cap instead where the turn about the object's axis is held; null: the same cap
-    held_geometric_iterations: Count | None = 30
+    held_geometric_iterations: Iterations | None = 30
 
     @field_validator("ipopt", mode="before")
     @classmethod
     def _over_the_defaults(cls, value: object) -> object:
-        return {**IPOPT_DEFAULTS, **value} if isinstance(value, dict) else value
-
-    @property
-    def time_limit(self) -> float:
-        """The longest one solve may take, by IPOPT's own wall-time limit."""
-        return float(self.ipopt.get("max_wall_time", 60.0))
+        if not isinstance(value, dict):
+            return value
+        for name, clock in _CLOCK_OPTIONS.items():
+            if name in value:
+                raise ValueError(
+                    f"{name} would stop a solve on {clock}, which gives other grasps on a busy machine; bound it "
+                    f"with max_iter (at most {MAX_ITERATIONS})"
+                )
+        iterations = value.get("max_iter", IPOPT_DEFAULTS["max_iter"])
+        if isinstance(iterations, int) and not isinstance(iterations, bool) and not 1 <= iterations <= MAX_ITERATIONS:
+            raise ValueError(f"max_iter must be from 1 to {MAX_ITERATIONS}, got {iterations}")
+        return {**IPOPT_DEFAULTS, **value}
 
     @property
     def postures(self) -> tuple[float, ...]:
@@ -132,14 +148,6 @@ class SolverConfig:
         if held and self.held_geometric_iterations is not None:
             return self.held_geometric_iterations
         return self.geometric_iterations
-
-    @property
-    def start_time_limit(self) -> float:
-        """The longest a start may take: every attempt, its solve with all axes and every feedback round at its
-        time limit."""
-        phase = max(self.phase_iterations(held=False), self.phase_iterations(held=True)) > 0
-        per_attempt = 1 + self.feedback_rounds + (self.torque_axes is not None) + phase
-        return self.time_limit * len(self.postures) * per_attempt
 
 
 def load_solver_config(path: str | Path) -> SolverConfig:

@@ -142,8 +142,16 @@ def fit_recordings(
                 "lengths": ellipsoid.lengths,
             }
         )
+    if not rows and skipped:  # the first one's own line says what is wrong, the count how widespread it is
+        first = skipped[0]
+        raise BadInputError(
+            first.source,
+            f"{first.problem}; none of the {len(skipped)} recordings is usable (this is the first)",
+            row=first.row,
+            column=first.column,
+        )
     if not rows:
-        raise BadInputError("fit-task", "no usable recordings")
+        raise BadInputError("fit-task", "no recordings to fit")
     return FitResult(pd.DataFrame(rows), skipped)
 
 

@@ -18,6 +18,7 @@ import numpy as np
 import pandas as pd
 
 from grasptask.errors import BadInputError, existing_file
+from grasptask.io.csv_format import header, sniff
 from grasptask.task.rosbag import is_bag
 from grasptask.task.units import UNIT_TABLES
 
@@ -72,15 +73,14 @@ def is_manifest(path: str | Path) -> bool:
     path = Path(path)
     if path.suffix.lower() != ".csv" or not path.is_file():
         return False
-    with open(path, errors="replace") as handle:
-        header = handle.readline()
-    return "path" in [c.strip().strip('"') for c in header.split(",")]
+    return "path" in header(path)
 
 
 def read_manifest(path: str | Path) -> list[RecordingEntry]:
     path = existing_file(path, "manifest")
     try:
-        frame = pd.read_csv(path, dtype=str, keep_default_na=False, skipinitialspace=True)
+        options = sniff(path).read_csv_options()
+        frame = pd.read_csv(path, dtype=str, keep_default_na=False, skipinitialspace=True, **options)
     except pd.errors.EmptyDataError:
         raise BadInputError(path, "empty manifest") from None
     except (pd.errors.ParserError, UnicodeDecodeError) as exc:

@@ -16,6 +16,7 @@ import pyarrow.csv as pacsv
 import pyarrow.parquet as pq
 
 from grasptask.errors import BadInputError, existing_file
+from grasptask.io.csv_format import ENCODING, sniff
 from grasptask.task.tool import CANONICAL_COLUMNS
 
 MIN_SAMPLES = 10
@@ -54,8 +55,8 @@ def read_recording(
 def _read_header(path: Path, suffix: str) -> list[str]:
     if suffix == ".csv":
         try:
-            with open(path, newline="") as handle:
-                header = next(csv.reader(handle), [])
+            with open(path, newline="", encoding=ENCODING) as handle:
+                header = next(csv.reader(handle, delimiter=sniff(path).sep), [])
         except (UnicodeDecodeError, csv.Error) as exc:
             raise BadInputError(path, f"not a readable CSV ({type(exc).__name__})") from exc
         if not header:
@@ -101,7 +102,8 @@ def _read_table(path: Path, suffix: str, wanted: list[str], file_columns: list[s
     try:
         # pandas' C parser reads numeric CSV faster than pyarrow's on this machine's two cores
         # (usecols would double the parse time; the header is already checked, so read all and drop the rest)
-        frame = pd.read_csv(path, dtype={c: np.float64 for c in wanted}, engine="c")[wanted]
+        options = sniff(path).read_csv_options()
+        frame = pd.read_csv(path, dtype={c: np.float64 for c in wanted}, engine="c", **options)[wanted]
     except (ValueError, pd.errors.ParserError):  # UnicodeDecodeError is a ValueError
         try:
             _locate_non_numeric(path, wanted)
@@ -115,7 +117,7 @@ def _read_table(path: Path, suffix: str, wanted: list[str], file_columns: list[s
 
 def _locate_non_numeric(path: Path, wanted: list[str]) -> None:
     """The fast parser says only that something is wrong; find the exact cell the slow way."""
-    frame = pd.read_csv(path, dtype=str, keep_default_na=False, usecols=wanted)
+    frame = pd.read_csv(path, dtype=str, keep_default_na=False, usecols=wanted, **sniff(path).read_csv_options())
     for column in wanted:
         text = frame[column].str.strip()
         numeric = pd.to_numeric(text, errors="coerce")

@@ -1,0 +1,69 @@
+"""A sweep's rows depend on its seed, hand, object and settings, never on how busy the machine is or on how
+many workers solve it: every solve stops on its iterations, not on the clock."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+from grasptask.errors import BadInputError
+from grasptask.stages import SynthesisOptions, run_synthesize
+from grasptask.synthesis.config import load_solver_config
+
+FAST = Path("tests/data/solver_fast.yaml")
+
+
+def quiet(_: str) -> None:
+    pass
+
+
+@contextmanager
+def busy_cores(count: int) -> Iterator[None]:
+    """``count`` processes that keep a core busy each, for the duration."""
+    spinners = [subprocess.Popen([sys.executable, "-c", "while True: pass"]) for _ in range(count)]
+    try:
+        yield
+    finally:
+        for spinner in spinners:
+            spinner.kill()
+            spinner.wait()
+
+
+def rows(folder: Path) -> pd.DataFrame:
+    """What a start's result is: its status, iterations, verdict, Q and grasp; not its seconds."""
+    table = pd.read_parquet(folder / "cutting" / "solutions.parquet")
+    grasp = [c for c in table.columns if c.startswith(("palm_", "q_", "contact_"))]
+    kept = ["start_id", "status", "iterations", "verified", "Q", "verify_Q", *grasp]
+    return table[kept].sort_values("start_id").reset_index(drop=True)
+
+
+def test_a_sweeps_rows_are_the_same_with_one_worker_two_and_busy_cores(tasks, tmp_path):
+    common = {"tasks": tasks, "task": "cutting", "solver_config": FAST, "starts": 4}
+    run_synthesize(SynthesisOptions(**common, out=tmp_path / "two", workers=2), echo=quiet)
+    run_synthesize(SynthesisOptions(**common, out=tmp_path / "one", workers=1), echo=quiet)
+    with busy_cores(4):
+        run_synthesize(SynthesisOptions(**common, out=tmp_path / "busy", workers=2), echo=quiet)
+    two = rows(tmp_path / "two")
+    assert len(two) == 4 and two["status"].isin(["optimal", "acceptable", "infeasible", "max-iter"]).all()
+    pd.testing.assert_frame_equal(rows(tmp_path / "one"), two)
+    pd.testing.assert_frame_equal(rows(tmp_path / "busy"), two)
+
+
+@pytest.mark.parametrize("option", ["max_wall_time", "max_cpu_time"])
+def test_a_clock_limit_on_a_solve_is_refused(tmp_path, option):
+    path = tmp_path / "solver.yaml"
+    path.write_text(f"ipopt: {{{option}: 30.0}}\n")
+    with pytest.raises(BadInputError, match=f"solver.yaml: field 'ipopt': {option} would stop a solve on"):
+        load_solver_config(path)
+
+
+def test_the_shipped_settings_stop_on_iterations_and_guard_hung_workers_far_above_any_solve():
+    solver = load_solver_config("configs/solver.yaml")
+    assert "max_wall_time" not in solver.ipopt and solver.ipopt["max_iter"] == 1500
+    assert solver.hang_after_s >= 600
