@@ -117,11 +117,37 @@ def test_a_urdf_hand_with_mesh_links_is_simulated_from_its_own_file(tmp_path):
     assert result.initial_penetration_m < 1e-4
 
 
+UNBALANCED = (
+    '<inertial><mass value="0.1"/><inertia ixx="1e-6" iyy="1e-6" izz="1e-4" ixy="0" ixz="0" iyz="0"/></inertial>'
+)
+
+
+def test_an_inertia_mujoco_refuses_and_the_files_own_mujoco_element_pass_the_physics_check(tmp_path):
+    """A link's inertia that breaks A + B >= C (MuJoCo refuses it as it is) is balanced and said; the URDF's
+    own <mujoco> element is merged with the scene's, not doubled ("repeated element")."""
+    path = write_mesh_gripper(tmp_path, inertia=UNBALANCED)
+    text = path.read_text()
+    path.write_text(text.replace("</robot>", '<mujoco><compiler balanceinertia="false"/></mujoco>\n</robot>'))
+    from grasptask.report.hand_view import hand_lines
+
+    assert any(
+        "balanced by the physics check" in line and "finger0_link0" in line for line in hand_lines(load_hand(path))
+    )
+    hand = load_hand(path).grasping_hand()
+    ball = Superquadric(np.full(3, GRIPPER_BALL_RADIUS_M), 1.0, 1.0, name="ball")
+    grasp = Grasp(np.eye(3), -ball_centre(), np.zeros(hand.n_joints))
+    body = object_body(ball, SETTINGS)
+    result = check_grasp(
+        build_scene(hand, ball, body, grasp, 0.5, SETTINGS), drawing_like_task(0.2), body.mass_kg, SETTINGS
+    )
+    assert result.passed, result.record()
+
+
 def test_a_hand_file_mujoco_cannot_compile_is_one_line(cli, sweep, tmp_path):
-    """A URDF the hand loader reads but MuJoCo refuses (a link's inertia breaks the triangle inequality): one
-    line naming the file and MuJoCo's message, exit 2, nothing written."""
-    bad = '<inertial><mass value="0.1"/><inertia ixx="1e-6" iyy="1e-6" izz="1e-4" ixy="0" ixz="0" iyz="0"/></inertial>'
-    path = write_mesh_gripper(tmp_path, inertia=bad)
+    """A URDF the hand loader reads but MuJoCo refuses (its own <mujoco> element asks for angles in a unit
+    MuJoCo does not know): one line naming the file and MuJoCo's message, exit 2, nothing written."""
+    path = write_mesh_gripper(tmp_path)
+    path.write_text(path.read_text().replace("</robot>", '<mujoco><compiler angle="sideways"/></mujoco></robot>'))
     hand = load_hand(path).grasping_hand()
     grasp = Grasp(np.eye(3), -ball_centre(), np.zeros(hand.n_joints))
     row = {"start_id": 0, "verified": True, "Q": 0.1}
@@ -137,7 +163,7 @@ def test_a_hand_file_mujoco_cannot_compile_is_one_line(cli, sweep, tmp_path):
     )  # fmt: skip
     assert result.exit_code == 2, result.output
     assert len(result.output.strip().splitlines()) == 1
-    assert "gripper.urdf" in result.output and "inertia" in result.output
+    assert "gripper.urdf" in result.output and "MuJoCo" in result.output
     assert not (tmp_path / "o").exists()
 
 

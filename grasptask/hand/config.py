@@ -135,8 +135,10 @@ class ModelHandConfig:
     #: what the report and the records call the hand (default: the model's name)
     name: Text | None = None
     description: str = ""
-    #: the link the fingers start from (default: the root link)
+    #: the link the fingers start from (default: the link where the chains to the fingertips branch)
     palm_link: Text | None = None
+    #: the angle (rad) a joint before the palm (a wrist) is held at (default: 0, or its nearest limit)
+    held_joints: dict[str, Real] = field(default_factory=dict)
     #: one fingertip link per finger (default: the last link with collision geometry of each chain)
     fingertips: Names | None = None
     #: what the report and the records call each finger, in the order of fingertips

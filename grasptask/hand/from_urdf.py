@@ -75,12 +75,13 @@ def _unique_names(robot, source: Path) -> None:
             seen.add(item.name)
 
 
-def _check_inertial(link, source: Path) -> None:
+def _check_inertial(link, source: Path) -> bool:
     """A link's mass and inertia as physics can use them: finite, the mass not negative, the inertia a
-    symmetric matrix with no negative principal moment."""
+    symmetric matrix with no negative principal moment; whether its principal moments break A + B >= C (as
+    many published ones do, by rounding), which the physics check balances."""
     inertial = link.inertial
     if inertial is None:
-        return
+        return False
     mass = np.nan if inertial.mass is None else float(inertial.mass)
     inertia = np.zeros((3, 3)) if inertial.inertia is None else np.asarray(inertial.inertia, dtype=float)
     origin = np.eye(4) if inertial.origin is None else np.asarray(inertial.origin, dtype=float)
@@ -93,6 +94,7 @@ def _check_inertial(link, source: Path) -> None:
         raise BadInputError(
             source, f"link '{link.name}': inertia has a negative principal moment ({moments.min():.3g} kg.m^2)"
         )
+    return bool(moments[0] + moments[1] < moments[2] * (1 - 1e-9))
 
 
 def read_urdf(source: Path) -> Tree:
@@ -116,9 +118,10 @@ def read_urdf(source: Path) -> Tree:
         raise BadInputError(source, f"not a URDF yourdfpy can read ({type(exc).__name__}: {exc})") from exc
     robot = urdf.robot
     _unique_names(robot, source)
-    links = {}
+    links, unbalanced = {}, []
     for link in robot.links:
-        _check_inertial(link, source)
+        if _check_inertial(link, source):
+            unbalanced.append(link.name)
         tree_link = TreeLink(link.name)
         for collision in link.collisions:
             origin = np.eye(4) if collision.origin is None else np.asarray(collision.origin, dtype=float)
@@ -146,4 +149,4 @@ def read_urdf(source: Path) -> Tree:
                 mimic=mimic,
             )
         )
-    return Tree(links, joints)
+    return Tree(links, joints, unbalanced)

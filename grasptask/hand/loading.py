@@ -89,6 +89,7 @@ def _with_model(data: dict, source: Path) -> Hand:
         grasping=None if config.grasping_fingers is None else tuple(config.grasping_fingers),
         approach=_approach(config.approach, source),
         compliance_m=config.compliance_m,
+        held=dict(config.held_joints),
         config=source,
     )
     hand = hand_from_tree(_read_model(model, source), model, options)

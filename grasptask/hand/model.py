@@ -185,6 +185,10 @@ class Hand:
     #: outside its mesh (m), by link
     fingertip_links: dict[str, str] = field(default_factory=dict)
     cover_reach_m: dict[str, float] = field(default_factory=dict)
+    #: the hand file's joints before the palm (a wrist), each held at this angle (rad): the palm moves with them
+    held_joints: dict[str, float] = field(default_factory=dict)
+    #: links of the hand file whose inertia breaks A + B >= C, which the physics check balances
+    unbalanced_inertia: tuple[str, ...] = ()
 
     def contact_offsets(self, rolling: bool = True) -> np.ndarray:
         """Per finger, the distance from the fingertip sphere's centre to the surface at a contact: its radius

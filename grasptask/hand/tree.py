@@ -31,8 +31,8 @@ from grasptask.errors import BadInputError
 from grasptask.hand.kinematics import forward
 from grasptask.hand.model import DEFAULT_COMPLIANCE_M, Capability, Finger, Hand, Joint, Pad, Palm, Skin, Sphere
 from grasptask.hand.pad_fit import NoPadError, fit_pad
+from grasptask.hand.palm import REVOLUTE, branching_link, fixed_to_palm, held_joints
 
-REVOLUTE = ("revolute", "continuous")
 #: how far over a mesh tip's pad sphere the contact may roll from the pad's home point (the pad-angle limit)
 PAD_ROLL_DEG = 45.0
 
@@ -86,6 +86,8 @@ class TreeJoint:
 class Tree:
     links: dict[str, TreeLink]
     joints: list[TreeJoint]
+    #: links whose inertia breaks A + B >= C: the physics check balances them
+    unbalanced: list[str] = field(default_factory=list)
 
 
 @dataclass(frozen=True)
@@ -100,6 +102,8 @@ class HandOptions:
     grasping: tuple[str, ...] | None = None
     approach: np.ndarray | None = None  # 3 x 3: the approach frame (z towards the object) in the palm frame
     compliance_m: float = DEFAULT_COMPLIANCE_M  # how far a fingertip gives at a contact
+    #: the angle (rad) each joint before the palm (a wrist) is held at, where not the default
+    held: dict[str, float] = field(default_factory=dict)
     #: the YAML these came from: a choice of its that the model refuses is named there, by its key
     config: Path | None = None
 
@@ -493,17 +497,38 @@ def _approach(fingers: dict[str, Finger], options: HandOptions) -> np.ndarray:
     return np.column_stack([x, np.cross(z, x), z])
 
 
+def _palm_and_tips(
+    tree: Tree, into: dict[str, TreeJoint], root: str, options: HandOptions, source: Path
+) -> tuple[str, list[str]]:
+    """The palm link and the fingertip links: as the YAML names them, else the fingertips found below the root
+    and the palm where their chains branch, found again below that palm until both settle (a link fixed to the
+    palm, an IMU's, is no fingertip of a hand whose wrist moves it)."""
+    palm = options.palm_link
+    if palm is not None and palm not in tree.links:
+        raise options.fault(source, "palm_link", f"palm link '{palm}' is not defined")
+    if options.fingertips:
+        tips = list(options.fingertips)
+        for tip in tips:
+            if tip not in tree.links:
+                raise options.fault(source, "fingertips", f"unknown fingertip '{tip}' (no such link)")
+        return palm or (branching_link(into, tips) if len(tips) > 1 else root), tips
+    if palm is not None:
+        return palm, _default_tips(tree, into, palm)
+    palm, tips = root, _default_tips(tree, into, root)
+    while len(tips) > 1:
+        below = branching_link(into, tips)
+        if below == palm:
+            break
+        palm, tips = below, _default_tips(tree, into, below)
+    return palm, tips
+
+
 def hand_from_tree(tree: Tree, source: Path, options: HandOptions = HandOptions()) -> Hand:
     """The hand a parsed file describes (see the module docstring for the rules and the defaults)."""
     _check_values(tree, source)
     into = _check(tree, source)
-    palm = options.palm_link or _root(tree, into, source)
-    if palm not in tree.links:
-        raise options.fault(source, "palm_link", f"palm link '{palm}' is not defined")
-    tips = list(options.fingertips) if options.fingertips else _default_tips(tree, into, palm)
-    for tip in tips:
-        if tip not in tree.links:
-            raise options.fault(source, "fingertips", f"unknown fingertip '{tip}' (no such link)")
+    root = _root(tree, into, source)
+    palm, tips = _palm_and_tips(tree, into, root, options, source)
     for link in options.pads:
         if link not in tips:
             raise options.fault(source, f"pads.{link}", f"link '{link}' is not a fingertip ({', '.join(tips)})")
@@ -552,9 +577,9 @@ def hand_from_tree(tree: Tree, source: Path, options: HandOptions = HandOptions(
         end = chain.tip_frame[:3, 3].copy()
         fingers[name] = Finger(name, joints, tuple(chain.spheres), unset, end, radius, tuple(chain.skin))
     fingers = _pads(fingers, chains, tips, options, source)
-    palm_spheres = list(tree.links[palm].spheres)
-    palm_skin = [_skin(tree.links[palm], np.eye(4))]
-    for link, frame in _fixed_descendants(tree, palm, on_path):
+    held = held_joints(into, root, palm, options, source)
+    palm_spheres, palm_skin = [], [np.zeros((0, 3))]
+    for link, frame in fixed_to_palm(tree, into, palm):
         palm_spheres += _transform_spheres(tree.links[link].spheres, frame)
         palm_skin.append(_skin(tree.links[link], frame))
     centres, radii = np.array([c for c, _ in palm_spheres]).reshape(-1, 3), np.array([r for _, r in palm_spheres])
@@ -588,5 +613,7 @@ def hand_from_tree(tree: Tree, source: Path, options: HandOptions = HandOptions(
         palm_link=palm,
         compliance_m=options.compliance_m,
         fingertip_links=dict(zip(names, tips, strict=True)),
+        held_joints=held,
+        unbalanced_inertia=tuple(tree.unbalanced),
         cover_reach_m={name: link.cover_reach_m for name, link in tree.links.items() if link.meshes},
     )

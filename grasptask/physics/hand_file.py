@@ -48,8 +48,15 @@ def _urdf_spec(source: Path) -> mujoco.MjSpec:
         found = resolve_mesh(mesh.get("filename", ""), source)
         if found is not None:
             mesh.set("filename", str(found))
-    extension = etree.SubElement(root, "mujoco")
-    etree.SubElement(extension, "compiler", fusestatic="false", strippath="false", discardvisual="true")
+    # the file's own <mujoco> element is kept, with what the scene needs set in it: a second one is refused.
+    # Published inertias often break A + B >= C, which MuJoCo refuses unless it balances them
+    extension = root.find("mujoco")
+    extension = etree.SubElement(root, "mujoco") if extension is None else extension
+    compiler = extension.find("compiler")
+    compiler = etree.SubElement(extension, "compiler") if compiler is None else compiler
+    for key, value in (("fusestatic", "false"), ("strippath", "false"), ("discardvisual", "true")):
+        compiler.set(key, value)
+    compiler.set("balanceinertia", "true")
     try:
         return mujoco.MjSpec.from_string(etree.tostring(root, encoding="unicode"))
     except ValueError as exc:
@@ -88,16 +95,43 @@ def _prepared(source: Path, stamp: float) -> mujoco.MjSpec:
     return spec
 
 
-def _remove_unused_fingers(spec: mujoco.MjSpec, keep: set[str], palm: str) -> None:
-    """Delete the subtree of every body whose joint the grasp does not use. The joints between the world and
-    the palm (a mounted hand's free joint, an arm's) are removed instead, which welds the palm."""
+def _above_palm(spec: mujoco.MjSpec, palm: str) -> set[str]:
+    """The palm's body and the bodies between it and the world (a forearm, a wrist)."""
     above, body = set(), spec.body(palm)
     while body is not None and body.name != "world":
         above.add(body.name)
         body = body.parent
+    return above
+
+
+def _hold(body: mujoco.MjsBody, joint: mujoco.MjsJoint, angle: float) -> None:
+    """``body`` turned about ``joint``'s axis by ``angle``, for good: the joint held there, then removed."""
+    if angle == 0.0:
+        return
+    axis = np.asarray(joint.axis, dtype=float) / np.linalg.norm(joint.axis)
+    turn, point = np.zeros(4), np.asarray(joint.pos, dtype=float)
+    mujoco.mju_axisAngle2Quat(turn, axis, angle)
+    rotation, moved = np.zeros(9), np.zeros(3)
+    mujoco.mju_quat2Mat(rotation, np.asarray(body.quat, dtype=float))
+    mujoco.mju_rotVecQuat(moved, point, turn)
+    body.pos = np.asarray(body.pos, dtype=float) + rotation.reshape(3, 3) @ (point - moved)
+    quat = np.zeros(4)
+    mujoco.mju_mulQuat(quat, np.asarray(body.quat, dtype=float), turn)
+    body.quat = quat
+
+
+def _remove_unused_fingers(spec: mujoco.MjSpec, keep: set[str], palm: str, held: dict[str, float]) -> None:
+    """Delete the subtree of every body whose joint the grasp does not use. The joints between the world and
+    the palm (a mounted hand's free joint, an arm's, a wrist's) are removed instead, each at the angle the hand
+    holds it at, which welds the palm; the bodies before the palm collide with nothing, as in the hand model."""
+    above = _above_palm(spec, palm)
     for joint in list(spec.joints):
         if joint.type == mujoco.mjtJoint.mjJNT_FREE or joint.parent.name in above:
+            _hold(joint.parent, joint, held.get(joint.name, 0.0))
             spec.delete(joint)
+    for geom in spec.geoms:
+        if geom.parent.name in above and geom.parent.name != palm:
+            geom.contype, geom.conaffinity = 0, 0
     doomed = [joint.parent for joint in spec.joints if joint.name not in keep]
     removed: set[str] = set()
     for body in doomed:
@@ -136,9 +170,17 @@ def _place(body, rotation: np.ndarray, position: np.ndarray) -> None:
 
 
 @lru_cache(maxsize=8)
-def _palm_in_root(source: Path, stamp: float, palm: str) -> tuple[np.ndarray, np.ndarray]:
-    """The palm's rotation and position in the frame of the world's child that holds it, at the joints' zero."""
+def _palm_in_root(
+    source: Path, stamp: float, palm: str, held: tuple[tuple[str, float], ...]
+) -> tuple[np.ndarray, np.ndarray]:
+    """The palm's rotation and position in the frame of the world's child that holds it, at the joints' zero
+    and the held joints' angles."""
     spec = _prepared(source, stamp).copy()
+    above = _above_palm(spec, palm)
+    for joint in list(spec.joints):
+        if joint.parent.name in above:
+            _hold(joint.parent, joint, dict(held).get(joint.name, 0.0))
+            spec.delete(joint)
     _place(_root_of(spec, palm, source), np.eye(3), np.zeros(3))
     model = compile_spec(spec, source)
     data = mujoco.MjData(model)
@@ -160,8 +202,9 @@ def file_hand_spec(
     assert hand.model_file is not None and hand.palm_link is not None
     source = Path(hand.model_file)
     spec = _prepared(source, source.stat().st_mtime).copy()
-    _remove_unused_fingers(spec, set(hand.joint_names), hand.palm_link)
-    rotation, position = _palm_in_root(source, source.stat().st_mtime, hand.palm_link)
+    _remove_unused_fingers(spec, set(hand.joint_names), hand.palm_link, hand.held_joints)
+    held = tuple(sorted(hand.held_joints.items()))
+    rotation, position = _palm_in_root(source, source.stat().st_mtime, hand.palm_link, held)
     placed = grasp.palm_rotation @ rotation.T  # the root's pose that puts the palm at the grasp's
     _place(_root_of(spec, hand.palm_link, source), placed, grasp.palm_position - placed @ position)
     for geom in spec.geoms:

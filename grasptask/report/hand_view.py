@@ -32,12 +32,17 @@ def _unit(vector: np.ndarray) -> str:
 def hand_lines(hand: Hand) -> list[str]:
     """The summary a user reads first: the file, the fingers, each finger's chain and pad, and the covers."""
     source = hand.model_file or "the project's own hand model"
+    capability = hand.capability  # a motor drives its joint both ways: two actuators, J+ and J-
+    actuators = {name.rstrip("+-") for name in capability.actuators} if capability.kind == "motors" else None
+    count = f"{len(actuators)} motors" if actuators is not None else f"{len(capability.actuators)} actuators"
     lines = [
         f"hand '{hand.name}' from {source}" + (f", palm link '{hand.palm_link}'" if hand.palm_link else ""),
         f"{len(hand.fingers)} fingers ({', '.join(hand.grasping)} grasp), {hand.n_joints} joints, "
-        f"{len(hand.capability.actuators)} actuators ({hand.capability.kind}), "
-        f"compliance {1e3 * hand.compliance_m:.2f} mm",
+        f"{count} ({capability.kind}), compliance {1e3 * hand.compliance_m:.2f} mm",
     ]
+    if hand.held_joints:
+        held = ", ".join(f"{name} at {np.degrees(value):.0f} deg" for name, value in hand.held_joints.items())
+        lines.append(f"joints before the palm held (held_joints in a hand YAML): {held}")
     for name, finger in hand.fingers.items():
         joints = ", ".join(
             f"{j.name} [{np.degrees(j.lower):.0f}, {np.degrees(j.upper):.0f}] deg"
@@ -53,8 +58,20 @@ def hand_lines(hand: Hand) -> list[str]:
             f"  fingertip link '{link}': pad at {_mm(pad.point)} mm, normal {_unit(pad.normal)}, {shape}{fit}; "
             f"{len(finger.spheres)} collision spheres"
         )
+    if hand.unbalanced_inertia:
+        links = ", ".join(hand.unbalanced_inertia)
+        lines.append(
+            f"inertias that break A + B >= C, balanced by the physics check (MuJoCo's balanceinertia): {links}"
+        )
     spheres = sum(len(f.spheres) for f in hand.fingers.values())
-    lines.append(f"{spheres} collision spheres on the fingers, {len(hand.palm.radii)} on the palm")
+    lines.append(
+        f"{spheres} collision spheres on the fingers, {len(hand.palm.radii)} on the palm"
+        + (
+            "; the palm has no collision geometry, so nothing keeps the object out of it"
+            if not len(hand.palm.radii)
+            else ""
+        )
+    )
     if hand.cover_reach_m:
         worst = max(hand.cover_reach_m, key=lambda link: hand.cover_reach_m[link])
         wide = [f"{link} {1e3 * r:.1f} mm" for link, r in hand.cover_reach_m.items() if r > BOUND_M + 1e-6]
