@@ -432,6 +432,8 @@ def synthesize(
         f"statuses {', '.join(f'{k} {v}' for k, v in run['status_counts'].items() if v)}"
         f"{_object_said(run)}"
     )
+    if run.get("why_few_verified"):
+        click.echo(f"{task}: few starts verified: {run['why_few_verified']}")
     click.echo(f"wrote {out}/{task}/solutions.parquet, optima.parquet, run.json")
 
 

@@ -6,9 +6,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+import trimesh
 
 from grasptask.errors import BadInputError
 from grasptask.hand import load_hand
+from grasptask.hand.mesh_cover import MAX_BOUND_M, mesh_spheres
 from grasptask.report.hand_view import hand_lines
 from tests.test_robot_hands import TWO_FINGERS
 
@@ -94,3 +96,68 @@ def test_a_palm_without_collision_geometry_is_said(tmp_path):
 def test_the_summary_counts_motors_not_their_two_directions():
     lines = hand_lines(load_hand("configs/hands/allegro.yaml"))
     assert "16 joints, 16 motors (motors)" in lines[1]
+
+
+def open_meshes() -> dict[str, trimesh.Trimesh]:
+    """Meshes as hand files ship them: a palm tray without its lid, a one-sided sheet, an open shell, a closed
+    box with its faces turned inward."""
+    box = trimesh.creation.box([0.08, 0.06, 0.01])
+    sheet = trimesh.creation.box([0.08, 0.06, 0.004])
+    ball = trimesh.creation.icosphere(3, 0.04)
+    shell = trimesh.Trimesh(ball.vertices, ball.faces[ball.triangles_center[:, 2] > 0])
+    shell.remove_unreferenced_vertices()
+    inverted = trimesh.creation.box([0.05, 0.04, 0.02])
+    inverted.invert()
+    return {
+        "tray": trimesh.Trimesh(box.vertices, box.faces[box.face_normals[:, 2] < 0.9]),
+        "sheet": trimesh.Trimesh(sheet.vertices, sheet.faces[sheet.face_normals[:, 2] > 0.9]),
+        "shell": shell,
+        "inverted": inverted,
+    }
+
+
+@pytest.mark.parametrize("kind", ["tray", "sheet", "shell", "inverted"])
+def test_no_cover_sphere_of_an_open_mesh_leaves_its_bounding_box_by_more_than_its_stated_reach(kind):
+    mesh = open_meshes()[kind]
+    spheres, reach = mesh_spheres(mesh.vertices, mesh.faces, np.eye(4))
+    low, high = mesh.bounds
+    for centre, radius in spheres:
+        assert (centre - radius >= low - reach - 1e-9).all() and (centre + radius <= high + reach + 1e-9).all()
+    assert reach <= MAX_BOUND_M  # the explosion was a 354 mm sphere on an open palm plate
+    assert len(spheres) <= 64
+
+
+def test_a_hand_whose_palm_is_an_open_plate_keeps_its_cover_on_the_palm(tmp_path):
+    open_meshes()["tray"].export(tmp_path / "palm.stl")
+    path = tmp_path / "hand.urdf"
+    path.write_text(TWO_FINGERS.replace('<box size="0.08 0.08 0.02"/>', '<mesh filename="palm.stl"/>'))
+    hand = load_hand(path)
+    reach = hand.cover_reach_m["palm"]
+    assert 0 < reach <= MAX_BOUND_M
+    extent = np.abs(hand.palm.points).max(axis=0) + hand.palm.radii.max()
+    assert (extent <= np.array([0.04, 0.03, 0.005]) + reach + 1e-9).all()
+    assert any("palm" in line and "mm" in line for line in hand_lines(hand) if "reach" in line)
+
+
+def test_a_sweep_of_a_hand_too_weak_for_the_task_says_so_with_numbers():
+    import pandas as pd
+
+    from grasptask.records.solutions import why_few_verified
+
+    table = pd.DataFrame(
+        {
+            "status": ["optimal", "optimal", "acceptable", "infeasible", "optimal"],
+            "verified": [False, False, False, False, True],
+            "verify_failures": ["torque_feasibility", "torque_feasibility;pad_angle", "torque_feasibility", "", ""],
+            "verify_torque_effort": [2.3, 8.7, 4.0, np.nan, 0.5],
+        }
+    )
+    said = why_few_verified(table, "screwdriving")
+    assert said == (
+        "the hand is too weak for screwdriving: 3 of 3 solved starts the verifier rejected needed 2.3-8.7x its "
+        "motors' or tendons' rated strength"
+    )
+    table["verify_failures"] = ["pad_angle", "pad_angle", "torque_feasibility", "", ""]
+    assert why_few_verified(table, "screwdriving") is None  # strength is not what failed most
+    table["verified"] = [True, True, True, False, True]
+    assert why_few_verified(table, "screwdriving") is None  # most verified

@@ -58,7 +58,7 @@ def mesh_spheres(
     most :data:`BOUND_M` outside it. Other links get the fewest fitted spheres that reach no farther, or, where
     :data:`MAX_SPHERES` cannot (a sharp 2 x 3 x 5 cm box needs 215 at 2.5 mm, every edge and corner its own),
     the closest that so few can, or the box's spheres if they reach less far."""
-    vertices, faces = np.asarray(vertices, float), np.asarray(faces, int)
+    vertices, faces = _outward(np.asarray(vertices, float), np.asarray(faces, int))
     points, normals = surface_samples(vertices, faces, BOUND_M / 2)
     boxed = mesh_box(vertices, np.eye(4))  # a thin plate's box takes thousands of spheres: not measured
     boxed_reach = reach(boxed, points, normals) if len(boxed) <= MAX_BOX_SPHERES else np.inf
@@ -68,7 +68,30 @@ def mesh_spheres(
         if fitted_reach < boxed_reach - 1e-4:
             chosen, chosen_reach = fitted, fitted_reach
     placed = [(transform[:3, :3] @ c + transform[:3, 3], r) for c, r in chosen]
-    return placed, chosen_reach
+    # on an open mesh the normals need not point out, and the measured reach can miss a sphere's far side: the
+    # stated reach is at least how far a sphere leaves the mesh's bounding box
+    return placed, max(chosen_reach, box_overreach(chosen, vertices))
+
+
+def _outward(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A closed mesh whose faces point inward (as some exporters write them) turned outward; others as given."""
+    import trimesh  # deferred: trimesh, only for mesh links
+
+    mesh = trimesh.Trimesh(vertices, faces, process=False)
+    with np.errstate(invalid="ignore", divide="ignore"):  # a flat closed mesh has no volume to divide by
+        inward = mesh.is_watertight and mesh.is_winding_consistent and mesh.volume < 0
+    if inward:
+        return vertices, faces[:, ::-1].copy()
+    return vertices, faces
+
+
+def box_overreach(spheres: list[tuple[np.ndarray, float]], vertices: np.ndarray) -> float:
+    """How far the farthest sphere leaves the vertices' axis-aligned bounding box (0 if none does)."""
+    if not spheres:
+        return 0.0
+    centre, radius = np.array([c for c, _ in spheres]), np.array([r for _, r in spheres])[:, None]
+    low, high = vertices.min(axis=0), vertices.max(axis=0)
+    return float(max(0.0, (low - (centre - radius)).max(), ((centre + radius) - high).max()))
 
 
 def _fewest_within(
@@ -132,6 +155,11 @@ def fitted_spheres(
         centres.append(inward[inside])
         radii.append(nearest[inside] + bound - bound / 2)  # the samples' spacing eats into the bound
     centre, radius = np.vstack(centres), np.concatenate(radii)
+    # a candidate that leaves the bounding box by more than the bound is refused: on an open or non-manifold
+    # mesh (a palm plate, a shell) "inward" can be outward, and the nearest surface far (a 354 mm sphere)
+    low, high = vertices.min(axis=0) - bound, vertices.max(axis=0) + bound
+    within = ((centre - radius[:, None]) >= low).all(axis=1) & ((centre + radius[:, None]) <= high).all(axis=1)
+    centre, radius = centre[within], radius[within]
     chosen = _greedy_cover(points, tree, centre, radius, most)
     if chosen is None:
         return None

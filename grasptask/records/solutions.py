@@ -127,3 +127,32 @@ def contacts_from_row(row: Row, fingers: list[str]) -> np.ndarray:
 def normals_from_row(row: Row, fingers: list[str]) -> np.ndarray:
     """The outward surface normals at the contacts."""
     return np.array([[row[c] for c in names] for names in _finger_columns("normal", fingers)], dtype=float)
+
+
+#: a sweep verifying less than this share of its starts says why, where one reason dominates
+FEW_VERIFIED = 0.5
+
+
+def why_few_verified(solutions: Any, task: str) -> str | None:
+    """Why a sweep verified few of its starts, where the hand is too weak for the task: most solved starts the
+    verifier rejected needed more than the motors' or tendons' strength (the torque check), by how much at the
+    least and the most (``verify_torque_effort``: the activation the task wrenches need, 1 the rating). None
+    where most starts verified or strength is not what failed them."""
+    if not len(solutions) or float(np.mean(solutions["verified"])) >= FEW_VERIFIED:
+        return None
+    if "verify_failures" not in solutions or "verify_torque_effort" not in solutions:
+        return None
+    solved = solutions["status"].isin(["optimal", "acceptable"]).to_numpy()
+    rejected = solved & ~solutions["verified"].to_numpy(dtype=bool)
+    failures = solutions["verify_failures"].fillna("").astype(str)
+    weak = rejected & failures.str.contains("torque_feasibility").to_numpy()
+    if not weak.any() or weak.sum() < FEW_VERIFIED * rejected.sum():
+        return None
+    effort = solutions["verify_torque_effort"].to_numpy(dtype=float)[weak]
+    effort = effort[np.isfinite(effort)]
+    if not len(effort):
+        return None
+    return (
+        f"the hand is too weak for {task}: {int(weak.sum())} of {int(rejected.sum())} solved starts the verifier "
+        f"rejected needed {effort.min():.1f}-{effort.max():.1f}x its motors' or tendons' rated strength"
+    )

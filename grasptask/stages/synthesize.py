@@ -42,7 +42,7 @@ from grasptask.paths import DEFAULT_GRASP_CONFIG, DEFAULT_HAND, DEFAULT_OBJECT, 
 from grasptask.physics.settings import load_physics_settings
 from grasptask.progress import Progress
 from grasptask.records.reference import PaperSynthesis, read_paper_synthesis
-from grasptask.records.solutions import STATUSES, grasp_from_row, retried, solved_with_all_axes
+from grasptask.records.solutions import STATUSES, grasp_from_row, retried, solved_with_all_axes, why_few_verified
 from grasptask.records.sweeps import SolvedGrasps
 from grasptask.synthesis.clustering import cluster
 from grasptask.synthesis.config import load_solver_config
@@ -461,6 +461,8 @@ def summarise(
         "status_counts": status_counts,
         "verified": int(solutions["verified"].sum()),
         "verified_fraction": float(solutions["verified"].mean()) if len(solutions) else 0.0,
+        # where few starts verified and the hand's strength is why, by how much (None: not so)
+        "why_few_verified": why_few_verified(solutions, options.task),
         # starts solved again from the solver config's retry postures, and those of them the verifier accepted
         "retried_starts": int(again.sum()),
         "verified_on_retry": int((again & solutions["verified"]).sum()),
