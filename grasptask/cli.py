@@ -428,7 +428,7 @@ def synthesize(
     click.echo(
         f"{task}: {run['verified']}/{run['starts']} starts verified ({run['verified_on_retry']} on a retry), "
         f"{run['distinct_optima']} distinct optima, "
-        f"best Q {_number(run['best_Q'])}; {seconds['median']:.2f} s per start (median), "
+        f"best Q {_number(run['best_Q'])}{_verifier_said(run)}; {seconds['median']:.2f} s per start (median), "
         f"statuses {', '.join(f'{k} {v}' for k, v in run['status_counts'].items() if v)}"
         f"{_object_said(run)}"
     )
@@ -660,6 +660,14 @@ def check_stage(stage) -> None:
     """A pipeline stage's command line as Click would take it, or one line naming the stage: what ``pipeline
     run`` checks of every stage before it runs any."""
     _stage_command(stage)
+
+
+def _verifier_said(run: dict) -> str:
+    """The verifier's Q of the best optimum beside the NLP's, where they differ by over 1%: which is which."""
+    nlp, verifier = run.get("best_Q"), run.get("best_Q_verifier")
+    if nlp is None or verifier is None or abs(verifier - nlp) <= 0.01 * abs(nlp):
+        return ""
+    return f" (the NLP's; the verifier's {_number(verifier)})"
 
 
 def run_stage(stage) -> int:

@@ -134,7 +134,7 @@ def test_a_hand_whose_palm_is_an_open_plate_keeps_its_cover_on_the_palm(tmp_path
     hand = load_hand(path)
     reach = hand.cover_reach_m["palm"]
     assert 0 < reach <= MAX_BOUND_M
-    extent = np.abs(hand.palm.points).max(axis=0) + hand.palm.radii.max()
+    extent = (np.abs(hand.palm.points) + hand.palm.radii[:, None]).max(axis=0)
     assert (extent <= np.array([0.04, 0.03, 0.005]) + reach + 1e-9).all()
     assert any("palm" in line and "mm" in line for line in hand_lines(hand) if "reach" in line)
 
@@ -161,3 +161,11 @@ def test_a_sweep_of_a_hand_too_weak_for_the_task_says_so_with_numbers():
     assert why_few_verified(table, "screwdriving") is None  # strength is not what failed most
     table["verified"] = [True, True, True, False, True]
     assert why_few_verified(table, "screwdriving") is None  # most verified
+
+
+def test_the_summary_line_says_which_q_is_which_where_the_judges_differ():
+    from grasptask.cli import _verifier_said
+
+    assert _verifier_said({"best_Q": 0.0100, "best_Q_verifier": 0.01005}) == ""
+    assert _verifier_said({"best_Q": 0.0100, "best_Q_verifier": 0.0920}) == " (the NLP's; the verifier's 0.092)"
+    assert _verifier_said({"best_Q": None, "best_Q_verifier": None}) == ""

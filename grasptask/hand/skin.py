@@ -85,8 +85,9 @@ def mesh(vertices: np.ndarray, transform: np.ndarray) -> np.ndarray:
     """A mesh's convex hull: its vertices and points spread evenly over its faces."""
     import trimesh  # deferred: trimesh, only for mesh links
 
-    hull = trimesh.Trimesh(np.asarray(vertices, dtype=float)).convex_hull
-    points, _ = trimesh.sample.sample_surface_even(hull, _count(float(hull.area)), seed=0)
+    with np.errstate(invalid="ignore", divide="ignore"):  # a flat mesh's hull has no volume to divide by
+        hull = trimesh.Trimesh(np.asarray(vertices, dtype=float)).convex_hull
+        points, _ = trimesh.sample.sample_surface_even(hull, _count(float(hull.area)), seed=0)
     return _placed(np.vstack([hull.vertices, points]), transform)
 
 

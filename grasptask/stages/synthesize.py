@@ -470,6 +470,9 @@ def summarise(
         "all_axes_starts": int(solved_with_all_axes(solutions).sum()),
         "distinct_optima": int(len(optima)),
         "best_Q": float(optima["Q"].min()) if len(optima) else None,
+        # the verifier's own Q of that optimum, which the report shows: the two differ where the NLP's contact
+        # model is not the verifier's (a fitted pad sphere against the fingertip's mesh)
+        "best_Q_verifier": _verifier_q_of_best(optima),
         "seconds_per_start": {
             "median": float(seconds.median()),
             "p90": float(np.percentile(seconds, 90)),
@@ -496,6 +499,13 @@ def summarise(
                 staged, solutions, options.task, judge.holding.settings, trace, table_name=None, judge=judge
             )
     return run
+
+
+def _verifier_q_of_best(optima: pd.DataFrame) -> float | None:
+    if not len(optima) or "verify_Q" not in optima:
+        return None
+    value = float(optima.loc[optima["Q"].idxmin(), "verify_Q"])
+    return value if np.isfinite(value) else None
 
 
 def _physics_judge(options: SynthesisOptions, solutions: pd.DataFrame, fingers: list[str], job: Job) -> Any:
