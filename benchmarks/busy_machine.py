@@ -45,6 +45,20 @@ def differences(a: pd.DataFrame, b: pd.DataFrame) -> int:
     return int((~same.all(axis=1)).sum())
 
 
+def markdown_table(r: dict) -> str:
+    """One row per run: its workers, the busy processes beside it, its wall time and how many rows differ."""
+    lines = [
+        "| run | workers | busy processes | wall s | verified | rows differing from 2 workers |",
+        "|---|---|---|---|---|---|",
+    ]
+    for name, run in r["runs"].items():
+        lines.append(
+            f"| {name.replace('_', ' ')} | {run['workers']} | {run['busy_processes']} | {run['wall_s']:.1f} | "
+            f"{run['verified']}/{r['starts']} | {run['rows_differing_from_two_workers']} |"
+        )
+    return "\n".join(lines)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--starts", type=int, default=12)

@@ -107,9 +107,9 @@ def test_a_yaml_alias_bomb_is_refused_at_once(tmp_path, recording_factory, cli):
     tool = tmp_path / "tool.yaml"
     tool.write_text("\n".join(bomb) + "\nsensor: {position_m: [0, 0, 0]}\nignore_columns: *i\n")
     recording_factory("rec.csv")
-    began = time.time()
+    began = time.process_time()  # this process's CPU time: the same on a busy machine
     line = one_line(cli("fit-task", tmp_path / "rec.csv", "--frame", "sensor", "--tool", tool, "--out", tmp_path / "o"))
-    assert time.time() - began < 5 and "tool.yaml" in line and "aliases" in line
+    assert time.process_time() - began < 5 and "tool.yaml" in line and "aliases" in line
 
 
 def edited_hand(tmp_path: Path, edit) -> Path:
