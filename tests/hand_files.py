@@ -71,6 +71,27 @@ def write_mesh_gripper(root: Path, effort_nm: float = 2.0, inertia: str | None =
     return path
 
 
+def write_spread_gripper(root: Path, effort_nm: float = 2.0) -> Path:
+    """:func:`write_mesh_gripper` with fingers 1 and 2 on one spread joint, as a Schunk SVH's ring and little
+    fingers are: joint "spread" turns a knuckle link (its own collision box) about the palm's axis, and both
+    fingers rise from it. At zero posture the hand is the plain gripper's."""
+    path = write_mesh_gripper(root, effort_nm)
+    text = path.read_text()
+    for f in (1, 2):
+        text = text.replace(
+            f'<parent link="palm"/><child link="finger{f}_link0"/>',
+            f'<parent link="knuckle"/><child link="finger{f}_link0"/>',
+        )
+    knuckle = (
+        '<link name="knuckle"><collision><origin xyz="-0.01 0 -0.008"/><geometry><box size="0.01 0.01 0.004"/>'
+        '</geometry></collision></link>\n<joint name="spread" type="revolute"><parent link="palm"/>'
+        '<child link="knuckle"/><axis xyz="0 0 1"/>'
+        f'<limit lower="-0.3" upper="0.3" effort="{effort_nm}" velocity="2"/></joint>\n</robot>'
+    )
+    path.write_text(text.replace("</robot>", knuckle))
+    return path
+
+
 ALLEGRO_MJCF = Path(__file__).resolve().parents[1] / "configs" / "hands" / "allegro.xml"
 #: the mesh hand's links are the Allegro's boxes with their edges rounded over this radius (m)
 FILLET_M = 0.003

@@ -481,3 +481,17 @@ def test_physics_takes_the_task_from_the_sweep_and_refuses_another(cli, sweep, t
     result = cli("physics", folder / "solutions.parquet", "--out", tmp_path / "o")
     assert result.exit_code == 0, result.output
     assert json.loads((tmp_path / "o" / "physics_summary.json").read_text())["task"] == "drawing"
+
+
+def test_a_hand_whose_fingers_share_a_joint_is_simulated_with_it_once(tmp_path):
+    """The spread joint before two fingers is one MuJoCo joint: seven simulated joints for the hand's eight
+    columns, and the three tips hold the ball they touch."""
+    from tests.hand_files import write_spread_gripper
+
+    hand = load_hand(write_spread_gripper(tmp_path)).grasping_hand()
+    ball = Superquadric(np.full(3, GRIPPER_BALL_RADIUS_M), 1.0, 1.0, name="ball")
+    body = object_body(ball, SETTINGS)
+    scene = build_scene(hand, ball, body, Grasp(np.eye(3), -ball_centre(), np.zeros(hand.n_joints)), 0.5, SETTINGS)
+    assert len(scene.hand_dof) == len(set(scene.hand_dof.tolist())) == 7 and scene.transmission.shape == (7, 7)
+    result = check_grasp(scene, drawing_like_task(0.2), body.mass_kg, SETTINGS)
+    assert result.passed, result.record()

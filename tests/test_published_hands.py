@@ -169,3 +169,34 @@ def test_the_summary_line_says_which_q_is_which_where_the_judges_differ():
     assert _verifier_said({"best_Q": 0.0100, "best_Q_verifier": 0.01005}) == ""
     assert _verifier_said({"best_Q": 0.0100, "best_Q_verifier": 0.0920}) == " (the NLP's; the verifier's 0.092)"
     assert _verifier_said({"best_Q": None, "best_Q_verifier": None}) == ""
+
+
+def test_a_joint_shared_by_two_fingers_moves_both_and_its_torque_is_counted_once(tmp_path):
+    """The Schunk SVH's case: one spread joint before the ring and little fingers. It was refused ("moves
+    fingers ... and ..."); now it is one angle and one motor in both fingers' chains, its link's geometry once."""
+    from grasptask.hand.kinematics import forward
+    from tests.hand_files import write_spread_gripper
+
+    hand = load_hand(write_spread_gripper(tmp_path))
+    assert hand.shared_joints() == {"spread": ["finger1_tip", "finger2_tip"]}
+    assert hand.file_joint_names.count("spread") == 2 and len(set(hand.joint_names)) == hand.n_joints == 8
+    assert any("joint spread moves fingers finger1_tip and finger2_tip together" in line for line in hand_lines(hand))
+    # one motor for the spread, its row summing the torque both fingers' contacts ask of it
+    capability = hand.capability
+    assert len(capability.actuators) == 2 * 7
+    columns = [k for k, name in enumerate(hand.file_joint_names) if name == "spread"]
+    row = np.flatnonzero(capability.transmission[:, columns[0]])
+    assert len(row) == 1 and np.count_nonzero(capability.transmission[row[0]]) == 2
+    np.testing.assert_array_equal(capability.transmission[row[0], columns], [1.0, 1.0])
+    # turning it turns both fingers about the palm's axis, and leaves the third
+    q = np.zeros(hand.n_joints)
+    q[columns[0]] = 0.2
+    q = hand.apply_coupling(q)
+    assert q[columns[1]] == 0.2
+    still, turned = forward(hand, np.zeros(hand.n_joints)).contacts()[0], forward(hand, q).contacts()[0]
+    turn = np.array([[np.cos(0.2), -np.sin(0.2), 0], [np.sin(0.2), np.cos(0.2), 0], [0, 0, 1]])
+    np.testing.assert_allclose(turned[1:], still[1:] @ turn.T, atol=1e-12)
+    np.testing.assert_allclose(turned[0], still[0], atol=1e-12)
+    # the knuckle's box is carried by one finger, not both
+    links = {name: {s.link for s in f.spheres} for name, f in hand.fingers.items()}
+    assert 0 in links["finger1_tip"] and 0 not in links["finger2_tip"]

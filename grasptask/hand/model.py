@@ -25,6 +25,14 @@ class Joint:
     coupled_to: str | None = None
     ratio: float = 1.0
     coupling_offset: float = 0.0  # rad: q = ratio * q_coupled_to + coupling_offset
+    #: this joint is ``coupled_to`` itself, repeated in a second finger: one joint of the hand file on the way to
+    #: two fingertips (a spread shared by the ring and little fingers), one motor and one angle
+    shared: bool = False
+
+    @property
+    def file_name(self) -> str:
+        """The joint's name in the hand file: a shared joint's copy answers to its original."""
+        return self.coupled_to if self.shared and self.coupled_to is not None else self.name
 
 
 @dataclass(frozen=True)
@@ -204,6 +212,19 @@ class Hand:
     @property
     def n_joints(self) -> int:
         return sum(f.n_joints for f in self.fingers.values())
+
+    @property
+    def file_joint_names(self) -> list[str]:
+        """Each column's joint as the hand file names it: a joint shared by two fingers appears once per finger."""
+        return [j.file_name for f in self.fingers.values() for j in f.joints]
+
+    def shared_joints(self) -> dict[str, list[str]]:
+        """The hand file's joints that move two or more fingers, with the fingers they move."""
+        moved: dict[str, list[str]] = {}
+        for finger in self.fingers.values():
+            for joint in finger.joints:
+                moved.setdefault(joint.file_name, []).append(finger.name)
+        return {name: fingers for name, fingers in moved.items() if len(fingers) > 1}
 
     def slices(self) -> dict[str, slice]:
         """Each finger's columns in a joint vector ordered as :attr:`joint_names`."""

@@ -13,11 +13,13 @@ project's :class:`~grasptask.hand.model.Hand` from it, the same way for both for
   finger, and the first friction-cone edge follows the distal link, from its joint to the tip; the sphere that
   holds the pad is the contact surface, over which the contact rolls, not a collision sphere;
 - the approach direction for the starts runs from the palm's origin to the pads' centroid at mid-range;
-- each motor limits ``|tau| <= effort``; a joint that mimics another shares its motor and its limit.
+- each motor limits ``|tau| <= effort``; a joint that mimics another shares its motor and its limit;
+- a joint on the way to two fingertips (a spread, a palm arch) is in each of their chains, repeated as
+  ``<joint>@<finger>`` and coupled one to one: one angle, one motor, one torque limit.
 
-Choices where the files allow more than the NLP can take: prismatic, planar and floating joints are refused,
-as is a movable joint that moves two fingers; a continuous joint is a revolute joint over one turn,
-[-pi, pi]; links behind a movable joint that leads to no fingertip are left out.
+Choices where the files allow more than the NLP can take: prismatic, planar and floating joints are refused;
+a continuous joint is a revolute joint over one turn, [-pi, pi]; links behind a movable joint that leads to no
+fingertip are left out.
 """
 
 from __future__ import annotations
@@ -276,7 +278,9 @@ def _skin(link: TreeLink, transform: np.ndarray) -> np.ndarray:
     return points @ transform[:3, :3].T + transform[:3, 3]
 
 
-def _chain(tree: Tree, path: list[TreeJoint], source: Path, on_path: set[str]) -> _Chain:
+def _chain(tree: Tree, path: list[TreeJoint], source: Path, on_path: set[str], attached: set[str]) -> _Chain:
+    """One finger's chain along ``path``; the geometry of links in ``attached`` (those on the way to an earlier
+    finger too, behind a shared joint) stays with that finger, and this chain's links join ``attached``."""
     joints: list[Joint] = []
     spheres: list[Sphere] = []
     skin: list[Skin] = []
@@ -284,7 +288,7 @@ def _chain(tree: Tree, path: list[TreeJoint], source: Path, on_path: set[str]) -
     for tree_joint in path:
         if tree_joint.kind == "fixed":
             pending = pending @ tree_joint.origin
-            if joints:
+            if joints and _attach(tree_joint.child, attached):
                 for c, r in _transform_spheres(tree.links[tree_joint.child].spheres, pending):
                     spheres.append(Sphere(len(joints) - 1, c, r))
                 skin.append(Skin(len(joints) - 1, _skin(tree.links[tree_joint.child], pending)))
@@ -308,6 +312,8 @@ def _chain(tree: Tree, path: list[TreeJoint], source: Path, on_path: set[str]) -
         pending = np.eye(4)
         k = len(joints) - 1
         child = tree_joint.child
+        if not _attach(child, attached):
+            continue
         for c, r in tree.links[child].spheres:
             spheres.append(Sphere(k, c, r))
         skin.append(Skin(k, _skin(tree.links[child], np.eye(4))))
@@ -321,6 +327,31 @@ def _chain(tree: Tree, path: list[TreeJoint], source: Path, on_path: set[str]) -
     meshes = [(v @ pending[:3, :3].T + pending[:3, 3], f) for v, f in tip.meshes]
     rounded = _transform_spheres(tip.rounded, pending)
     return _Chain(joints, spheres, [s for s in skin if len(s.points)], pending, rounded, meshes)
+
+
+def _attach(link: str, attached: set[str]) -> bool:
+    """Whether ``link``'s geometry is still to be attached to a finger (and, from now on, is)."""
+    if link in attached:
+        return False
+    attached.add(link)
+    return True
+
+
+def _share_joints(chains: dict[str, _Chain], file_joints: set[str]) -> dict[str, str]:
+    """A joint on the way to two fingertips (a spread moving the ring and little fingers) stays in the first
+    finger's chain and is repeated in each later one as ``<joint>@<finger>``, coupled to it one to one: one angle,
+    and one motor whose torque sums what every finger's contacts ask of it. Returns ``copy -> original``."""
+    owner: dict[str, str] = {}
+    copies: dict[str, str] = {}
+    for name, chain in chains.items():
+        for k, joint in enumerate(chain.joints):
+            if owner.setdefault(joint.name, name) != name:
+                copy = f"{joint.name}@{name}"
+                while copy in file_joints or copy in copies:
+                    copy += "_"
+                chain.joints[k] = replace(joint, name=copy, coupled_to=joint.name, shared=True)
+                copies[copy] = joint.name
+    return copies
 
 
 def _mimic(tree: Tree, chains: dict[str, _Chain], source: Path) -> dict[str, tuple[str, float, float]]:
@@ -550,18 +581,12 @@ def hand_from_tree(tree: Tree, source: Path, options: HandOptions = HandOptions(
     if len(names) != len(tips):
         raise options.fault(source, "finger_names", f"{len(names)} finger names for {len(tips)} fingertips")
     paths = {name: _path(into, palm, tip, source) for name, tip in zip(names, tips, strict=True)}
-    owner: dict[str, str] = {}
-    for name, path in paths.items():
-        for joint in path:
-            if joint.kind != "fixed" and owner.setdefault(joint.name, name) != name:
-                raise BadInputError(
-                    source,
-                    f"joint '{joint.name}' moves fingers '{owner[joint.name]}' and '{name}'; each finger must be its "
-                    "own chain from the palm (choose a palm_link after it)",
-                )
     on_path = {j.child for path in paths.values() for j in path}
-    chains = {name: _chain(tree, path, source, on_path) for name, path in paths.items()}
+    attached: set[str] = set()  # links whose geometry an earlier finger's chain carries
+    chains = {name: _chain(tree, path, source, on_path, attached) for name, path in paths.items()}
+    shared = _share_joints(chains, {j.name for j in tree.joints})
     couplings = _mimic(tree, chains, source)
+    capability_couplings = {**couplings, **{copy: (original, 1.0, 0.0) for copy, original in shared.items()}}
     fingers = {}
     unset = Pad(np.zeros(3), np.array([0.0, 0.0, 1.0]), np.array([1.0, 0.0, 0.0]))
     for name, chain in chains.items():
@@ -586,7 +611,7 @@ def hand_from_tree(tree: Tree, source: Path, options: HandOptions = HandOptions(
     palm_model = Palm(centres, radii, np.vstack(palm_skin))
     joint_names = [j.name for f in fingers.values() for j in f.joints]
     efforts = {j.name: j.effort for j in tree.joints}
-    capability = _capability(joint_names, efforts, couplings, source)
+    capability = _capability(joint_names, efforts, capability_couplings, source)
     grasping = tuple(options.grasping) if options.grasping else tuple(fingers)
     for finger in grasping:
         if finger not in fingers:

@@ -202,7 +202,7 @@ def file_hand_spec(
     assert hand.model_file is not None and hand.palm_link is not None
     source = Path(hand.model_file)
     spec = _prepared(source, source.stat().st_mtime).copy()
-    _remove_unused_fingers(spec, set(hand.joint_names), hand.palm_link, hand.held_joints)
+    _remove_unused_fingers(spec, set(hand.file_joint_names), hand.palm_link, hand.held_joints)
     held = tuple(sorted(hand.held_joints.items()))
     rotation, position = _palm_in_root(source, source.stat().st_mtime, hand.palm_link, held)
     placed = grasp.palm_rotation @ rotation.T  # the root's pose that puts the palm at the grasp's

@@ -50,7 +50,8 @@ class ObjectBody:
 
 @dataclass(frozen=True)
 class Scene:
-    """A compiled scene and where its pieces are: the hand's joint addresses in ``hand.joint_names`` order, the
+    """A compiled scene and where its pieces are: the hand's joint addresses, one per joint the scene simulates
+    (``columns`` picks them from ``hand.joint_names``: a joint two fingers share is one joint here), the
     object's free joint, the force capability (``T tau = A a``, times the scene's strength) and ``T^T A``, the
     joint torques each actuator gives at full activation; each grasping finger's pad (a point fixed in the body
     of its last joint) and the synthesized contact it was placed at."""
@@ -73,6 +74,17 @@ class Scene:
     hand_geoms: np.ndarray  # (ngeom,) bool: a geom of the hand that touches the object
     finger_of_body: np.ndarray  # (nbody,) the grasping finger whose joints move the body, -1 for none
     object_geoms: np.ndarray  # the object's geom ids
+    #: for each simulated joint, its column in ``hand.joint_names``; for each of those, its simulated joint
+    columns: np.ndarray | None = None
+    expand: np.ndarray | None = None
+
+    def to_hand(self, q: np.ndarray) -> np.ndarray:
+        """Simulated joint values in ``hand.joint_names`` order (a shared joint's value in each finger)."""
+        return q if self.expand is None else q[..., self.expand]
+
+    def from_hand(self, q: np.ndarray) -> np.ndarray:
+        """``hand.joint_names``-ordered values for the simulated joints."""
+        return q if self.columns is None else q[..., self.columns]
 
     @property
     def finger_count(self) -> int:
@@ -233,19 +245,29 @@ def build_scene(
         _add_project_hand(spec, hand, grasp, contacts, normals, settings, contact)
         source, prefix = None, PROJECT_PREFIX
     _add_object(spec, body, contact)
+    # a hand file's joint two fingers share is one joint in MuJoCo: its copies' columns go (T's columns for a
+    # copy and its original are equal, so T tau stays the joint's whole torque)
+    names = hand.file_joint_names if source is not None else hand.joint_names
+    unique = list(dict.fromkeys(names))
+    columns = np.array([names.index(n) for n in unique])
+    expand = np.array([unique.index(n) for n in names])
     capability = hand.capability
-    transmission, torque_map = capability.transmission, strength * capability.torque_map
+    transmission, torque_map = capability.transmission[:, columns], strength * capability.torque_map
     actuation = transmission.T @ torque_map
-    joints = [prefix + name for name in hand.joint_names]
+    joints = [prefix + name for name in unique]
     _add_actuators(spec, joints, actuation)
     model = compile_spec(spec, source or "physics scene")
     ids = [model.joint(name).id for name in joints]
-    posture = np.asarray(grasp.joint_angles, dtype=float)
+    posture = np.asarray(grasp.joint_angles, dtype=float)[columns]
     data = mujoco.MjData(model)
     data.qpos[model.jnt_qposadr[ids]] = posture
     mujoco.mj_kinematics(model, data)
-    last = [model.joint(prefix + f.joints[-1].name).id for f in hand.fingers.values()]
-    first = [model.joint(prefix + f.joints[0].name).id for f in hand.fingers.values()]
+    name = (lambda j: j.file_name) if source is not None else (lambda j: j.name)
+    last = [model.joint(prefix + name(f.joints[-1])).id for f in hand.fingers.values()]
+    # each finger's own first joint: a link that a shared joint moves belongs to no one finger, passive as the palm
+    shared = hand.shared_joints()
+    own = [next((j for j in f.joints if j.file_name not in shared), f.joints[-1]) for f in hand.fingers.values()]
+    first = [model.joint(prefix + name(j)).id for j in own]
     pad_bodies = model.jnt_bodyid[last].copy()
     pad_points = np.einsum("bji,bj->bi", data.xmat[pad_bodies].reshape(-1, 3, 3), contacts - data.xpos[pad_bodies])
     object_id = model.body("object").id
@@ -269,4 +291,6 @@ def build_scene(
         hand_geoms=hand_geoms,
         finger_of_body=_fingers_of_bodies(model, first),
         object_geoms=np.flatnonzero(model.geom_bodyid == object_id),
+        columns=columns,
+        expand=expand,
     )

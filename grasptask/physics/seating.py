@@ -62,5 +62,5 @@ def seat(scene: Scene, hand: Hand, joints: np.ndarray) -> Seating:
         # otherwise take a step across its whole range, and did (54 degrees, the LEAP-like hand's base joints)
         step = np.linalg.solve(rows.T @ rows + DAMPING**2 * np.eye(rows.shape[1]), rows.T @ wanted)
         step *= min(1.0, MAX_STEP_RAD / max(float(np.abs(step).max()), 1e-12))
-        q = hand.apply_coupling(np.clip(q + step, hand.lower, hand.upper))
+        q = scene.from_hand(hand.apply_coupling(np.clip(scene.to_hand(q + step), hand.lower, hand.upper)))
     return Seating(None, float(first or 0.0), float("nan"))

@@ -4,7 +4,7 @@ The record's schema is ``docs/grasp_record.schema.json``."""
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Iterable, Mapping
 from typing import Any
 
 import numpy as np
@@ -71,6 +71,14 @@ def _figures(verification: Verification, fingers: list[str]) -> dict[str, Any]:
     return {k: (None if isinstance(v, float) and not np.isfinite(v) else v) for k, v in figures.items()}
 
 
+def _by_joint(names: list[str], values: Iterable[float], merge: Callable[[float, float], float]) -> dict[str, float]:
+    """``values`` by joint name, a name given twice (a joint two fingers share) merged with ``merge``."""
+    out: dict[str, float] = {}
+    for name, value in zip(names, values, strict=True):
+        out[name] = float(merge(out[name], value)) if name in out else float(value)
+    return out
+
+
 def grasp_record(
     *,
     task: str,
@@ -85,7 +93,7 @@ def grasp_record(
     row, ``hand`` the grasping hand it was solved with, ``verification`` the verifier's judgement of it now
     (its LP gives the contact forces and activations per task wrench) and ``sources`` the input files."""
     fingers = list(hand.fingers)
-    joints = hand.joint_names
+    joints = hand.file_joint_names  # the hand file's names: a joint two fingers share is one entry, its torque summed
     actuators = list(hand.capability.actuators)
     optimum = row.get("optimum_id")
     wrenches = []
@@ -96,7 +104,7 @@ def grasp_record(
                 "sign": 1 if k % 2 == 0 else -1,
                 "wrench": _vector(load.wrench),
                 "contact_forces": {f: _vector(v) for f, v in zip(fingers, load.contact_forces, strict=True)},
-                "joint_torques": {j: float(v) for j, v in zip(joints, load.joint_torques, strict=True)},
+                "joint_torques": _by_joint(joints, load.joint_torques, lambda a, b: a + b),
                 "activations": {a: float(v) for a, v in zip(actuators, load.activations, strict=True)},
             }
         )
@@ -127,7 +135,7 @@ def grasp_record(
         "object": {"file": sources.get("object", "")},
         "units": {"length": "m", "angle": "rad", "force": "N", "torque": "N.m"},
         "frame": "object",
-        "joint_angles": {name: float(q) for name, q in zip(joints, grasp.joint_angles, strict=True)},
+        "joint_angles": _by_joint(joints, grasp.joint_angles, lambda first, _: first),
         "palm_pose": palm_pose(grasp).tolist(),
         "contacts": contacts,
         "friction_coefficient": float(scene.mu),

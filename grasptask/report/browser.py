@@ -1,7 +1,8 @@
 """Open a report in headless Chromium (Debian's ``chromium`` and ``chromium-driver``) and check that every image
-loads, the console stays free of errors, the page is ready within 5 s, and each interactive view draws a
-non-empty WebGL scene (Chromium's software GL, SwiftShader) within 5 s of scrolling into sight; optionally save a
-screenshot of the top of the page and of one view."""
+loads, the console stays free of errors, and each interactive view draws a non-empty WebGL scene (Chromium's
+software GL, SwiftShader) once scrolled into sight; optionally save a screenshot of the top of the page and of one
+view. How long the page and its views took is measured and said, never judged: on a busy machine a page that
+works loads slower, and the verdict must not change with the load."""
 
 from __future__ import annotations
 
@@ -37,8 +38,9 @@ FLAGS = (
 )
 
 
-#: the longest a page may take to be ready, and a view to draw once in sight (s)
-READY_S = 5.0
+#: how long a view may take to draw once in sight before it counts as never drawn (s): a hang guard, not a
+#: judgement of speed (an idle machine draws one in about 1 s)
+DRAW_WAIT_S = 60.0
 #: a view's border band (px) that its scene must stay out of, and the drawn pixels tolerated there (an axis
 #: label's anti-aliasing gave up to 27 in views that were whole; a cropped one, 150 and more)
 EDGE_BAND_PX, MAX_EDGE_PIXELS = 4, 60
@@ -61,7 +63,7 @@ class ViewCheck:
 
     @property
     def ok(self) -> bool:
-        drew = self.drawn and self.draw_s <= READY_S and self.canvases > 0
+        drew = self.drawn and self.canvases > 0
         return drew and self.coloured_pixels >= MIN_COLOURED_PIXELS and self.edge_pixels <= MAX_EDGE_PIXELS
 
 
@@ -85,7 +87,6 @@ class BrowserCheck:
             self.images > 0
             and not self.broken_images
             and not self.console_errors
-            and self.ready_s <= READY_S
             and not self.failed_views
             and not self.view_errors
         )
@@ -95,8 +96,6 @@ class BrowserCheck:
         lines = [f"image did not load: {alt}" for alt in self.broken_images] + list(self.console_errors)
         if self.images == 0:
             lines.append("the page shows no image: its results folder holds nothing to report")
-        if self.ready_s > READY_S:
-            lines.append(f"page took {self.ready_s:.1f} s to load (limit {READY_S:g} s)")
         for view in self.failed_views:
             lines.append(
                 f"view {view.key}: drawn {view.drawn} in {view.draw_s:.1f} s, {view.canvases} canvases, "
@@ -158,7 +157,7 @@ def _check_view(driver: Any, element: Any, save: Path | None) -> ViewCheck:
     driver.execute_script("arguments[0].scrollIntoView({block: 'center'});", element)
     began = time.perf_counter()
     try:
-        WebDriverWait(driver, 2 * READY_S, poll_frequency=0.05).until(
+        WebDriverWait(driver, DRAW_WAIT_S, poll_frequency=0.05).until(
             lambda d: d.execute_script("return arguments[0].dataset.state === 'drawn';", element)
         )
     except Exception:  # noqa: BLE001 - a view that never draws is a failed check, not a crash
@@ -225,7 +224,7 @@ def check_page(
         service.start = start_and_arm  # type: ignore[method-assign]
         driver = webdriver.Chrome(service=service, options=options)
         try:
-            driver.set_script_timeout(30)
+            driver.set_script_timeout(DRAW_WAIT_S)
             driver.get(Path(page).resolve().as_uri())
             ready = driver.execute_script(
                 "var t = performance.getEntriesByType('navigation')[0]; return t ? t.loadEventEnd / 1000 : 0;"

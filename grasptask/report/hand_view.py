@@ -12,7 +12,7 @@ import plotly.graph_objects as go
 
 from grasptask.hand.kinematics import forward
 from grasptask.hand.mesh_cover import BOUND_M, MAX_SPHERES
-from grasptask.hand.model import Hand
+from grasptask.hand.model import Hand, Joint
 from grasptask.records.scene import PALM_COLOUR, finger_colour, spheres_mesh
 from grasptask.report.interactive import _line, _mesh_trace, figure_json
 from grasptask.report.page import Section, Table, View, render_html
@@ -29,6 +29,15 @@ def _unit(vector: np.ndarray) -> str:
     return "(" + ", ".join(f"{v + 0.0:.2f}" for v in np.round(vector, 2)) + ")"
 
 
+def _coupling(joint: Joint) -> str:
+    if joint.coupled_to is None:
+        return ""
+    if joint.shared:
+        return f" (is {joint.coupled_to})"
+    offset = f" {'+' if joint.coupling_offset >= 0 else '-'} {abs(np.degrees(joint.coupling_offset)):.1f} deg"
+    return f" = {joint.ratio:g} x {joint.coupled_to}" + (offset if joint.coupling_offset else "")
+
+
 def hand_lines(hand: Hand) -> list[str]:
     """The summary a user reads first: the file, the fingers, each finger's chain and pad, and the covers."""
     source = hand.model_file or "the project's own hand model"
@@ -43,11 +52,11 @@ def hand_lines(hand: Hand) -> list[str]:
     if hand.held_joints:
         held = ", ".join(f"{name} at {np.degrees(value):.0f} deg" for name, value in hand.held_joints.items())
         lines.append(f"joints before the palm held (held_joints in a hand YAML): {held}")
+    for joint, fingers in hand.shared_joints().items():
+        lines.append(f"joint {joint} moves fingers {' and '.join(fingers)} together: one angle, one motor")
     for name, finger in hand.fingers.items():
         joints = ", ".join(
-            f"{j.name} [{np.degrees(j.lower):.0f}, {np.degrees(j.upper):.0f}] deg"
-            + (f" = {j.ratio:g} x {j.coupled_to}" if j.coupled_to else "")
-            for j in finger.joints
+            f"{j.name} [{np.degrees(j.lower):.0f}, {np.degrees(j.upper):.0f}] deg" + _coupling(j) for j in finger.joints
         )
         pad = finger.pad
         link = hand.fingertip_links.get(name, name)
@@ -105,7 +114,7 @@ def joint_table(hand: Hand) -> pd.DataFrame:
                     "lower (deg)": np.degrees(joint.lower),
                     "upper (deg)": np.degrees(joint.upper),
                     "effort (N.m)": efforts.get(joint.name, np.nan),
-                    "coupled to": f"{joint.ratio:g} x {joint.coupled_to}" if joint.coupled_to else "",
+                    "coupled to": _coupling(joint).removeprefix(" = ").strip(" ()"),
                 }
             )
     return pd.DataFrame(rows)
