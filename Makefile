@@ -6,7 +6,7 @@ INSTALLED := $(VENV)/.installed
 CYIPOPT := $(VENV)/.cyipopt
 export OPENBLAS_NUM_THREADS ?= 1
 
-.PHONY: demo paper test docs install setup-cyipopt setup-browser lint format typecheck bench screenshot clean
+.PHONY: demo paper test test-slow docs install setup-cyipopt setup-browser lint format typecheck bench screenshot clean
 
 demo: $(INSTALLED)
 	$(BIN)/grasptask pipeline run pipelines/demo.yaml
@@ -24,6 +24,10 @@ test: $(INSTALLED) $(CYIPOPT) setup-browser
 	$(BIN)/lint-imports
 	NO_MKDOCS_2_WARNING=1 $(BIN)/mkdocs build --strict --quiet
 	$(BIN)/python -m pytest -n 2 --dist loadfile
+
+# the long end-to-end runs that `make test` leaves out to keep CI short (GP objects, Dask, every hand x task, ...)
+test-slow: $(INSTALLED) $(CYIPOPT) setup-browser
+	$(BIN)/python -m pytest -n 2 --dist loadfile -m slow
 
 # the docs site, built offline into site/ (open site/index.html); its tables come from benchmarks/results/
 docs: $(INSTALLED)

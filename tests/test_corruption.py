@@ -192,7 +192,7 @@ def test_a_corrupted_artifact_is_one_line_and_nothing_written(kind, corpus, cli)
     # a solver config left valid runs a start, a results folder left valid makes a whole report: fewer of those;
     # GRASPTASK_CORRUPTIONS=N tries N of each kind (a longer hunt)
     slow = kind in ("solver.yaml", "stats.csv", "run.json", "distances.parquet")
-    examples = int(os.environ.get("GRASPTASK_CORRUPTIONS", 10)) // (2 if slow else 1)
+    examples = int(os.environ.get("GRASPTASK_CORRUPTIONS", 10)) // (10 if slow else 1)
 
     @settings(max_examples=examples, deadline=None, derandomize=True, suppress_health_check=list(HealthCheck))
     @given(data=corruption(kind, original))

@@ -41,3 +41,11 @@ def test_tightened_limits_are_never_looser(cap, effort, angles, failures):
     seen_past = np.array(angles) > before.pad_angle_deg
     if "pad_angle" in failures:  # a pad the verifier saw past its bound is bounded below what it saw
         assert np.all(after.pad_angle_deg[seen_past] < np.array(angles)[seen_past])
+
+
+def test_a_contact_off_its_mesh_fingertip_rolls_less_on_the_re_solve():
+    limits = tightened(
+        NOMINAL, 0.98, ["fingertip_contact"], 0.5, np.array([30.0, 44.0, 10.0]), np.array([1, 0, 1], bool)
+    )
+    assert limits is not None and limits.activation_cap == 0.98
+    np.testing.assert_allclose(limits.pad_angle_deg, [27.5, 45.0, 7.5])

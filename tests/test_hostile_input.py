@@ -48,6 +48,7 @@ def test_task_labels_never_become_paths_outside_out(simulated, tmp_path, cli):
     assert "cannot be a file or folder name" in line and not (tmp_path / "grasps").exists()
 
 
+@pytest.mark.slow
 def test_a_report_on_tasks_the_paper_does_not_have(simulated, tmp_path, cli):
     manifest = relabelled(simulated, tmp_path / "r", {"cutting": "scooping", "screwdriving": "wiping"})
     results = tmp_path / "r"

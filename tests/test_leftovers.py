@@ -284,6 +284,7 @@ def test_run_json_paths_read_from_another_working_directory(tmp_path, simulated)
     assert found.tasks is not None and found.tasks.resolve() == tasks.resolve()
 
 
+@pytest.mark.slow
 def test_dask_workers_with_two_threads_solve_every_start_once_as_the_pool_does(tasks, tmp_path):
     """A Dask worker with two threads, as `dask worker` starts one on two cores: its solves take turns (two at
     once crashed the worker), every start is solved once, and each row is the local pool's."""
@@ -291,7 +292,7 @@ def test_dask_workers_with_two_threads_solve_every_start_once_as_the_pool_does(t
 
     from grasptask.stages import SynthesisOptions, run_synthesize
 
-    common = {"tasks": tasks, "task": "drawing", "solver_config": Path("tests/data/solver_fast.yaml"), "starts": 4}
+    common = {"tasks": tasks, "task": "drawing", "solver_config": Path("tests/data/solver_tiny.yaml"), "starts": 4}
     with LocalCluster(n_workers=1, threads_per_worker=2, processes=True, dashboard_address=None) as cluster:
         options = SynthesisOptions(
             **common, out=tmp_path / "dask", executor="dask", scheduler=cluster.scheduler_address
@@ -307,6 +308,7 @@ def test_dask_workers_with_two_threads_solve_every_start_once_as_the_pool_does(t
     )
 
 
+@pytest.mark.slow
 def test_dask_says_when_no_worker_is_alive_and_stops_on_the_first_signal(tasks, tmp_path):
     """The only worker killed mid-sweep: the sweep says so within seconds, and the first SIGINT stops it."""
     from dask.distributed import LocalCluster
@@ -320,7 +322,7 @@ def test_dask_says_when_no_worker_is_alive_and_stops_on_the_first_signal(tasks, 
         said = tmp_path / "said.txt"
         sweep = subprocess.Popen(
             [sys.executable, "-m", "grasptask.cli", "synthesize", "--tasks", str(tasks), "--task", "drawing",
-             "--out", str(tmp_path / "out"), "--solver-config", "tests/data/solver_fast.yaml", "--executor", "dask",
+             "--out", str(tmp_path / "out"), "--solver-config", "tests/data/solver_tiny.yaml", "--executor", "dask",
              "--scheduler", cluster.scheduler_address],
             stdout=said.open("w"), stderr=subprocess.STDOUT,
         )  # fmt: skip

@@ -177,3 +177,50 @@ def test_verifier_rejects_all_contacts_on_one_side(accepted):
     ball = Superquadric(np.full(3, np.linalg.norm(pads - centre, axis=1).mean()), 1.0, 1.0, position=centre)
     result = verify(grasp, HAND, ball, drawing_like_task())
     assert "force_closure" in result.failures and result.epsilon == 0.0
+
+
+def _with_tip_meshes(hand, shrink_m: float = 0.0):
+    """``hand`` with each fingertip given its own mesh: an icosphere over its pad's sphere (or, for a pad without
+    one, an 8 mm sphere touching the pad point), ``shrink_m`` smaller."""
+    import trimesh
+
+    fingers = {}
+    for name, finger in hand.fingers.items():
+        pad = finger.pad
+        radius = pad.radius if pad.radius > 0 else 0.008
+        ball = trimesh.creation.icosphere(4, radius - shrink_m)
+        vertices = ball.vertices + (pad.point - radius * pad.normal)
+        fingers[name] = dataclasses.replace(finger, tip_mesh=(vertices, ball.faces))
+    return dataclasses.replace(hand, fingers=fingers)
+
+
+def test_verifier_measures_each_contact_against_its_fingertips_own_mesh(accepted):
+    """A mesh fingertip's contact must lie on the mesh, not only on the sphere the NLP rolls it over: a LEAP
+    Hand's verified contacts lay 1-6.7 mm off its fingertip meshes."""
+    grasp, ball, plain = accepted
+    hand = HAND.grasping_hand()
+    on_tip = verify(grasp, _with_tip_meshes(hand), ball, drawing_like_task())
+    assert on_tip.ok, on_tip.failures
+    assert np.isnan(plain.fingertip_gap_m).all()  # no mesh, nothing to measure
+    assert (on_tip.fingertip_gap_m <= hand.compliance_m + 1e-4).all()
+    # a contact sits the compliance (2 mm for the human hand) inside its pad sphere: 6 mm smaller, 4 mm off
+    off_tip = verify(grasp, _with_tip_meshes(hand, shrink_m=0.006), ball, drawing_like_task())
+    assert off_tip.failures == ["fingertip_contact"]
+    np.testing.assert_allclose(off_tip.fingertip_gap_m, 0.004, atol=6e-4)  # contacts sit within 1 mm
+
+
+@settings(max_examples=40, deadline=None)
+@given(seeds)
+def test_a_points_distance_to_triangles_is_the_nearest_of_their_points(seed):
+    from grasptask.verifier.fingertip import point_triangle_distance
+
+    rng = np.random.default_rng(seed)
+    triangles, points = rng.normal(size=(4, 3, 3)), rng.normal(size=(5, 3)) * 2
+    u, v = np.meshgrid(np.linspace(0, 1, 120), np.linspace(0, 1, 120))
+    inside = u + v <= 1
+    weights = np.stack([1 - u[inside] - v[inside], u[inside], v[inside]], axis=1)
+    samples = np.einsum("sk,tkd->tsd", weights, triangles).reshape(-1, 3)
+    sampled = np.linalg.norm(points[:, None] - samples[None], axis=2).min(axis=1)
+    exact = point_triangle_distance(points, triangles)
+    assert (exact <= sampled + 1e-12).all()
+    assert (sampled - exact <= 0.05).all()  # the samples lie 1/120 of a triangle apart

@@ -14,6 +14,7 @@ from grasptask.hand.loading import load_hand
 from grasptask.hand.mesh_cover import BOUND_M, mesh_spheres
 from grasptask.hand.pad_fit import fit_pad
 from grasptask.report.browser import check_page, find_chromium
+from grasptask.report.hand_view import hand_lines
 
 
 @pytest.fixture(scope="module")
@@ -136,6 +137,7 @@ def test_a_nan_in_the_urdf_is_refused_with_its_joint(tmp_path):
         load_hand(path)
 
 
+@pytest.mark.slow
 def test_the_hand_command_prints_the_summary_and_writes_a_view(tmp_path):
     from click.testing import CliRunner
 
@@ -164,3 +166,22 @@ def test_the_hand_command_refuses_a_bad_hand_with_one_line(tmp_path):
     assert result.exit_code == 2
     assert "ff_medial" in result.output and len(result.output.strip().splitlines()) == 1
     assert not (tmp_path / "view" / "hand.html").exists()
+
+
+def test_a_contact_rolls_over_a_mesh_pad_only_as_far_as_its_sphere_follows_the_mesh(mesh_hand):
+    """A capsule tip's fitted sphere is its end cap's: rolled towards the palm, the contact runs into the
+    capsule's straight part, 1 mm inside it (compliance and slack) by 17.5 degrees; an oblong tip's sphere leaves
+    it sooner. The NLP's pad bound for the finger shrinks with it."""
+    from grasptask.hand.pad_fit import roll_limit_deg
+
+    assert all(f.pad.roll_max_deg == 15.0 and f.tip_mesh is not None for f in mesh_hand.fingers.values())
+    assert (mesh_hand.pad_angle_limits(45.0) == 15.0).all() and (mesh_hand.pad_angle_limits(10.0) == 10.0).all()
+    assert any("on the mesh for 15 deg of roll" in line for line in hand_lines(mesh_hand))
+    normal, allowed = np.array([1.0, 0.0, 0.0]), 1e-3
+    limits = []
+    for flattening in (1.0, 0.7, 0.5):  # a round tip, then flatter than its pad sphere away from the normal
+        tip = trimesh.creation.icosphere(4, 0.01)
+        tip.apply_scale([1.0, 1.0, flattening])
+        limits.append(roll_limit_deg(tip.vertices, tip.faces, np.zeros(3), 0.0095, normal, allowed, 45.0))
+    # the flattest's surface lies 1 mm inside the 9.5 mm sphere by about 20 degrees towards its 5 mm half-axis
+    assert limits[0] == 45.0 and limits[0] > limits[1] > limits[2] and 15.0 <= limits[2] <= 25.0

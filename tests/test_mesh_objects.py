@@ -219,6 +219,7 @@ def test_a_mesh_gives_verified_grasps_end_to_end(cli, simulated, tmp_path):
     pytest.fail(f"no verified grasp on the mug in {len(tried)} starts: {tried}")
 
 
+@pytest.mark.slow
 def test_the_verifiers_feedback_turns_a_narrow_miss_into_a_verified_grasp(simulated, tmp_path):
     """On the spray bottle a cutting grasp at the NLP's limits fails the verifier by a little under the mesh's own
     normals. Re-solved from itself with the limits tightened by what the verifier measured, it is verified;

@@ -159,7 +159,7 @@ def test_solver_config_defaults_and_bundled_files():
     fast = load_solver_config("tests/data/solver_fast.yaml")
     assert fast.placement and fast.hold_axis_rotation is None and fast.geometric_iterations == 0
     # a config's IPOPT options are set over the defaults, not in their place
-    assert fast.ipopt == {**IPOPT_DEFAULTS, **fast.ipopt} and fast.ipopt["max_iter"] == 400
+    assert fast.ipopt == {**IPOPT_DEFAULTS, **fast.ipopt} and fast.ipopt["max_iter"] == 150
     assert bundled.hold_axis_rotation == 0.1 and bundled.geometric_iterations == 20
     assert bundled.phase_iterations(held=False) == 20 and bundled.phase_iterations(held=True) == 30
     free = SolverConfig(geometric_iterations=20, held_geometric_iterations=None)

@@ -304,7 +304,10 @@ HOLDING_HANDS = {
 WITHOUT_MARGIN = {("barrett", "screwdriving"), ("allegro", "screwdriving")}
 
 
-@pytest.mark.parametrize("task", ["drawing", "cutting", "screwdriving"])
+@pytest.mark.parametrize(
+    "task",
+    ["drawing", pytest.param("cutting", marks=pytest.mark.slow), pytest.param("screwdriving", marks=pytest.mark.slow)],
+)
 @pytest.mark.parametrize("hand_name", list(HOLDING_HANDS))
 def test_each_hand_holds_each_task_within_a_few_starts(simulated, hand_name, task):
     """Every shipped robot hand, and the human hand with four and five fingers, reaches a grasp the independent

@@ -1,7 +1,7 @@
 """Grasp synthesis: the model, the starts, and sweeps that survive crashes, interruptions and restarts.
 
-Solver runs use a short per-start time limit (tests/data/solver_fast.yaml) so that the suite stays quick; a
-start that needs longer is recorded as time-limit, which the sweep must handle anyway.
+Solver runs use a short iteration cap (tests/data/solver_fast.yaml) so that the suite stays quick; a
+start that needs more iterations is recorded as max-iter, which the sweep must handle anyway.
 """
 
 import json
@@ -136,6 +136,7 @@ def test_sweep_writes_rows_verifies_and_clusters(cli, tasks, tmp_path):
     assert len(optima) <= len(verified) and optima["members"].sum() == len(verified)
 
 
+@pytest.mark.slow
 def test_sweep_on_a_gp_object(cli, tasks, tmp_path):
     """The NLP on a Gaussian-process surface (a capsule-shaped handle fitted from surface points) reaches grasps
     that the verifier, with its own numpy GP, accepts: contacts on the surface, Q as it recomputes it."""
@@ -183,6 +184,7 @@ context.SolverContext.solve = _crash_on_62
 """
 
 
+@pytest.mark.slow
 def test_a_crashed_worker_is_recorded_and_the_sweep_goes_on(cli, tasks, tmp_path, monkeypatch):
     """A worker process that dies outright on start 62 (the middle one of the subset 0, 62, 125): the spawned
     workers import a sitecustomize that makes them exit there, so no hook lives in the package."""
@@ -210,6 +212,7 @@ def test_a_worker_stops_when_its_sweep_was_killed():
     assert _next_start(tasks, None, poll_s=0.05).start_id == 3
 
 
+@pytest.mark.slow
 def test_resume_keeps_finished_starts(cli, tasks, tmp_path):
     assert synthesize(cli, tasks, tmp_path, "--starts", "2", "--executor", "serial").exit_code == 0
     log = tmp_path / "drawing" / "solutions.jsonl"
@@ -221,6 +224,7 @@ def test_resume_keeps_finished_starts(cli, tasks, tmp_path):
     assert rows[:2] == first and [r["start_id"] for r in rows] == [0, 125, 62]
 
 
+@pytest.mark.slow
 def test_ctrl_c_then_resume(tasks, tmp_path):
     """SIGINT mid-sweep keeps what finished; --resume completes the rest without redoing it."""
     command = [
@@ -344,6 +348,7 @@ def test_eq10_for_the_task_longest_axes_only(tasks):
     assert build_model(hand, obj, task, torque_axes=9).model.act.index_set() == whole.act.index_set()
 
 
+@pytest.mark.slow
 def test_a_grasp_the_left_out_axes_reject_is_solved_again_with_all_of_them(tasks):
     """With eq. 10 for cutting's longest axis only, some grasps cannot hold the others: the verifier, which
     checks all six, rejects them, and each is solved again from itself with the whole model. The whole model

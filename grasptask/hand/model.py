@@ -55,13 +55,16 @@ class Pad:
 
     ``radius`` is the fingertip's surface about the pad, a sphere centred ``radius`` behind the point along the
     normal, over which the contact rolls; 0 keeps the contact at the point (the paper's model). ``fit_error_m``
-    is how far a mesh fingertip's surface lies from that sphere (RMS), 0 for a sphere or capsule tip."""
+    is how far a mesh fingertip's surface lies from that sphere (RMS), 0 for a sphere or capsule tip, and
+    ``roll_max_deg`` how far from the pad normal the contact may roll before the sphere leaves the fingertip's
+    own mesh by more than it gives (90 for a sphere or capsule tip, which the sphere is)."""
 
     point: np.ndarray
     normal: np.ndarray
     tangent: np.ndarray
     radius: float = 0.0
     fit_error_m: float = 0.0
+    roll_max_deg: float = 90.0
 
     @property
     def centre(self) -> np.ndarray:
@@ -150,6 +153,9 @@ class Finger:
     tip: np.ndarray  # the fingertip's end, in the last link's frame (for drawing the chain)
     radius: float  # the links' radius, for drawing
     skin: tuple[Skin, ...] = ()
+    #: a mesh fingertip's own collision mesh (vertices in the last link's frame, faces), which its pad sphere
+    #: stands for: the verifier measures each contact against it
+    tip_mesh: tuple[np.ndarray, np.ndarray] | None = None
 
     @property
     def n_joints(self) -> int:
@@ -204,6 +210,11 @@ class Hand:
         ``rolling`` off, the paper's model)."""
         radii = np.array([f.pad.radius for f in self.fingers.values()])
         return np.where(rolling & (radii > 0), radii - self.compliance_m, 0.0)
+
+    def pad_angle_limits(self, cap_deg: float) -> np.ndarray:
+        """Per finger, how far (deg) its pad may turn from the object's inward normal: ``cap_deg`` (the grasp
+        settings'), or less where a mesh fingertip's pad sphere leaves the mesh sooner."""
+        return np.minimum(cap_deg, [f.pad.roll_max_deg for f in self.fingers.values()])
 
     @property
     def joint_names(self) -> list[str]:

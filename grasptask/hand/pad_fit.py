@@ -69,3 +69,36 @@ def fit_pad(vertices: np.ndarray, faces: np.ndarray, axis: np.ndarray, closing: 
     residual = np.linalg.norm(points - centre, axis=1) - radius
     error = float(np.sqrt(np.average(residual**2, weights=area_weights)))
     return PadFit(centre, radius, error, int(pad.sum()))
+
+
+def roll_limit_deg(
+    vertices: np.ndarray,
+    faces: np.ndarray,
+    centre: np.ndarray,
+    radius: float,
+    normal: np.ndarray,
+    allowed_m: float,
+    cap_deg: float = 90.0,
+    step_deg: float = 2.5,
+) -> float:
+    """How far from ``normal`` (deg, in steps of ``step_deg`` up to ``cap_deg``) the pad sphere stays within
+    ``allowed_m`` of the fingertip's own mesh in every direction around it: beyond, a contact rolled there on
+    the sphere would lie off the real fingertip (a sphere fitted to a LEAP Hand's pad left it by 1-6.7 mm at
+    45 degrees). 0 when even the pad's home point lies farther."""
+    import trimesh  # deferred: trimesh's proximity queries, only for mesh fingertips
+
+    mesh = trimesh.Trimesh(vertices, faces, process=False)
+    helper = np.array([1.0, 0.0, 0.0]) if abs(normal[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    e1 = np.cross(normal, helper)
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(normal, e1)
+    azimuth = np.linspace(0.0, 2 * np.pi, 24, endpoint=False)
+    reached = 0.0
+    for degrees in np.arange(0.0, cap_deg + 1e-9, step_deg):
+        angle = np.radians(degrees)
+        ring = np.cos(angle) * normal + np.sin(angle) * (np.cos(azimuth)[:, None] * e1 + np.sin(azimuth)[:, None] * e2)
+        _, distance, _ = trimesh.proximity.closest_point(mesh, centre + radius * ring)
+        if distance.max() > allowed_m:
+            break
+        reached = float(degrees)
+    return reached

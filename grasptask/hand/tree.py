@@ -32,11 +32,14 @@ import numpy as np
 from grasptask.errors import BadInputError
 from grasptask.hand.kinematics import forward
 from grasptask.hand.model import DEFAULT_COMPLIANCE_M, Capability, Finger, Hand, Joint, Pad, Palm, Skin, Sphere
-from grasptask.hand.pad_fit import NoPadError, fit_pad
+from grasptask.hand.pad_fit import NoPadError, fit_pad, roll_limit_deg
 from grasptask.hand.palm import REVOLUTE, branching_link, fixed_to_palm, held_joints
 
 #: how far over a mesh tip's pad sphere the contact may roll from the pad's home point (the pad-angle limit)
 PAD_ROLL_DEG = 45.0
+#: how far beyond its compliance a contact on a mesh tip's pad sphere may lie from the tip's own mesh: the
+#: mesh's triangles and the sphere fitted to them differ by their fit error (0.1-0.3 mm RMS on published tips)
+PAD_FOLLOW_SLACK_M = 0.5e-3
 
 
 @dataclass
@@ -433,21 +436,28 @@ def _pads(
         if not all(np.isfinite(v).all() for v in (pad.point, pad.normal, pad.tangent, pad.radius)):
             raise BadInputError(source, f"fingertip '{tip}': its pad is not finite (point {pad.point})")
         spheres = _off_the_pad(finger, pad, options.compliance_m)
-        if chain.tip_meshes and not chain.tip_spheres and pad.radius > 0:
-            spheres = _flush_with_the_pad(
-                spheres, finger.n_joints - 1, pad, np.vstack([v for v, _ in chain.tip_meshes])
-            )
-        out[name] = replace(finger, spheres=spheres, pad=pad)
+        mesh = _merged(chain.tip_meshes) if chain.tip_meshes and not chain.tip_spheres else None
+        if mesh is not None and pad.radius > 0:
+            spheres = _flush_with_the_pad(spheres, finger.n_joints - 1, pad, mesh[0])
+            # a contact sits the compliance inside the pad sphere; where the sphere leaves the mesh, so does it
+            roll = roll_limit_deg(*mesh, pad.centre, pad.radius - options.compliance_m, pad.normal,
+                                  options.compliance_m + PAD_FOLLOW_SLACK_M, PAD_ROLL_DEG)  # fmt: skip
+            pad = replace(pad, roll_max_deg=roll)
+        out[name] = replace(finger, spheres=spheres, pad=pad, tip_mesh=mesh)
     return out
+
+
+def _merged(meshes: list[tuple[np.ndarray, np.ndarray]]) -> tuple[np.ndarray, np.ndarray]:
+    """Several meshes as one: vertices stacked, faces renumbered."""
+    offsets = np.cumsum([0] + [len(v) for v, _ in meshes])[:-1]
+    return np.vstack([v for v, _ in meshes]), np.vstack([f + o for (_, f), o in zip(meshes, offsets, strict=True)])
 
 
 def _mesh_pad(
     meshes: list[tuple[np.ndarray, np.ndarray]], axis: np.ndarray, closing: float, tip: str, source: Path
 ) -> tuple[np.ndarray, float, float]:
     """The centre, radius and fit error of the sphere fitted to a mesh fingertip's pad."""
-    offsets = np.cumsum([0] + [len(v) for v, _ in meshes])[:-1]
-    vertices = np.vstack([v for v, _ in meshes])
-    faces = np.vstack([f + o for (_, f), o in zip(meshes, offsets, strict=True)])
+    vertices, faces = _merged(meshes)
     try:
         fit = fit_pad(vertices, faces, axis, closing)
     except NoPadError as exc:

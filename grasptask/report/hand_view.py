@@ -62,6 +62,8 @@ def hand_lines(hand: Hand) -> list[str]:
         link = hand.fingertip_links.get(name, name)
         shape = f"sphere radius {1e3 * pad.radius:.1f} mm" if pad.radius > 0 else "a fixed point"
         fit = f", fit error {1e3 * pad.fit_error_m:.3f} mm" if pad.fit_error_m > 0 else ""
+        if finger.tip_mesh is not None and pad.radius > 0:
+            fit += f", on the mesh for {pad.roll_max_deg:g} deg of roll"
         lines.append(f"finger {name}: joints {joints}")
         lines.append(
             f"  fingertip link '{link}': pad at {_mm(pad.point)} mm, normal {_unit(pad.normal)}, {shape}{fit}; "

@@ -33,7 +33,8 @@ from grasptask.report.render import display_mesh, render_grasp
 from grasptask.report.style import task_colour
 from grasptask.report.sweep_plots import plot_sweeps
 from grasptask.task.distances import read_distances
-from grasptask.task.fit import ellipsoid_matrices, read_ellipsoids
+from grasptask.task.ellipsoid import ellipsoid_matrices
+from grasptask.task.fit import read_ellipsoids
 from grasptask.task.model import load_task_models
 from grasptask.task.stats import read_reference
 from grasptask.verifier.verify import verify

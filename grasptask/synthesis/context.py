@@ -75,7 +75,7 @@ class SolverContext:
         self.judges = Judges(self.hand, self.obj, self.task, self.settings, self.nlp, job.physics)
         self.nominal = Limits(
             self.settings.activation_cap(self.nlp.hand.capability.kind) - self.settings.activation_margin,
-            np.full(len(self.nlp.hand.fingers), self.settings.pad_angle_max_deg),
+            self.nlp.hand.pad_angle_limits(self.settings.pad_angle_max_deg),
         )
         self.bounds = self.obj.bounds()
         self.anchors = Anchors(self.bounds, self.nlp.surrogate.grid if self.nlp.surrogate is not None else None)
@@ -142,7 +142,8 @@ class SolverContext:
             assert judged is not None
             check = judged[1]
             cap = self.nominal.activation_cap
-            tighter = tightened(limits, cap, check.failures, check.torque_effort, check.pad_angle_deg)
+            off_tip = np.nan_to_num(check.fingertip_gap_m) > self.nlp.hand.compliance_m
+            tighter = tightened(limits, cap, check.failures, check.torque_effort, check.pad_angle_deg, off_tip)
             if tighter is None:
                 break
             limits, rounds = tighter, rounds + 1

@@ -300,9 +300,10 @@ def contacts_and_collisions(nlp: NLPBuilder) -> None:
         offset = float(nlp.contact_offsets[j])
         for i in XYZ:
             m.eq2_rolling_contact.add(m.p[j, i] == centre[i] + offset * m.n[j, i])
-    cos_bound = float(np.cos(np.radians(nlp.settings.pad_angle_max_deg)))
+    # per finger: a mesh fingertip's pad sphere may leave the real tip before the settings' bound
+    cos_bound = np.cos(np.radians(nlp.hand.pad_angle_limits(nlp.settings.pad_angle_max_deg)))
     m.pad_facing = pyo.Constraint(
-        range(b), rule=lambda _, j: sum(nlp.pad_normals[j][i] * m.n[j, i] for i in XYZ) >= cos_bound
+        range(b), rule=lambda _, j: sum(nlp.pad_normals[j][i] * m.n[j, i] for i in XYZ) >= float(cos_bound[j])
     )
 
 

@@ -18,7 +18,7 @@ from sklearn.metrics import silhouette_samples
 
 from grasptask.errors import BadInputError
 from grasptask.io.tables import read_table
-from grasptask.task.fit import ellipsoid_matrices
+from grasptask.task.ellipsoid import ellipsoid_matrices
 from grasptask.task.spd import log_vectors
 from grasptask.task.stats import group_order
 

@@ -3,8 +3,12 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 FORCE = slice(0, 3)
 TORQUE = slice(3, 6)
@@ -74,3 +78,8 @@ def block_lengths(matrices: np.ndarray, block: slice) -> np.ndarray:
 def block_extents(matrices: np.ndarray, block: slice) -> np.ndarray:
     """Half-widths ``sqrt(S_kk)`` along the object axes x, y, z of a force or torque block."""
     return np.sqrt(np.clip(np.diagonal(matrices[..., block, block], axis1=-2, axis2=-1), 0.0, None))
+
+
+def ellipsoid_matrices(frame: pd.DataFrame) -> np.ndarray:
+    """The ``(k, 6, 6)`` stack of ``S`` from an ellipsoids table."""
+    return np.stack([np.asarray(s, dtype=float).reshape(6, 6) for s in frame["S"]])

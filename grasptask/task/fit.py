@@ -12,7 +12,7 @@ import pandas as pd
 from grasptask.errors import BadInputError
 from grasptask.io.tables import read_table
 from grasptask.task import preprocess
-from grasptask.task.ellipsoid import Ellipsoid, is_singular, second_moment
+from grasptask.task.ellipsoid import Ellipsoid, ellipsoid_matrices, is_singular, second_moment
 from grasptask.task.frames import transform_wrenches
 from grasptask.task.manifest import RecordingEntry
 from grasptask.task.recordings import MIN_SAMPLES, read_recording
@@ -153,11 +153,6 @@ def fit_recordings(
     if not rows:
         raise BadInputError("fit-task", "no recordings to fit")
     return FitResult(pd.DataFrame(rows), skipped)
-
-
-def ellipsoid_matrices(frame: pd.DataFrame) -> np.ndarray:
-    """The ``(k, 6, 6)`` stack of ``S`` from an ellipsoids table."""
-    return np.stack([np.asarray(s, dtype=float).reshape(6, 6) for s in frame["S"]])
 
 
 def read_ellipsoids(path: str | Path) -> pd.DataFrame:

@@ -10,8 +10,7 @@ import pandas as pd
 
 from grasptask.errors import BadInputError
 from grasptask.io.config import read_json
-from grasptask.task.ellipsoid import Ellipsoid
-from grasptask.task.fit import ellipsoid_matrices
+from grasptask.task.ellipsoid import Ellipsoid, ellipsoid_matrices
 from grasptask.task.spd import log_euclidean_mean, spd_problem
 from grasptask.task.stats import group_order
 

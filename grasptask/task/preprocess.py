@@ -5,7 +5,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import signal
 
 
 @dataclass(frozen=True)
@@ -40,6 +39,8 @@ def lowpass(t: np.ndarray, wrenches: np.ndarray, cutoff_hz: float, order: int = 
     rate = 1.0 / float(np.median(np.diff(t)))
     if cutoff_hz >= rate / 2:
         raise ValueError(f"low-pass cutoff {cutoff_hz} Hz is not below the Nyquist rate {rate / 2:.1f} Hz")
+    from scipy import signal  # deferred: scipy.signal takes a second to import, and only fit-task filters
+
     sos = signal.butter(order, cutoff_hz, fs=rate, output="sos")
     padlen = min(len(t) - 1, 3 * (2 * len(sos) + 1))
     return signal.sosfiltfilt(sos, wrenches, axis=0, padlen=padlen)

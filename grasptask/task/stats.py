@@ -9,8 +9,7 @@ import numpy as np
 import pandas as pd
 
 from grasptask.errors import BadInputError
-from grasptask.task.ellipsoid import FORCE, TORQUE, block_extents, block_lengths
-from grasptask.task.fit import ellipsoid_matrices
+from grasptask.task.ellipsoid import FORCE, TORQUE, block_extents, block_lengths, ellipsoid_matrices
 from grasptask.task.units import PAPER_TORQUE_UNIT, TORQUE_UNITS
 
 STATS_COLUMNS = ["group", "task", "grasp", "domain", "stat", "axis", "value"]

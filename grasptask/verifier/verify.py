@@ -16,11 +16,12 @@ import numpy as np
 
 from grasptask.grasp.grasp import Grasp
 from grasptask.grasp.settings import GraspSettings
-from grasptask.hand.kinematics import forward
+from grasptask.hand.kinematics import HandPose, forward
 from grasptask.hand.model import Hand
 from grasptask.objects.surface import ImplicitObject
 from grasptask.task.model import TaskModel
 from grasptask.verifier.epsilon import ferrari_canny
+from grasptask.verifier.fingertip import point_triangle_distance
 from grasptask.verifier.loads_lp import load_block, normal_rows, solve_loads
 from grasptask.verifier.margins import friction_margin, strength_margin
 from grasptask.verifier.mechanics import (
@@ -49,6 +50,8 @@ class Tolerances:
     # how far the hand's true geometry may sink beyond its compliance: a mesh's surrogate, which the NLP holds the
     # fingertips to, misses the triangles by up to half a millimetre (0.2-0.3 mm at the mug's contacts)
     penetration_m: float = 5e-4
+    # how far beyond its compliance a contact on a mesh fingertip may lie from the tip's own triangles
+    fingertip_m: float = 5e-4
 
 
 @dataclass(frozen=True)
@@ -73,6 +76,8 @@ class Verification:
     #: how deep the hand's true collision geometry (every link, the fingertips included) sinks into the object
     penetration_m: float
     pad_angle_deg: np.ndarray
+    #: each contact's distance from its fingertip's own collision mesh (NaN: a sphere or capsule tip, or none)
+    fingertip_gap_m: np.ndarray
     epsilon: float
     internal_force_rank: int
     internal_force_dim: int
@@ -157,6 +162,20 @@ def _penetration(points: np.ndarray, obj: ImplicitObject) -> float:
     return float(max(0.0, -obj.signed_distance(candidates).min())) if len(candidates) else 0.0
 
 
+def _fingertip_gaps(hand: Hand, pose: HandPose, contacts: np.ndarray) -> np.ndarray:
+    """Each contact's distance from its fingertip's own mesh, measured in the distal link's frame (NaN for a
+    fingertip without a mesh)."""
+    gaps = np.full(len(contacts), np.nan)
+    for j, (name, finger) in enumerate(hand.fingers.items()):
+        if finger.tip_mesh is None:
+            continue
+        placed = pose.fingers[name]
+        rotation, origin = placed.link_rotations[0, -1], placed.joint_positions[0, finger.n_joints - 1]
+        vertices, faces = finger.tip_mesh
+        gaps[j] = point_triangle_distance((rotation.T @ (contacts[j] - origin))[None], vertices[faces])[0]
+    return gaps
+
+
 #: a point further than this (m) outside the object's bounds, or out along its nearest sample's normal, is not in
 NEAR_M = 2e-3
 
@@ -197,6 +216,7 @@ def verify(
     allowance = np.concatenate([*sunk, np.zeros(len(hand.palm.radii))])
     clearance = float((obj.signed_distance(spheres[0]) - radii + allowance).min())
     penetration = _penetration(pose.skin()[0], obj)
+    gaps = _fingertip_gaps(hand, pose, surface_points) if settings.rolling_contacts else np.full(len(offsets), np.nan)
     # each finger's Jacobian at its contact, the point of the distal link that touches the object
     on_finger = np.where(rolling[:, None], surface_points, pose.contacts()[0])
     jacobians = [jacobian[0] for jacobian in pose.jacobians_at(on_finger[None])]
@@ -225,6 +245,8 @@ def verify(
         # a real fingertip gives by its compliance and no more (the paper's fixed pad point may sink further)
         "penetration": not settings.rolling_contacts or penetration <= hand.compliance_m + tol.penetration_m,
         "pad_angle": pad_angle.max() <= settings.pad_angle_max_deg + tol.pad_angle_slack_deg,
+        # a mesh fingertip's contact lies on the real tip, not only on the sphere fitted to its pad
+        "fingertip_contact": bool(np.all(np.nan_to_num(gaps) <= hand.compliance_m + tol.fingertip_m)),
         "force_closure": epsilon > tol.epsilon_min,
         "rank_condition": A.size > 0 and rank == A.shape[1],
         "torque_feasibility": effort <= settings.activation_cap(hand.capability.kind) + tol.effort_slack,
@@ -247,6 +269,7 @@ def verify(
         min_clearance_m=clearance,
         penetration_m=penetration,
         pad_angle_deg=pad_angle,
+        fingertip_gap_m=gaps,
         epsilon=epsilon,
         internal_force_rank=rank,
         internal_force_dim=int(A.shape[1]),
