@@ -70,19 +70,32 @@ def held_joints(
     return held
 
 
+def fixed_links(
+    tree: Tree, link: str, into: dict[str, TreeJoint] | None = None, skip: frozenset[str] | set[str] = frozenset()
+) -> list[tuple[str, np.ndarray]]:
+    """``link`` and every link fixed to it, with its frame in ``link``'s frame: down the tree through fixed joints
+    (but not into ``skip``), and, given ``into``, up it too (an empty root frame fixed to the palm)."""
+    frames = {link: np.eye(4)}
+    stack = [link]
+    while stack:
+        current = stack.pop()
+        joint = into.get(current) if into is not None else None
+        if joint is not None and joint.kind == "fixed" and joint.parent not in frames:
+            frames[joint.parent] = frames[current] @ np.linalg.inv(joint.origin)
+            stack.append(joint.parent)
+        for child in tree.joints:
+            if (
+                child.parent == current
+                and child.kind == "fixed"
+                and child.child not in frames
+                and child.child not in skip
+            ):
+                frames[child.child] = frames[current] @ child.origin
+                stack.append(child.child)
+    return list(frames.items())
+
+
 def fixed_to_palm(tree: Tree, into: dict[str, TreeJoint], palm: str) -> list[tuple[str, np.ndarray]]:
     """Every link fixed to the palm (the palm included), before it and beside it, with its frame in the palm's
     frame: the palm's collision geometry. Links beyond a held joint (a forearm) are not the palm's."""
-    frames = {palm: np.eye(4)}
-    stack = [palm]
-    while stack:
-        link = stack.pop()
-        joint = into.get(link)
-        if joint is not None and joint.kind == "fixed" and joint.parent not in frames:
-            frames[joint.parent] = frames[link] @ np.linalg.inv(joint.origin)
-            stack.append(joint.parent)
-        for child in tree.joints:
-            if child.parent == link and child.kind == "fixed" and child.child not in frames:
-                frames[child.child] = frames[link] @ child.origin
-                stack.append(child.child)
-    return list(frames.items())
+    return fixed_links(tree, palm, into)

@@ -33,7 +33,7 @@ from grasptask.errors import BadInputError
 from grasptask.hand.kinematics import forward
 from grasptask.hand.model import DEFAULT_COMPLIANCE_M, Capability, Finger, Hand, Joint, Pad, Palm, Skin, Sphere
 from grasptask.hand.pad_fit import NoPadError, fit_pad, roll_limit_deg
-from grasptask.hand.palm import REVOLUTE, branching_link, fixed_to_palm, held_joints
+from grasptask.hand.palm import REVOLUTE, branching_link, fixed_links, fixed_to_palm, held_joints
 
 #: how far over a mesh tip's pad sphere the contact may roll from the pad's home point (the pad-angle limit)
 PAD_ROLL_DEG = 45.0
@@ -262,19 +262,6 @@ class _Chain:
     tip_meshes: list[tuple[np.ndarray, np.ndarray]]  # in the last joint's link frame
 
 
-def _fixed_descendants(tree: Tree, link: str, skip: set[str]) -> list[tuple[str, np.ndarray]]:
-    """Links fixed to ``link`` (directly or through other fixed joints), with their frames in its frame."""
-    found, stack = [], [(link, np.eye(4))]
-    while stack:
-        current, frame = stack.pop()
-        for joint in tree.joints:
-            if joint.parent == current and joint.kind == "fixed" and joint.child not in skip:
-                child_frame = frame @ joint.origin
-                found.append((joint.child, child_frame))
-                stack.append((joint.child, child_frame))
-    return found
-
-
 def _skin(link: TreeLink, transform: np.ndarray) -> np.ndarray:
     """The link's collision surface points in the frame ``transform`` places it in."""
     points = np.vstack([np.zeros((0, 3)), *link.skin])
@@ -320,7 +307,7 @@ def _chain(tree: Tree, path: list[TreeJoint], source: Path, on_path: set[str], a
         for c, r in tree.links[child].spheres:
             spheres.append(Sphere(k, c, r))
         skin.append(Skin(k, _skin(tree.links[child], np.eye(4))))
-        for link, link_frame in _fixed_descendants(tree, child, on_path):
+        for link, link_frame in fixed_links(tree, child, skip=on_path)[1:]:  # [0] is the child itself
             for c, r in _transform_spheres(tree.links[link].spheres, link_frame):
                 spheres.append(Sphere(k, c, r))
             skin.append(Skin(k, _skin(tree.links[link], link_frame)))

@@ -104,6 +104,18 @@ def _above_palm(spec: mujoco.MjSpec, palm: str) -> set[str]:
     return above
 
 
+def _weld_to_palm(spec: mujoco.MjSpec, palm: str, held: dict[str, float]) -> set[str]:
+    """Remove the joints between the world and the palm (a mounted hand's free joint, an arm's, a wrist's), each
+    at the angle the hand holds it at (``held``, else 0): the palm is welded where the hand model has it. Returns
+    the bodies from the palm up to the world."""
+    above = _above_palm(spec, palm)
+    for joint in list(spec.joints):
+        if joint.type == mujoco.mjtJoint.mjJNT_FREE or joint.parent.name in above:
+            _hold(joint.parent, joint, held.get(joint.name, 0.0))
+            spec.delete(joint)
+    return above
+
+
 def _hold(body: mujoco.MjsBody, joint: mujoco.MjsJoint, angle: float) -> None:
     """``body`` turned about ``joint``'s axis by ``angle``, for good: the joint held there, then removed."""
     if angle == 0.0:
@@ -124,11 +136,7 @@ def _remove_unused_fingers(spec: mujoco.MjSpec, keep: set[str], palm: str, held:
     """Delete the subtree of every body whose joint the grasp does not use. The joints between the world and
     the palm (a mounted hand's free joint, an arm's, a wrist's) are removed instead, each at the angle the hand
     holds it at, which welds the palm; the bodies before the palm collide with nothing, as in the hand model."""
-    above = _above_palm(spec, palm)
-    for joint in list(spec.joints):
-        if joint.type == mujoco.mjtJoint.mjJNT_FREE or joint.parent.name in above:
-            _hold(joint.parent, joint, held.get(joint.name, 0.0))
-            spec.delete(joint)
+    above = _weld_to_palm(spec, palm, held)
     for geom in spec.geoms:
         if geom.parent.name in above and geom.parent.name != palm:
             geom.contype, geom.conaffinity = 0, 0
@@ -176,11 +184,7 @@ def _palm_in_root(
     """The palm's rotation and position in the frame of the world's child that holds it, at the joints' zero
     and the held joints' angles."""
     spec = _prepared(source, stamp).copy()
-    above = _above_palm(spec, palm)
-    for joint in list(spec.joints):
-        if joint.parent.name in above:
-            _hold(joint.parent, joint, dict(held).get(joint.name, 0.0))
-            spec.delete(joint)
+    _weld_to_palm(spec, palm, dict(held))
     _place(_root_of(spec, palm, source), np.eye(3), np.zeros(3))
     model = compile_spec(spec, source)
     data = mujoco.MjData(model)
