@@ -38,6 +38,22 @@ def _coupling(joint: Joint) -> str:
     return f" = {joint.ratio:g} x {joint.coupled_to}" + (offset if joint.coupling_offset else "")
 
 
+def _one_motor_fingers(hand: Hand) -> list[str]:
+    """A hint where more than three fingers grasp and some close on one motor each: every start must bring each
+    of those pads onto the object along a single path, which over-constrains the NLP (the Inspire Hand's five
+    such fingers ended every drawing start in IPOPT's restoration failure, at 37 s a start; three fingers:
+    6/6 optimal at 0.7 s)."""
+    grasping = [hand.fingers[name] for name in hand.grasping]
+    single = [f.name for f in grasping if sum(j.coupled_to is None for j in f.joints) <= 1]
+    if len(grasping) <= 3 or not single:
+        return []
+    return [
+        f"{len(grasping)} fingers grasp, and {', '.join(single)} close on one motor each: every start must bring "
+        "all their pads onto the object, which few poses allow; --fingers (or grasping_fingers in a hand YAML) "
+        f"can name three, e.g. {','.join(hand.grasping[:3])}"
+    ]
+
+
 def hand_lines(hand: Hand) -> list[str]:
     """The summary a user reads first: the file, the fingers, each finger's chain and pad, and the covers."""
     source = hand.model_file or "the project's own hand model"
@@ -49,6 +65,7 @@ def hand_lines(hand: Hand) -> list[str]:
         f"{len(hand.fingers)} fingers ({', '.join(hand.grasping)} grasp), {hand.n_joints} joints, "
         f"{count} ({capability.kind}), compliance {1e3 * hand.compliance_m:.2f} mm",
     ]
+    lines += _one_motor_fingers(hand)
     if hand.held_joints:
         held = ", ".join(f"{name} at {np.degrees(value):.0f} deg" for name, value in hand.held_joints.items())
         lines.append(f"joints before the palm held (held_joints in a hand YAML): {held}")
