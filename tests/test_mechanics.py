@@ -202,11 +202,24 @@ def test_verifier_measures_each_contact_against_its_fingertips_own_mesh(accepted
     on_tip = verify(grasp, _with_tip_meshes(hand), ball, drawing_like_task())
     assert on_tip.ok, on_tip.failures
     assert np.isnan(plain.fingertip_gap_m).all()  # no mesh, nothing to measure
-    assert (on_tip.fingertip_gap_m <= hand.compliance_m + 1e-4).all()
-    # a contact sits the compliance (2 mm for the human hand) inside its pad sphere: 6 mm smaller, 4 mm off
+    assert (on_tip.fingertip_gap_m < 0).all()  # inside the tip: it gives by the compliance there
+    # a contact sits the compliance (2 mm for the human hand) inside its pad sphere: 6 mm smaller, 4 mm outside
     off_tip = verify(grasp, _with_tip_meshes(hand, shrink_m=0.006), ball, drawing_like_task())
     assert off_tip.failures == ["fingertip_contact"]
     np.testing.assert_allclose(off_tip.fingertip_gap_m, 0.004, atol=6e-4)  # contacts sit within 1 mm
+
+
+def test_a_points_distance_outside_a_mesh_is_signed_by_its_side_whichever_way_its_faces_turn():
+    import trimesh
+
+    from grasptask.verifier.fingertip import outside_distance
+
+    ball = trimesh.creation.icosphere(4, 0.01)
+    points = np.array([[0.0, 0.0, 0.0], [0.0, 0.0, 0.009], [0.012, 0.0, 0.0], [0.0, -0.02, 0.0]])
+    expected = [-0.01, -0.001, 0.002, 0.01]
+    np.testing.assert_allclose(outside_distance(points, ball.triangles), expected, atol=5e-5)
+    ball.invert()
+    np.testing.assert_allclose(outside_distance(points, ball.triangles), expected, atol=5e-5)
 
 
 @settings(max_examples=40, deadline=None)

@@ -169,14 +169,14 @@ def test_the_hand_command_refuses_a_bad_hand_with_one_line(tmp_path):
 
 
 def test_a_contact_rolls_over_a_mesh_pad_only_as_far_as_its_sphere_follows_the_mesh(mesh_hand):
-    """A capsule tip's fitted sphere is its end cap's: rolled towards the palm, the contact runs into the
-    capsule's straight part, 1 mm inside it (compliance and slack) by 17.5 degrees; an oblong tip's sphere leaves
-    it sooner. The NLP's pad bound for the finger shrinks with it."""
+    """A capsule tip's fitted sphere is its end cap's: a contact rolled over it stays on or inside the capsule
+    over the whole 45 degrees. A tip flatter than its pad sphere falls away from it, and a contact rolled far
+    enough lies in the air beside the real tip: the NLP's pad bound for that finger stops short of it."""
     from grasptask.hand.pad_fit import roll_limit_deg
 
-    assert all(f.pad.roll_max_deg == 15.0 and f.tip_mesh is not None for f in mesh_hand.fingers.values())
-    assert (mesh_hand.pad_angle_limits(45.0) == 15.0).all() and (mesh_hand.pad_angle_limits(10.0) == 10.0).all()
-    assert any("on the mesh for 15 deg of roll" in line for line in hand_lines(mesh_hand))
+    assert all(f.pad.roll_max_deg == 45.0 and f.tip_mesh is not None for f in mesh_hand.fingers.values())
+    assert (mesh_hand.pad_angle_limits(45.0) == 45.0).all() and (mesh_hand.pad_angle_limits(10.0) == 10.0).all()
+    assert any("on the mesh for 45 deg of roll" in line for line in hand_lines(mesh_hand))
     normal, allowed = np.array([1.0, 0.0, 0.0]), 1e-3
     limits = []
     for flattening in (1.0, 0.7, 0.5):  # a round tip, then flatter than its pad sphere away from the normal

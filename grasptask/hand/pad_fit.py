@@ -81,10 +81,12 @@ def roll_limit_deg(
     cap_deg: float = 90.0,
     step_deg: float = 2.5,
 ) -> float:
-    """How far from ``normal`` (deg, in steps of ``step_deg`` up to ``cap_deg``) the pad sphere stays within
-    ``allowed_m`` of the fingertip's own mesh in every direction around it: beyond, a contact rolled there on
-    the sphere would lie off the real fingertip (a sphere fitted to a LEAP Hand's pad left it by 1-6.7 mm at
-    45 degrees). 0 when even the pad's home point lies farther."""
+    """How far from ``normal`` (deg, in steps of ``step_deg`` up to ``cap_deg``) a contact on the sphere of
+    ``radius`` about ``centre`` stays within ``allowed_m`` outside the fingertip's own mesh, in every direction
+    around it: beyond, a contact rolled there would lie off the real fingertip, in the air beside it (a sphere
+    fitted to a LEAP Hand's pad left it by 1-6.7 mm at 45 degrees). A contact inside the mesh is the real tip
+    pressing further into the object, which the penetration check judges. 0 when even the pad's home point lies
+    farther out."""
     import trimesh  # deferred: trimesh's proximity queries, only for mesh fingertips
 
     mesh = trimesh.Trimesh(vertices, faces, process=False)
@@ -97,8 +99,8 @@ def roll_limit_deg(
     for degrees in np.arange(0.0, cap_deg + 1e-9, step_deg):
         angle = np.radians(degrees)
         ring = np.cos(angle) * normal + np.sin(angle) * (np.cos(azimuth)[:, None] * e1 + np.sin(azimuth)[:, None] * e2)
-        _, distance, _ = trimesh.proximity.closest_point(mesh, centre + radius * ring)
-        if distance.max() > allowed_m:
+        outside = -trimesh.proximity.signed_distance(mesh, centre + radius * ring)  # trimesh: inside positive
+        if outside.max() > allowed_m:
             break
         reached = float(degrees)
     return reached

@@ -37,8 +37,8 @@ from grasptask.hand.palm import REVOLUTE, branching_link, fixed_links, fixed_to_
 
 #: how far over a mesh tip's pad sphere the contact may roll from the pad's home point (the pad-angle limit)
 PAD_ROLL_DEG = 45.0
-#: how far beyond its compliance a contact on a mesh tip's pad sphere may lie from the tip's own mesh: the
-#: mesh's triangles and the sphere fitted to them differ by their fit error (0.1-0.3 mm RMS on published tips)
+#: how far outside a mesh tip's own mesh a contact on its pad sphere may lie (it sits the compliance inside where
+#: the sphere fits): the triangles and the sphere fitted to them differ by their fit error (0.1-0.3 mm RMS)
 PAD_FOLLOW_SLACK_M = 0.5e-3
 
 
@@ -428,7 +428,7 @@ def _pads(
             spheres = _flush_with_the_pad(spheres, finger.n_joints - 1, pad, mesh[0])
             # a contact sits the compliance inside the pad sphere; where the sphere leaves the mesh, so does it
             roll = roll_limit_deg(*mesh, pad.centre, pad.radius - options.compliance_m, pad.normal,
-                                  options.compliance_m + PAD_FOLLOW_SLACK_M, PAD_ROLL_DEG)  # fmt: skip
+                                  PAD_FOLLOW_SLACK_M, PAD_ROLL_DEG)  # fmt: skip
             pad = replace(pad, roll_max_deg=roll)
         out[name] = replace(finger, spheres=spheres, pad=pad, tip_mesh=mesh)
     return out

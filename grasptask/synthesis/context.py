@@ -142,7 +142,7 @@ class SolverContext:
             assert judged is not None
             check = judged[1]
             cap = self.nominal.activation_cap
-            off_tip = np.nan_to_num(check.fingertip_gap_m) > self.nlp.hand.compliance_m
+            off_tip = np.nan_to_num(check.fingertip_gap_m, nan=-np.inf) > 0.0  # outside the real fingertip
             tighter = tightened(limits, cap, check.failures, check.torque_effort, check.pad_angle_deg, off_tip)
             if tighter is None:
                 break

@@ -1,14 +1,33 @@
-"""How far a contact lies from its fingertip's own collision mesh: the NLP rolls a mesh fingertip's contact over
-a sphere fitted to its pad, and the verifier checks the contact against the triangles themselves (numpy only)."""
+"""How far a contact lies outside its fingertip's own collision mesh: the NLP rolls a mesh fingertip's contact
+over a sphere fitted to its pad, and the verifier checks the contact against the triangles themselves (numpy
+only)."""
 
 from __future__ import annotations
 
 import numpy as np
 
 
+def outside_distance(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    """``(p,)``: how far each point lies outside the closed mesh of ``triangles`` (negative: inside), its distance
+    to the nearest triangle signed by that triangle's side, the mesh's faces turned outward first (by the sign of
+    its volume)."""
+    distance, nearest = _nearest(points, triangles)
+    a, b, c = triangles[:, 0], triangles[:, 1], triangles[:, 2]
+    normals = np.cross(b - a, c - a)
+    if np.einsum("ij,ij->", a, np.cross(b, c)) < 0:  # six times the signed volume: faces turned inward
+        normals = -normals
+    side = np.einsum("ij,ij->i", points - triangles[nearest, 0], normals[nearest])
+    return np.where(side < 0, -distance, distance)
+
+
 def point_triangle_distance(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
     """``(p,)``: each point's distance to the nearest of ``triangles`` ``(t, 3, 3)``, by the closest point on each
     triangle (its face, an edge or a corner: the regions of Ericson's Real-Time Collision Detection, 5.1.5)."""
+    return _nearest(points, triangles)[0]
+
+
+def _nearest(points: np.ndarray, triangles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Each point's distance to the nearest triangle, and which triangle that is."""
     a, b, c = (triangles[None, :, k] for k in range(3))
     p = points[:, None, :]
     ab, ac, ap = b - a, c - a, p - a
@@ -31,8 +50,9 @@ def point_triangle_distance(points: np.ndarray, triangles: np.ndarray) -> np.nda
     closest = np.where(((d1 <= 0) & (d2 <= 0))[..., None], a, closest)
     closest = np.where(((d3 >= 0) & (d4 <= d3))[..., None], b, closest)
     closest = np.where(((d6 >= 0) & (d5 <= d6))[..., None], c, closest)
-    distance = np.linalg.norm(p - closest, axis=-1)
-    return np.nan_to_num(distance, nan=np.inf).min(axis=1)
+    distance = np.nan_to_num(np.linalg.norm(p - closest, axis=-1), nan=np.inf)
+    nearest = distance.argmin(axis=1)
+    return distance[np.arange(len(points)), nearest], nearest
 
 
 def _dot(u: np.ndarray, v: np.ndarray) -> np.ndarray:

@@ -21,7 +21,7 @@ from grasptask.hand.model import Hand
 from grasptask.objects.surface import ImplicitObject
 from grasptask.task.model import TaskModel
 from grasptask.verifier.epsilon import ferrari_canny
-from grasptask.verifier.fingertip import point_triangle_distance
+from grasptask.verifier.fingertip import outside_distance
 from grasptask.verifier.loads_lp import load_block, normal_rows, solve_loads
 from grasptask.verifier.margins import friction_margin, strength_margin
 from grasptask.verifier.mechanics import (
@@ -50,7 +50,8 @@ class Tolerances:
     # how far the hand's true geometry may sink beyond its compliance: a mesh's surrogate, which the NLP holds the
     # fingertips to, misses the triangles by up to half a millimetre (0.2-0.3 mm at the mug's contacts)
     penetration_m: float = 5e-4
-    # how far beyond its compliance a contact on a mesh fingertip may lie from the tip's own triangles
+    # how far outside a mesh fingertip's own triangles its contact may lie (where the pad sphere fits the mesh,
+    # the contact lies the compliance inside it)
     fingertip_m: float = 5e-4
 
 
@@ -76,7 +77,8 @@ class Verification:
     #: how deep the hand's true collision geometry (every link, the fingertips included) sinks into the object
     penetration_m: float
     pad_angle_deg: np.ndarray
-    #: each contact's distance from its fingertip's own collision mesh (NaN: a sphere or capsule tip, or none)
+    #: how far each contact lies outside its fingertip's own collision mesh, negative inside (NaN: a sphere or
+    #: capsule tip)
     fingertip_gap_m: np.ndarray
     epsilon: float
     internal_force_rank: int
@@ -163,7 +165,7 @@ def _penetration(points: np.ndarray, obj: ImplicitObject) -> float:
 
 
 def _fingertip_gaps(hand: Hand, pose: HandPose, contacts: np.ndarray) -> np.ndarray:
-    """Each contact's distance from its fingertip's own mesh, measured in the distal link's frame (NaN for a
+    """How far each contact lies outside its fingertip's own mesh, measured in the distal link's frame (NaN for a
     fingertip without a mesh)."""
     gaps = np.full(len(contacts), np.nan)
     for j, (name, finger) in enumerate(hand.fingers.items()):
@@ -172,7 +174,7 @@ def _fingertip_gaps(hand: Hand, pose: HandPose, contacts: np.ndarray) -> np.ndar
         placed = pose.fingers[name]
         rotation, origin = placed.link_rotations[0, -1], placed.joint_positions[0, finger.n_joints - 1]
         vertices, faces = finger.tip_mesh
-        gaps[j] = point_triangle_distance((rotation.T @ (contacts[j] - origin))[None], vertices[faces])[0]
+        gaps[j] = outside_distance((rotation.T @ (contacts[j] - origin))[None], vertices[faces])[0]
     return gaps
 
 
@@ -245,8 +247,9 @@ def verify(
         # a real fingertip gives by its compliance and no more (the paper's fixed pad point may sink further)
         "penetration": not settings.rolling_contacts or penetration <= hand.compliance_m + tol.penetration_m,
         "pad_angle": pad_angle.max() <= settings.pad_angle_max_deg + tol.pad_angle_slack_deg,
-        # a mesh fingertip's contact lies on the real tip, not only on the sphere fitted to its pad
-        "fingertip_contact": bool(np.all(np.nan_to_num(gaps) <= hand.compliance_m + tol.fingertip_m)),
+        # a mesh fingertip's contact lies on the real tip, not in the air beside it, where only the sphere fitted
+        # to its pad reaches (a contact inside the tip is the tip pressing deeper: the penetration check's)
+        "fingertip_contact": bool(np.all(np.nan_to_num(gaps, nan=-np.inf) <= tol.fingertip_m)),
         "force_closure": epsilon > tol.epsilon_min,
         "rank_condition": A.size > 0 and rank == A.shape[1],
         "torque_feasibility": effort <= settings.activation_cap(hand.capability.kind) + tol.effort_slack,
