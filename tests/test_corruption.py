@@ -186,7 +186,11 @@ KINDS = [
 ]  # fmt: skip
 
 
-@pytest.mark.parametrize("kind", KINDS)
+#: a whole report each (a valid corruption of these makes one): make test-slow tries them
+REPORT_KINDS = ("stats.csv", "distances.parquet")
+
+
+@pytest.mark.parametrize("kind", [pytest.param(k, marks=pytest.mark.slow) if k in REPORT_KINDS else k for k in KINDS])
 def test_a_corrupted_artifact_is_one_line_and_nothing_written(kind, corpus, cli):
     original = corpus["files"][kind].read_bytes()
     # a solver config left valid runs a start, a results folder left valid makes a whole report: fewer of those;

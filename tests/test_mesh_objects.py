@@ -196,6 +196,7 @@ def test_the_surrogate_zero_set_lies_within_a_millimetre_of_the_mesh(name):
     np.testing.assert_array_equal(np.sign(evaluate(surrogate, probes[clear])), np.sign(truth[clear]))
 
 
+@pytest.mark.slow
 def test_a_mesh_gives_verified_grasps_end_to_end(cli, simulated, tmp_path):
     """A sweep on the mug's mesh: the NLP constrains its B-spline surrogate, the verifier judges against the
     triangles, and the table records the surrogate's error at each contact."""
