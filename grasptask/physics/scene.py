@@ -75,16 +75,16 @@ class Scene:
     finger_of_body: np.ndarray  # (nbody,) the grasping finger whose joints move the body, -1 for none
     object_geoms: np.ndarray  # the object's geom ids
     #: for each simulated joint, its column in ``hand.joint_names``; for each of those, its simulated joint
-    columns: np.ndarray | None = None
-    expand: np.ndarray | None = None
+    columns: np.ndarray
+    expand: np.ndarray
 
     def to_hand(self, q: np.ndarray) -> np.ndarray:
         """Simulated joint values in ``hand.joint_names`` order (a shared joint's value in each finger)."""
-        return q if self.expand is None else q[..., self.expand]
+        return q[..., self.expand]
 
     def from_hand(self, q: np.ndarray) -> np.ndarray:
         """``hand.joint_names``-ordered values for the simulated joints."""
-        return q if self.columns is None else q[..., self.columns]
+        return q[..., self.columns]
 
     @property
     def finger_count(self) -> int:

@@ -20,14 +20,10 @@ def outside_distance(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
     return np.where(side < 0, -distance, distance)
 
 
-def point_triangle_distance(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
-    """``(p,)``: each point's distance to the nearest of ``triangles`` ``(t, 3, 3)``, by the closest point on each
-    triangle (its face, an edge or a corner: the regions of Ericson's Real-Time Collision Detection, 5.1.5)."""
-    return _nearest(points, triangles)[0]
-
-
 def _nearest(points: np.ndarray, triangles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Each point's distance to the nearest triangle, and which triangle that is."""
+    """Each point's distance to the nearest of ``triangles`` ``(t, 3, 3)``, and which triangle that is, by the
+    closest point on each (its face, an edge or a corner: the regions of Ericson's Real-Time Collision Detection,
+    5.1.5)."""
     a, b, c = (triangles[None, :, k] for k in range(3))
     p = points[:, None, :]
     ab, ac, ap = b - a, c - a, p - a
