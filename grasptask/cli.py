@@ -302,7 +302,15 @@ _sweep_model_options = _model_option_set(sweep=True)
 
 
 def _object_options(f):
-    """--unit, --mass and --task-frame: what a bare mesh or point cloud cannot say (a mesh YAML's fields)."""
+    """--unit, --mass, --task-frame and --task-frame-outside: what a bare mesh or point cloud cannot say (a mesh
+    YAML's fields)."""
+    f = click.option(
+        "--task-frame-outside",
+        is_flag=True,
+        default=None,
+        help="Take a task frame (origin) that lies outside the object or within 5 mm of its surface "
+        "(task_frame_outside in a mesh YAML); the centre is always taken.",
+    )(f)
     f = click.option(
         "--task-frame",
         type=click.Choice(["centre", "origin"]),
@@ -381,6 +389,7 @@ def synthesize(
     unit,
     mass_kg,
     task_frame,
+    task_frame_outside,
     grasp_config,
     solver_config,
     starts,
@@ -418,6 +427,7 @@ def synthesize(
         unit=unit,
         mass_kg=mass_kg,
         task_frame=task_frame,
+        task_frame_outside=task_frame_outside,
     )
     try:
         run = stages.run_synthesize(options, echo=click.echo)
@@ -461,13 +471,24 @@ def _object_said(run: dict) -> str:
 @_object_options
 @_fingers_option("those SOLUTIONS holds contacts of")
 def verify_command(
-    solutions, tasks_path, task, out, hand, object_path, unit, mass_kg, task_frame, grasp_config, fingers
+    solutions,
+    tasks_path,
+    task,
+    out,
+    hand,
+    object_path,
+    unit,
+    mass_kg,
+    task_frame,
+    task_frame_outside,
+    grasp_config,
+    fingers,
 ):
     """Check every grasp in SOLUTIONS (solutions.parquet) again with the independent verifier; writes
     OUT/verification.parquet with one row per start and its verification figures."""
     table = stages.run_verify(
         solutions, tasks_path, task, out, hand, object_path, grasp_config, fingers,
-        {"unit": unit, "mass_kg": mass_kg, "task_frame": task_frame},
+        {"unit": unit, "mass_kg": mass_kg, "task_frame": task_frame, "task_frame_outside": task_frame_outside},
     )  # fmt: skip
     click.echo(f"{int(table['verified'].sum())}/{len(table)} grasps verified; wrote {out}/verification.parquet")
 

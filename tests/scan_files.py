@@ -35,6 +35,25 @@ def box(size=(0.09, 0.04, 0.175), subdivisions: int = 4) -> trimesh.Trimesh:
     return mesh
 
 
+def rod(radius: float = 0.003, length: float = 0.12, sections: int = 24) -> trimesh.Trimesh:
+    """A thin rod along z (a knitting needle, a skewer), its base at z = 0: its centre lies ``radius`` inside."""
+    mesh = trimesh.creation.cylinder(radius=radius, height=length, sections=sections)
+    mesh.apply_translation([0, 0, length / 2])
+    return mesh
+
+
+def cup(radius: float = 0.04, height: float = 0.095, wall: float = 0.004, sections: int = 48) -> trimesh.Trimesh:
+    """A mug: a wall ``wall`` thick on a 6 mm base, open at the top, with a handle (a torus segment 9 mm thick)
+    on its side; its centre of volume lies in its cavity, as a YCB mug's does."""
+    profile = [(0.0, 0.0), (radius, 0.0), (radius, height), (radius - wall, height), (radius - wall, 0.006),
+               (0.0, 0.006)]  # fmt: skip
+    body = trimesh.creation.revolve(np.array(profile), sections=sections)
+    handle = trimesh.creation.torus(major_radius=0.025, minor_radius=0.0045, major_sections=32, minor_sections=12)
+    handle.apply_transform(trimesh.transformations.rotation_matrix(np.pi / 2, [1, 0, 0]))
+    handle.apply_translation([radius + 0.008, 0, height / 2])
+    return trimesh.boolean.union([body, handle], engine="manifold")
+
+
 def write_textured_obj(mesh: trimesh.Trimesh, path: Path, unit_scale: float = 1.0) -> Path:
     """``mesh`` as a textured OBJ (with its .mtl and a small PNG) whose texture atlas cuts it into charts: a
     cylindrical chart for the sides, split where the angle wraps, and one chart per face direction for the caps

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import re
+from pathlib import Path
 
 import pandas as pd
 import pytest
@@ -227,10 +228,13 @@ def test_a_report_on_a_bare_synthesize_folder_names_the_hand_and_the_object(cli,
     assert result.exit_code == 0, result.output
     assert f"found sweep of drawing: {bare / 'drawing'}" in result.output
     assert f"found task models: {results / 'tasks' / 'task_models.json'}" in result.output
+    # the ellipsoids and recordings fit-task and simulate wrote beside those task models are drawn too
+    assert f"found ellipsoids: {results / 'tasks' / 'ellipsoids.parquet'}" in result.output
     page = (bare / "report" / "index.html").read_text()
     assert "Hand human" in page and "on object ball" in page and "drawing: synthesized" in page
     report = json.loads((bare / "report" / "report.json").read_text())
     assert any(name.startswith("grasp_drawing") for name in report["figures"])
+    assert {"ellipsoids_drawing", "ellipsoids_cutting"} <= {Path(name).stem for name in report["figures"]}
 
 
 def test_a_folder_with_nothing_to_report_is_one_line(cli, tmp_path):

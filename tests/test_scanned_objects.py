@@ -18,10 +18,10 @@ from scipy.spatial.transform import Rotation
 
 from grasptask.errors import BadInputError
 from grasptask.objects import load_object
-from grasptask.objects.loading import FRAME_DEPTH_M
+from grasptask.objects.loading import FRAME_DEPTH_M, file_object_name
 from grasptask.objects.mesh_file import holes, non_manifold_edges, open_edges
 from grasptask.objects.mesh_object import MeshObject
-from tests.scan_files import bottle, box, with_fin, with_hole, write_scene_glb, write_textured_obj
+from tests.scan_files import bottle, box, cup, rod, with_fin, with_hole, write_scene_glb, write_textured_obj
 from tests.test_bad_input import assert_rejected
 
 
@@ -131,6 +131,47 @@ def test_unit_mass_and_task_frame_reach_run_json(cli, simulated, tmp_path):
     assert "task frame: centre, at (0, 0, 88) mm" in result.output and "mass is not given" not in result.output
     again = cli(*args, "--unit", "mm")  # no mass: said
     assert "the object's mass is not given" in again.output
+    base = cli(*args, "--unit", "mm", "--task-frame", "origin", "--task-frame-outside")  # on its base: taken
+    assert base.exit_code == 0, base.output
+    assert "is 0.0 mm inside it; taken: the task's torques act about it" in base.output
+    run = json.loads((out / "drawing" / "run.json").read_text())
+    assert run["object_options"] == {"unit": "mm", "task_frame": "origin", "task_frame_outside": True}
+
+
+def test_a_hollow_objects_centre_is_taken_and_said(tmp_path):
+    """A mug's centre of volume lies in its cavity, a thin rod's less than 5 mm inside it: each is the frame a
+    user would choose, so it is taken, and where it lies is said."""
+    write_textured_obj(cup(), tmp_path / "mug.obj")
+    mug, said = loaded(tmp_path / "mug.obj")
+    assert mug.task_frame_rule == "centre" and mug.signed_distance(np.zeros((1, 3)))[0] > 0  # in the cavity
+    assert len(said) == 2 and "repaired" in said[0]  # the seams, then the frame
+    assert said[1].startswith(f"{tmp_path / 'mug.obj'}: the task frame (centre, at (")
+    assert "mm outside the solid; taken: the task's torques act about it" in said[1]
+    rod().export(tmp_path / "rod.stl")
+    thin, said = loaded(tmp_path / "rod.stl")
+    assert said == [f"{tmp_path / 'rod.stl'}: the task frame (centre, at (0, 0, 60) mm in the file's frame) is 3.0 mm "
+                    "inside it; taken: the task's torques act about it"]  # fmt: skip
+    solid, said = loaded(write_textured_obj(bottle(), tmp_path / "bottle.obj"))
+    assert not any("task frame" in line for line in said)  # deep inside: nothing to say
+
+
+@pytest.mark.parametrize(
+    ("path", "name"),
+    [("ycb/025_mug/google_16k/textured.obj", "025_mug"), ("036_wood_block/textured.obj", "036_wood_block"),
+     ("scans/banana/poisson/mesh.ply", "banana"), ("objects/knife.stl", "knife")],
+)  # fmt: skip
+def test_a_generic_file_name_gives_the_folders(tmp_path, path, name):
+    assert file_object_name(tmp_path / path) == name
+
+
+def test_a_scans_name_reaches_the_object_and_a_yamls_name_wins(tmp_path):
+    folder = tmp_path / "025_mug" / "google_16k"
+    folder.mkdir(parents=True)
+    write_textured_obj(bottle(), folder / "textured.obj")
+    assert loaded(folder / "textured.obj")[0].name == "025_mug"
+    assert loaded(folder / "textured.obj", mass_kg=0.3)[0].name == "025_mug"  # with --mass: still
+    (folder / "mug.yaml").write_text("type: mesh\nmesh: textured.obj\nname: my mug\ntask_frame: centre\n")
+    assert loaded(folder / "mug.yaml")[0].name == "my mug"
 
 
 def _bad_scan(tmp_path: Path, case: str) -> tuple[Path, list[str]]:
@@ -166,7 +207,9 @@ def _bad_scan(tmp_path: Path, case: str) -> tuple[Path, list[str]]:
 
 BAD_SCANS = {
     "large hole": "has a hole 70 mm across",
-    "frame outside": "task frame (origin, at (0, 0, 0) mm in the file's frame) is only 0.0 mm inside it",
+    "frame outside": "task frame (origin, at (0, 0, 0) mm in the file's frame) is 0.0 mm inside it; the task's "
+    "torques act about it, so place it at least 5 mm inside (--task-frame centre, or task_frame in the object's "
+    "YAML), or accept it (--task-frame-outside",
     "millimetres": "give --unit mm",
     "no triangles": "holds no triangles",
     "no normals": "normals",

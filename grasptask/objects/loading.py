@@ -29,9 +29,11 @@ A mesh or point-cloud file can also be given directly (``--object thing.obj``), 
 ``--task-frame`` for what a bare file cannot say (the same fields of a mesh object's YAML, which they override).
 A bare file's task frame is its ``centre``: the centre of volume (of the points, for a cloud), z along the
 longest principal axis, x along the next; this is where the paper's frame sits on its tool. ``origin`` keeps the
-file's own frame. A mesh or cloud object lives in its task frame, so grasps are reported in it. A task frame
-outside the object, or within 5 mm of its surface, is refused unless ``task_frame_outside: true``: the task's
-torques act about it, and a frame on the base of a scan (where YCB's origins are) makes a different task.
+file's own frame. A mesh or cloud object lives in its task frame, so grasps are reported in it. A frame
+given or ``origin`` outside the object, or within 5 mm of its surface, is refused unless ``task_frame_outside:
+true`` (``--task-frame-outside``): the task's torques act about it, and a frame on the base of a scan (where
+YCB's origins are) makes a different task. The ``centre`` is always taken, and said where it lies outside the
+solid (a mug's, in its cavity) or within 5 mm of its surface (a thin rod's).
 
 Paths are relative to the config file. An optional ``symmetry`` entry, ``{rotation_axis: z, flip_axis: z}``
 (or ``rotation_axis: any`` for a sphere), describes the object's symmetry for clustering grasps; the loaded
@@ -61,7 +63,14 @@ from grasptask.paths import DEFAULT_OBJECT
 #: a task frame's origin at least this deep inside the object (m), unless the YAML allows it outside
 FRAME_DEPTH_M = 0.005
 #: what --unit, --mass and --task-frame set, as fields of a mesh object's YAML
-OVERRIDES = ("unit", "mass_kg", "task_frame")
+OVERRIDES = ("unit", "mass_kg", "task_frame", "task_frame_outside")
+#: file and folder names that say nothing of the object: YCB's ``025_mug/google_16k/textured.obj``, ShapeNet's
+#: ``model_normalized.obj``, a scanner's ``mesh.stl``; such a file is named after the first folder above it that
+#: says more
+GENERIC_NAMES = frozenset(
+    {"textured", "nontextured", "textured_simple", "model", "model_normalized", "mesh", "meshes", "object", "scan",
+     "poisson", "tsdf", "google_16k", "google_64k", "google_512k", "collision", "visual", "models", "untitled"}
+)  # fmt: skip
 
 
 def load_object(
@@ -102,6 +111,16 @@ def _config_file(path: Path) -> Path:
     return path
 
 
+def file_object_name(path: str | Path) -> str:
+    """What the records call an object read from ``path`` without a ``name:``: the file's own name, or, when it
+    is generic (``textured.obj``), that of the nearest folder above it whose name is not."""
+    path = Path(path).resolve()
+    for part in (path.stem, *(p.name for p in path.parents)):
+        if part and part.lower() not in GENERIC_NAMES:
+            return part
+    return path.stem
+
+
 def object_config(path: str | Path, **overrides: Any) -> dict[str, Any] | None:
     """The YAML config of ``path`` with ``overrides`` in place (None: there are none), its files named by
     absolute paths so that it can be written anywhere: what a sweep run with --unit, --mass or --task-frame
@@ -116,10 +135,10 @@ def object_config(path: str | Path, **overrides: Any) -> dict[str, Any] | None:
     if path.suffix.lower() in MESH_SUFFIXES + CLOUD_SUFFIXES:
         source = existing_file(path, "object file").resolve()
         key = "points" if _is_cloud(path) else "mesh"
-        return {"type": "mesh", "name": path.stem, key: str(source), "task_frame": "centre", **given}
+        return {"type": "mesh", "name": file_object_name(path), key: str(source), "task_frame": "centre", **given}
     data = load_yaml(_config_file(path))
     if data.get("type") != "mesh":
-        flags = ", ".join("--" + {"mass_kg": "mass", "task_frame": "task-frame"}.get(k, k) for k in given)
+        flags = ", ".join("--" + k.replace("_kg", "").replace("_", "-") for k in given)
         raise BadInputError(path, f"{flags}: for a mesh or point-cloud object; this is a {data.get('type')!r} object")
     for key in ("mesh", "points"):
         if key in data:
@@ -132,7 +151,7 @@ def object_from_config(data: dict[str, Any], path: Path, say: Callable[[str], An
     messages name."""
     config = object_schema(data, path)
     symmetry = _symmetry(config.symmetry)
-    name = config.name or path.stem
+    name = config.name or file_object_name(path)
     if isinstance(config, SuperquadricConfig):
         pose = config.pose.matrix()
         e1, e2 = config.exponents
@@ -161,7 +180,7 @@ def mesh_object(source: Path, config: MeshConfig, path: Path, say: Callable[[str
     default, ``centre`` for a bare file and ``origin`` for a YAML's), checked to lie inside the object."""
     unit, mass, spacing = config.unit, config.mass_kg, config.grid_spacing_m
     pose = config.pose.matrix()
-    name = config.name or source.stem
+    name = config.name or file_object_name(source)
     symmetry = _symmetry(config.symmetry)
     rule = config.task_frame if config.task_frame is not None else ("centre" if path == source else "origin")
     found: ImplicitObject
@@ -179,10 +198,19 @@ def mesh_object(source: Path, config: MeshConfig, path: Path, say: Callable[[str
         assert not isinstance(rule, str)
         task_frame = rule.matrix()
     label = rule if isinstance(rule, str) else "given"
-    if not config.task_frame_outside:
-        _check_inside(found, task_frame[:3, 3], path, label)
+    depth = -float(found.signed_distance(task_frame[None, :3, 3])[0])  # < 0: outside the solid
+    where = _frame_place(depth, task_frame[:3, 3], label)
+    if depth < FRAME_DEPTH_M and rule != "centre" and not config.task_frame_outside:
+        raise BadInputError(
+            path,
+            f"{where}; the task's torques act about it, so place it at least {FRAME_DEPTH_M * 1e3:.0f} mm inside "
+            "(--task-frame centre, or task_frame in the object's YAML), or accept it (--task-frame-outside, or "
+            "task_frame_outside: true)",
+        )
     for repair in repairs:
         say(repair)
+    if depth < FRAME_DEPTH_M:  # a hollow object's centre (a mug's lies in its cavity), a thin one's, or accepted
+        say(f"{source}: {where}; taken: the task's torques act about it")
     into_task = np.linalg.inv(task_frame)
     rotation = into_task[:3, :3]
     if isinstance(found, PointCloudObject):
@@ -197,10 +225,11 @@ def mesh_object(source: Path, config: MeshConfig, path: Path, say: Callable[[str
 
 
 def object_facts(obj: ImplicitObject) -> dict[str, Any]:
-    """What a run records of its object: the task frame in the file's coordinates (metres) and how it was chosen
-    (a formula object's frame is its own), and the mass (None: not given)."""
+    """What a run records of its object: its name, the task frame in the file's coordinates (metres) and how it
+    was chosen (a formula object's frame is its own), and the mass (None: not given)."""
     frame = getattr(obj, "task_frame", None)
     return {
+        "object_name": obj.name,
         "task_frame": {
             "rule": getattr(obj, "task_frame_rule", "object"),
             "in_file_frame": None if frame is None else np.round(frame, 9).tolist(),
@@ -238,19 +267,11 @@ def principal_frame(obj: ImplicitObject) -> np.ndarray:
     return frame
 
 
-def _check_inside(obj: ImplicitObject, origin: np.ndarray, path: Path, rule: str) -> None:
-    """A task frame at least ``FRAME_DEPTH_M`` inside the object, or one line saying where it is."""
-    depth = -float(obj.signed_distance(origin[None])[0])
-    if depth >= FRAME_DEPTH_M:
-        return
+def _frame_place(depth: float, origin: np.ndarray, rule: str) -> str:
+    """Where the task frame lies, ``depth`` (m) inside the object's surface, as a message says it."""
     at = ", ".join(str(int(round(v * 1e3))) for v in origin)
-    where = f"lies {-depth * 1e3:.1f} mm outside the object" if depth < 0 else f"is only {depth * 1e3:.1f} mm inside it"
-    raise BadInputError(
-        path,
-        f"the task frame ({rule}, at ({at}) mm in the file's frame) {where}; the task's torques act about it, so "
-        f"place it at least {FRAME_DEPTH_M * 1e3:.0f} mm inside (task_frame in the object's YAML, or --task-frame "
-        "centre), or say task_frame_outside: true",
-    )
+    where = f"lies {-depth * 1e3:.1f} mm outside the solid" if depth < 0 else f"is {depth * 1e3:.1f} mm inside it"
+    return f"the task frame ({rule}, at ({at}) mm in the file's frame) {where}"
 
 
 def _is_cloud(source: Path) -> bool:

@@ -58,17 +58,27 @@ class ResultsFolder:
     #: the task models when ``tasks/task_models.json`` is not there (None: that path, missing)
     models: Path | None = None
 
+    def _tasks_file(self, name: str, up: str = "") -> Path:
+        """``tasks/<name>`` (``<up>/<name>`` for a sibling of ``tasks/``), or else the one that fit-task, distances
+        or simulate wrote beside the task models the sweeps name: the report of a ``synthesize --out`` folder
+        draws what the user's own run made."""
+        laid_out = self.root / (up or "tasks") / name
+        if laid_out.is_file() or self.models is None:
+            return laid_out
+        beside = (self.models.parent.parent / up if up else self.models.parent) / name
+        return beside if beside.is_file() else laid_out
+
     @property
     def manifest(self) -> Path:
-        return self.root / "recordings" / "manifest.csv"
+        return self._tasks_file("manifest.csv", up="recordings")
 
     @property
     def stats(self) -> Path:
-        return self.root / "tasks" / "stats.csv"
+        return self._tasks_file("stats.csv")
 
     @property
     def ellipsoids(self) -> Path:
-        return self.root / "tasks" / "ellipsoids.parquet"
+        return self._tasks_file("ellipsoids.parquet")
 
     @property
     def task_models(self) -> Path:
@@ -77,11 +87,11 @@ class ResultsFolder:
 
     @property
     def distances(self) -> Path:
-        return self.root / "tasks" / "distances.parquet"
+        return self._tasks_file("distances.parquet")
 
     @property
     def distance_summary(self) -> Path:
-        return self.root / "tasks" / "distance_summary.json"
+        return self._tasks_file("distance_summary.json")
 
     @property
     def grasps(self) -> Path:

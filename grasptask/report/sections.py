@@ -308,7 +308,7 @@ def grasps_section(
         settings = load_grasp_settings(_reference_path(sweep, "grasp_config", DEFAULT_GRASP_CONFIG))
         hand, fingers = sweep_hand(sweep, hands)
         if object_path not in objects:
-            obj = load_object(object_path)
+            obj = load_object(object_path, say=lambda _: None)  # synthesize said what it repaired
             objects[object_path] = obj, display_mesh(obj), display_mesh(obj, VIEW_FACES)
         obj, mesh, view_mesh = objects[object_path]
         task_axis = task_models[task].axes[0] if task in task_models else None

@@ -121,7 +121,8 @@ def _identity_lines(sweeps: dict[str, SweepResult], hands: dict[str, str]) -> li
     groups: dict[tuple[str, str], list[str]] = {}
     for task, sweep in sweeps.items():
         obj = Path(str(sweep.run.get("object", "?")))
-        groups.setdefault((f"{hands[task]} ({sweep.run.get('hand', '?')})", f"{obj.stem} ({obj})"), []).append(task)
+        name = sweep.run.get("object_name") or obj.stem  # run.json from before it was recorded: the file's
+        groups.setdefault((f"{hands[task]} ({sweep.run.get('hand', '?')})", f"{name} ({obj})"), []).append(task)
     lines = [f"Hand {hand} on object {obj}: {', '.join(tasks)}" for (hand, obj), tasks in groups.items()]
     for task, sweep in sweeps.items():
         run, made = sweep.run, (sweep.folder / "run.json").stat().st_mtime

@@ -78,10 +78,11 @@ class SynthesisOptions:
     #: a physics config: hold each verified grasp in MuJoCo too (grasptask.physics); None: no physics check
     physics: Path | None = None
     #: what a bare mesh cannot say (--unit, --mass, --task-frame): the object's unit (m, cm, mm), mass (kg) and
-    #: task frame (centre, origin); None: the object file's or YAML's own
+    #: task frame (centre, origin), and whether a frame outside it is taken; None: the object file's or YAML's own
     unit: str | None = None
     mass_kg: float | None = None
     task_frame: str | None = None
+    task_frame_outside: bool | None = None
 
     def __post_init__(self) -> None:
         for name in ("tasks", "out", "hand", "object", "solver_config", "grasp_config"):
@@ -112,8 +113,13 @@ class SynthesisOptions:
 
     @property
     def object_overrides(self) -> dict[str, Any]:
-        """--unit, --mass and --task-frame, those given."""
-        given = {"unit": self.unit, "mass_kg": self.mass_kg, "task_frame": self.task_frame}
+        """--unit, --mass, --task-frame and --task-frame-outside, those given."""
+        given = {
+            "unit": self.unit,
+            "mass_kg": self.mass_kg,
+            "task_frame": self.task_frame,
+            "task_frame_outside": self.task_frame_outside,
+        }
         return {k: v for k, v in given.items() if v is not None}
 
     @property

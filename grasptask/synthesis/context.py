@@ -66,7 +66,7 @@ class SolverContext:
         self.hand = load_hand(job.hand_path)
         if job.fingers:
             self.hand = self.hand.with_grasping(job.fingers)
-        self.obj = load_object(job.object_path, **dict(job.object_overrides))
+        self.obj = load_object(job.object_path, say=lambda _: None, **dict(job.object_overrides))  # the parent said it
         self.task = load_task_models(job.tasks_path)[job.task]
         self.settings = job.settings
         self.models = build_models(self.hand, self.obj, self.task, self.settings, job.solver, job.backend)
