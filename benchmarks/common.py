@@ -135,6 +135,54 @@ def first_attempt_figures(solutions: Any) -> dict:
     }
 
 
+def time_shares(folder: Path) -> dict:
+    """Where a finished sweep's solver time went, by kind of start: verified at its first attempt as solved,
+    verified after the verifier's feedback or the all-axes solve, verified on a retry posture, never verified;
+    and, across those, verified starts that solved to an optimum an earlier start (by start id) had already
+    found. Per kind: starts, summed seconds and their share of the sweep's; and the median iterations and ms per
+    iteration of all starts (a start's seconds include placement and every attempt)."""
+    import numpy as np
+    import pandas as pd
+
+    from grasptask.objects import load_object
+    from grasptask.records.solutions import retried, solved_with_all_axes
+    from grasptask.synthesis.clustering import labels
+
+    run, solutions = finished_sweep(folder)
+    solutions = solutions.sort_values("start_id").reset_index(drop=True)
+    verified = solutions["verified"].fillna(False).astype(bool).to_numpy()
+    again = retried(solutions)
+    rescued = solved_with_all_axes(solutions) | (solutions.get("feedback_rounds", 0) > 0)
+    refound = np.zeros(len(solutions), dtype=bool)
+    if verified.any():
+        symmetry = load_object(run["object"], say=lambda _: None, **(run.get("object_options") or {})).symmetry
+        label = labels(solutions[verified], list(run["fingers"]), symmetry)
+        refound[np.flatnonzero(verified)] = pd.Series(label).duplicated().to_numpy()  # an earlier start's optimum
+    kinds = {
+        "verified_first_attempt": verified & ~again & ~rescued,
+        "verified_after_feedback": verified & ~again & rescued,
+        "verified_on_retry": verified & again,
+        "never_verified": ~verified,
+        "refound_optimum": refound,
+    }
+    seconds = solutions["seconds"].to_numpy(dtype=float)
+    total = float(np.nansum(seconds))
+    shares = {
+        kind: {
+            "starts": int(mask.sum()),
+            "seconds": float(np.nansum(seconds[mask])),
+            "share": float(np.nansum(seconds[mask]) / total) if total else None,
+        }
+        for kind, mask in kinds.items()
+    }
+    iterations = solutions["iterations"].to_numpy(dtype=float)
+    return {
+        "kinds": shares,
+        "median_iterations": float(np.median(iterations)),
+        "ms_per_iteration": float(1e3 * np.nansum(seconds) / max(np.nansum(iterations), 1.0)),
+    }
+
+
 def first_attempt_cell(figures: dict | None) -> str:
     """A table cell for :func:`first_attempt_figures`: "-" for a sweep without retries."""
     if not figures or figures["median_s_per_start"] is None:

@@ -45,6 +45,7 @@ from common import (  # noqa: E402
     save_and_print,
     solver_option,
     sweep_parser,
+    time_shares,
 )
 
 TASKS = ("drawing", "cutting", "screwdriving")
@@ -119,8 +120,8 @@ def _verified_max_mm(solutions: pd.DataFrame, prefix: str) -> float | None:
 
 
 def figures_of(folder: Path) -> dict:
-    """A finished sweep's figures, from its run.json and solutions.parquet."""
-    return sweep_figures(*finished_sweep(folder))
+    """A finished sweep's figures, from its run.json and solutions.parquet, and where its time went."""
+    return {**sweep_figures(*finished_sweep(folder)), "time_shares": time_shares(folder)}
 
 
 def compare(results: dict) -> dict:

@@ -12,6 +12,10 @@ alone, as an exact superquadric (``benchmarks/proxies/``): its shape without a s
 (``tests/scan_files.py``): bare textured OBJs split along every texture seam, no YAML, so their task frame is
 the default, their centre of volume.
 
+``ycb_mug``, ``ycb_wood_block`` and ``ycb_power_drill`` are three YCB scans as published
+(``../shared/zoo/objects``), bare files too; they run only when asked for (``--objects``). Each sweep's
+``time_shares`` say where its time went, by kind of start (``common.time_shares``).
+
 With ``--physics`` each sweep's grasps are then held by the physics judge (grip controller, real strength and
 friction), and the share of the verified grasps it holds is recorded.
 
@@ -22,6 +26,7 @@ Results are saved after every sweep (benchmarks/results/objects.json), so an int
 
 from __future__ import annotations
 
+import os
 import sys
 import tempfile
 import time
@@ -45,6 +50,7 @@ from common import (  # noqa: E402
     solver_option,
     span,
     sweep_parser,
+    time_shares,
 )
 
 TASKS = ("drawing", "cutting", "screwdriving")
@@ -53,7 +59,7 @@ OBJECTS = {
     for name in ("tool", "mug", "spray_bottle", "kitchen_knife", "screwdriver", "mug_gp")
 }
 # the grasped part of three meshes alone as an exact superquadric: its shape without a surrogate's cost
-# (docs/synthesis-notes.md, "Superquadrics")
+# (docs/design/synthesis.md, "Meshes: the surrogate surface")
 OBJECTS.update(
     {
         name: ROOT / "benchmarks" / "proxies" / f"{name}.yaml"
@@ -61,6 +67,14 @@ OBJECTS.update(
     }
 )
 
+
+#: three YCB scans as their authors publish them (../shared/zoo/objects: textured OBJs in metres, the origin on
+#: the base), run as bare files when asked for (--objects); outside the repository
+ZOO = ROOT.parent / "shared" / "zoo" / "objects"
+OBJECTS.update(
+    {"ycb_mug": ZOO / "025_mug/textured.obj", "ycb_wood_block": ZOO / "036_wood_block/textured.obj",
+     "ycb_power_drill": ZOO / "035_power_drill/textured.obj"}
+)  # fmt: skip
 
 #: scanned household objects as people download them, written by the run itself (tests/scan_files.py): bare
 #: textured OBJs split along their seams, base at the file's origin, no YAML
@@ -85,6 +99,8 @@ def check_prerequisites(objects: list[str]) -> None:
         for name in objects:
             if name not in OBJECTS and name not in SCANS:
                 raise SystemExit(f"unknown object '{name}' (known: {', '.join([*OBJECTS, *SCANS])})")
+            if name in OBJECTS and not OBJECTS[name].is_file():
+                raise SystemExit(f"{OBJECTS[name]}: not found")
             load_object(object_path(name, Path(scratch)), say=lambda _: None)  # a broken mesh fails here
 
 
@@ -176,7 +192,7 @@ def main(
             path = object_path(obj, tmp)
             build = build_seconds(path, tasks, "drawing", solver)
             print(f"{obj}: a worker's models in {build:.1f} s", flush=True)
-            shown = path.name if obj in SCANS else str(path.relative_to(ROOT))
+            shown = path.name if obj in SCANS else os.path.relpath(path, ROOT)
             entry = results["objects"][obj] = {"file": shown, "build_s": build, "tasks": {}}
             for task in TASKS:
                 began = time.perf_counter()
@@ -185,6 +201,7 @@ def main(
                 )
                 run_synthesize(options, echo=print)
                 figures = entry["tasks"][task] = sweep_figures(*finished_sweep(tmp / obj / task))
+                figures["time_shares"] = time_shares(tmp / obj / task)
                 print(
                     f"{obj} {task}: median {figures['median_s_per_start']:.2f} s, "
                     f"{figures['ms_per_iteration'] or float('nan'):.1f} ms/iteration, "

@@ -300,7 +300,7 @@ HOLDING_HANDS = {
 
 
 #: with the margin, the robot hands hold screw driving from 12% (Barrett) and 31% (Allegro) of the starts only
-#: (docs/margins.md); there the test checks the machinery in the paper's contact model
+#: (docs/design/margins.md); there the test checks the machinery in the paper's contact model
 WITHOUT_MARGIN = {("barrett", "screwdriving"), ("allegro", "screwdriving")}
 
 
@@ -352,7 +352,8 @@ def test_a_start_the_verifier_rejects_is_solved_again_from_an_opened_hand(simula
     # and the first attempt from the mid-range joints these starts fail from
     solver = replace(load_solver_config("configs/solver.yaml"), torque_axes=None, first_posture=0.5)
     assert solver.retry_postures
-    # the paper's contact model: with the margin the Barrett holds screw driving from few starts (docs/margins.md)
+    # the paper's contact model: with the margin the Barrett holds screw driving from few starts
+    # (docs/design/margins.md)
     paper = load_grasp_settings("configs/grasp_paper.yaml")
     context = SolverContext(
         Job(str(BARRETT), "configs/objects/tool.yaml", tasks, "screwdriving", solver=solver, settings=paper)

@@ -106,3 +106,21 @@ def test_a_mesh_given_as_a_hand_names_the_kinds_of_hand_file(cli, tmp_path, task
     result = cli("synthesize", "--tasks", tasks, "--task", "drawing", "--out", tmp_path / "o", "--hand", mesh)
     assert result.exit_code == 2 and "URDF" in result.output and "MJCF" in result.output and "YAML" in result.output
     assert not (tmp_path / "o").exists()
+
+
+def test_every_docs_page_the_code_names_exists():
+    """Comments, docstrings, configs and benchmarks point readers at docs pages; a page moved or renamed would
+    leave them pointing nowhere."""
+    import re
+
+    named = re.compile(r"docs/[\w./-]+\.md")
+    sources = [p for folder in ("grasptask", "benchmarks", "tools", "tests", "configs", "pipelines")
+               for p in Path(folder).rglob("*") if p.suffix in (".py", ".yaml", ".yml", ".md")]  # fmt: skip
+    sources += [Path("Makefile"), Path("README.md"), Path("mkdocs.yml")]
+    dangling = sorted(
+        f"{path}: {page}"
+        for path in sources
+        for page in set(named.findall(path.read_text()))
+        if not Path(page).is_file()
+    )
+    assert not dangling, dangling

@@ -6,7 +6,7 @@ with spheres a little wider than it between them, so that its side does not sag 
 own radius one radius apart left 13% of it outside, and the Allegro's tips sank 0.85 mm where eq. 14 allowed
 0.5); a cylinder and a box are swept by spheres a little wider than their smallest half-width, spaced half that
 width apart, so that every edge and corner lies in a sphere (spheres of the half-width itself left a box's edges
-0.41 of it outside, and a Barrett link sank 2 mm into the object where its spheres cleared it, docs/margins.md);
+0.41 of it outside, and a Barrett link sank 2 mm into the object where its spheres cleared it, docs/design/margins.md);
 they bulge out of the flat faces by 6-12% of the half-width. A mesh becomes its oriented bounding box.
 
 The true surfaces, for the verifier's penetration check, are :mod:`grasptask.hand.skin`."""

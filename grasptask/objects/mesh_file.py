@@ -99,7 +99,7 @@ def read_mesh(path: Path, unit: str = "m", say: Callable[[str], Any] = print) ->
     - degenerate and duplicate faces are dropped;
     - a mesh still not closed, or with non-manifold edges, is repaired by MeshFix (``pymeshfix``): its holes
       filled, its non-manifold parts and loose pieces removed. On the Stanford bunny scan, trimesh's own repair
-      left it open and manifold3d refuses a non-manifold input (docs/objects.md).
+      left it open and manifold3d refuses a non-manifold input (docs/design/objects.md).
 
     A hole wider than ``HOLE_FRACTION`` of the object is not guessed at: it is refused with its size, as is a mesh
     MeshFix cannot close."""

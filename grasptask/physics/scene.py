@@ -29,7 +29,7 @@ HAND_BIT, OBJECT_BIT = 2, 1
 CONVEX_VOLUME_EXCESS = 0.02
 #: triangles of a formula object's surface for MuJoCo. At 4,000 the paper's cylinder's facets were up to 11 degrees
 #: off its normals, and one drawing grasp turned about the axis (a symmetry of the object) was held at 2 of 12
-#: turns; at 40,000 (within 2.7 degrees) at all 12, for a quarter more time per grasp (docs/synthesis-notes.md)
+#: turns; at 40,000 (within 2.7 degrees) at all 12, for a quarter more time per grasp (docs/design/synthesis.md)
 PICTURE_FACES = 40_000
 #: the contacts' time constant (MuJoCo's solref[0]), at least twice the timestep
 CONTACT_TIME_CONSTANT_S = 0.004
@@ -142,7 +142,8 @@ def _add_project_hand(
     object at the contact, its centre on the object's outward normal there. The collision spheres sample the
     links' inside; the fingertip's are shrunk by the compliance, the pulp that gives over the whole distal
     phalanx and not only at the pad. Kept whole, they sank 2 mm into a scan's flat faces, seating opened the
-    fingers 1.3-4.5 degrees off their contacts, and 8-66% of the scans' verified grasps held (docs/physics.md)."""
+    fingers 1.3-4.5 degrees off their contacts, and 8-66% of the scans' verified grasps held
+    (docs/design/physics.md)."""
     pose = forward(hand, grasp.joint_angles, grasp.palm_rotation, grasp.palm_position)
     palm = spec.worldbody.add_body(name="palm", pos=grasp.palm_position, quat=quaternion(grasp.palm_rotation))
     for point, radius in zip(hand.palm.points, hand.palm.radii, strict=True):

@@ -5,7 +5,7 @@ A synthesized grasp presses each fingertip into the object by the hand's complia
 compressed). MuJoCo's geoms are rigid: started there, the overlap is resolved as an impulse in the first
 milliseconds, which threw or spun the object before the controller could act (8 of the Allegro's 126 drawing
 grasps turned 11-24 degrees while closing, at ten times its strength). A real hand closes onto the object from its
-rest shape, so the scene starts there, and the grip controller presses the fingertips in (docs/physics.md)."""
+rest shape, so the scene starts there, and the grip controller presses the fingertips in (docs/design/physics.md)."""
 
 from __future__ import annotations
 

@@ -37,11 +37,11 @@ def descriptor(
     return np.concatenate([points.ravel(), 0.05 * normal])
 
 
-def cluster(solutions: pd.DataFrame, fingers: list[str], symmetry: dict | None) -> pd.DataFrame:
-    """One row per distinct verified optimum: its best member (lowest Q), the member count and Q range."""
-    verified = solutions[solutions["verified"]].reset_index(drop=True)
-    if verified.empty:
-        return verified.assign(optimum_id=pd.Series(dtype=int), members=pd.Series(dtype=int))
+def labels(verified: pd.DataFrame, fingers: list[str], symmetry: dict | None) -> np.ndarray:
+    """Which optimum each of the ``verified`` rows belongs to: rows whose descriptors lie within
+    :data:`THRESHOLD` of each other (average linkage) share a label."""
+    if len(verified) <= 1:
+        return np.ones(len(verified), dtype=int)
     vectors = np.stack(
         [
             descriptor(
@@ -53,12 +53,15 @@ def cluster(solutions: pd.DataFrame, fingers: list[str], symmetry: dict | None) 
             for _, row in verified.iterrows()
         ]
     )
-    labels = (
-        np.ones(len(verified), dtype=int)
-        if len(verified) == 1
-        else fcluster(linkage(vectors, method="average"), THRESHOLD, criterion="distance")
-    )
-    verified = verified.assign(_label=labels)
+    return fcluster(linkage(vectors, method="average"), THRESHOLD, criterion="distance")
+
+
+def cluster(solutions: pd.DataFrame, fingers: list[str], symmetry: dict | None) -> pd.DataFrame:
+    """One row per distinct verified optimum: its best member (lowest Q), the member count and Q range."""
+    verified = solutions[solutions["verified"]].reset_index(drop=True)
+    if verified.empty:
+        return verified.assign(optimum_id=pd.Series(dtype=int), members=pd.Series(dtype=int))
+    verified = verified.assign(_label=labels(verified, fingers, symmetry))
     rows = []
     for _, members in verified.groupby("_label"):
         best = members.loc[members["Q"].idxmin()]

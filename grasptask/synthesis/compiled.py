@@ -2,7 +2,7 @@
 
 Placement evaluates every defined variable of the NLP (link frames, contacts, normals, cone edges, Jacobians)
 and the collision margins several times per start; walking the Pyomo expression trees each time is slow, so
-the trees are converted once, when a worker builds its model (timings in docs/synthesis-notes.md).
+the trees are converted once, when a worker builds its model (timings in docs/design/synthesis.md).
 """
 
 from __future__ import annotations

@@ -6,7 +6,7 @@ and the re-solved grasp goes back to the verifier like any other.
 On a mesh the NLP sees a smooth surrogate whose normals differ from the mesh's by a degree or more. At an
 optimum that uses all of the hand's strength, or puts a pad at its largest angle, that is enough for the
 verifier to ask for 1.0-1.25 of the activation the NLP left at 0.98, or to see a pad a degree or two past its
-limit (docs/synthesis-notes.md).
+limit (docs/design/synthesis.md).
 """
 
 from __future__ import annotations

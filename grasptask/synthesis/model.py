@@ -137,7 +137,7 @@ def held_axis_rotation(nlp: NLPBuilder) -> None:
     Turning a grasp about the axis leaves every constraint satisfied and changes Q only as much as the task is
     asymmetric about the axis (:func:`grasptask.task.symmetry.axis_asymmetry`). For a nearly symmetric task that
     direction is nearly flat and curved, and IPOPT spent most of its iterations turning the grasp along it in
-    small steps (docs/synthesis-notes.md). The reference is 12 variables (palm position, then the rotation's
+    small steps (docs/design/synthesis.md). The reference is 12 variables (palm position, then the rotation's
     columns) that each solve pins to its own starting pose through their bounds, so IPOPT treats them as
     parameters (:meth:`GraspNLP.held_positions`)."""
     if nlp.held_axis is None:
@@ -448,7 +448,7 @@ def objective(nlp: NLPBuilder) -> None:
 EQUATIONS: tuple[Callable[[NLPBuilder], None], ...] = (
     palm_and_joints,
     # its row and reference columns first: MUMPS's METIS ordering of the KKT matrix then took 15-20% less time
-    # per iteration than with them last (docs/synthesis-notes.md)
+    # per iteration than with them last (docs/design/synthesis.md)
     held_axis_rotation,
     kinematics,
     contacts_and_collisions,

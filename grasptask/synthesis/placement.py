@@ -20,7 +20,7 @@ from grasptask.synthesis.starts import Start
 
 #: how deep inside a mesh's surrogate an anchor lies, in grid cells. The grid does not resolve a part thinner than
 #: a few cells (a knife's blade, a screwdriver's shaft): its surrogate normals are wrong by tens of degrees there,
-#: and IPOPT started on such a part ended locally infeasible (docs/synthesis-notes.md)
+#: and IPOPT started on such a part ended locally infeasible (docs/design/synthesis.md)
 ANCHOR_DEPTH_CELLS = 1.5
 
 

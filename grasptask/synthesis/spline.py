@@ -21,7 +21,7 @@ from grasptask.objects.distance_grid import DistanceGrid
 
 SMOOTHING_M = 1e-4
 #: the spline's degree in each axis: quintic, so that the third derivatives in the normals' Hessian are
-#: continuous (a cubic's jump at every knot); see docs/synthesis-notes.md
+#: continuous (a cubic's jump at every knot); see docs/design/synthesis.md
 DEGREE = 5
 #: the grid is smoothed by a Gaussian of this many cells before the spline interpolates it: the distance field's
 #: creases (a handle meeting a body, the middle of a thin part) otherwise give the spline large higher
@@ -158,7 +158,7 @@ class SurrogateTerms:
     (or ``value - dS/dq_i``), ``jacobian`` is its derivative and ``hessian`` the upper triangle of
     ``sum_r lam_r d2(row_r)/dx2``. Written out from the spline's derivatives at each distinct point, so that
     the rest of the NLP keeps its expanded SX derivatives, which CasADi's MX derivatives of the whole model
-    would lose (docs/synthesis-notes.md)."""
+    would lose (docs/design/synthesis.md)."""
 
     correction: Any
     jacobian: Any
