@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import os
 import signal
 import threading
@@ -440,11 +441,22 @@ def synthesize(
         f"{run['distinct_optima']} distinct optima, "
         f"best Q {_number(run['best_Q'])}{_verifier_said(run)}; {seconds['median']:.2f} s per start (median), "
         f"statuses {', '.join(f'{k} {v}' for k, v in run['status_counts'].items() if v)}"
-        f"{_object_said(run)}"
+        f"{_throughput_said(run)}{_object_said(run)}"
     )
     if run.get("why_few_verified"):
         click.echo(f"{task}: few starts verified: {run['why_few_verified']}")
     click.echo(f"wrote {out}/{task}/solutions.parquet, optima.parquet, run.json")
+
+
+def _throughput_said(run: dict) -> str:
+    """The summary's word on what the user waited for: starts and distinct optima a second, and when the best
+    grasp came in."""
+    rates = run.get("throughput") or {}
+    if not rates or not math.isfinite(rates["starts_per_s"]):
+        return ""
+    best = rates.get("best_Q_after_s")
+    found = f", the best Q after {best:.0f} s" if best is not None else ""
+    return f"; {rates['starts_per_s']:.2f} starts/s, {rates['optima_per_s']:.2f} optima/s{found}"
 
 
 def _object_said(run: dict) -> str:

@@ -134,6 +134,16 @@ def test_sweep_writes_rows_verifies_and_clusters(cli, tasks, tmp_path):
     assert len(converged) and np.abs(distances.to_numpy()).max() < 1e-6
     optima = pd.read_parquet(tmp_path / "drawing" / "optima.parquet")
     assert len(optima) <= len(verified) and optima["members"].sum() == len(verified)
+    # what the user waited for: starts and optima a second, and when the best grasp came in
+    rates, wall = run["throughput"], run["sweep_wall_seconds_this_run"]
+    assert rates["starts_per_s"] == pytest.approx(4 / wall) and rates["optima_per_s"] == pytest.approx(
+        len(optima) / wall
+    )
+    best = optima.loc[optima["Q"].idxmin()]
+    assert rates["best_Q_after_s"] == best["found_after_s"] and 0 < best["found_after_s"] <= wall
+    assert (solutions["found_after_s"] > 0).all()
+    said = f"{rates['starts_per_s']:.2f} starts/s, {rates['optima_per_s']:.2f} optima/s, the best Q after "
+    assert said in result.output
 
 
 @pytest.mark.slow

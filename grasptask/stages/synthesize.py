@@ -329,7 +329,7 @@ def _run_locked(
             else:  # a finished sweep's records stay until this one has a row to replace them with
                 first = lambda row: _start_afresh(folder, prepared, row)  # noqa: E731
             if todo:  # a resumed sweep may have nothing left to solve
-                _solve(executor, todo, rows, log, options.task, len(prepared.starts), first)
+                _solve(executor, todo, rows, log, options.task, len(prepared.starts), first, wall_start)
         finally:
             executor.close()
     return summarise(
@@ -337,6 +337,7 @@ def _run_locked(
         rows,
         model_size=model_size,
         wall_seconds=time.perf_counter() - wall_start,
+        solved=len(todo),
         symmetry=prepared.symmetry,
         fingers=prepared.fingers,
         paper=prepared.paper,
@@ -392,10 +393,18 @@ def _start_afresh(folder: Path, prepared: _Prepared, row: dict) -> None:
 
 
 def _solve(
-    executor: Any, todo: list, rows: list[dict], log: Path, task: str, total: int, first: Callable[[dict], None] | None
+    executor: Any,
+    todo: list,
+    rows: list[dict],
+    log: Path,
+    task: str,
+    total: int,
+    first: Callable[[dict], None] | None,
+    began: float,
 ) -> None:
     """Run the executor over ``todo``, appending each row to the log (and ``rows``), with progress; the first
-    row goes to ``first`` when given, which starts the log afresh."""
+    row goes to ``first`` when given, which starts the log afresh. Each row records when it came in, in seconds
+    from ``began`` (``found_after_s``): what a user waited for it."""
     counts = {
         "verified": sum(bool(r.get("verified")) for r in rows),
         "failing": sum(not r.get("verified") for r in rows),
@@ -405,6 +414,7 @@ def _solve(
 
         def on_result(row: dict) -> None:
             nonlocal writer
+            row["found_after_s"] = time.perf_counter() - began
             if writer is None:
                 assert first is not None
                 first(row)
@@ -429,13 +439,15 @@ def summarise(
     model_size: dict[str, Any] | None,
     wall_seconds: float,
     symmetry: Symmetry | None,
+    solved: int | None = None,
     fingers: list[str],
     paper: PaperSynthesis,
     object_facts: dict[str, Any] | None = None,
     job: Job | None = None,
 ) -> dict:
     """Write the sweep's ``solutions.parquet``, ``optima.parquet`` and ``run.json`` from its rows; the run
-    summary. With the ``job``'s physics settings, also the physics check's summary and its best grasp's trace."""
+    summary. ``solved`` is how many of the rows this run solved in its ``wall_seconds`` (None: all of them).
+    With the ``job``'s physics settings, also the physics check's summary and its best grasp's trace."""
     import casadi  # deferred, as the solver stack is: only for their versions
     import pyomo.version  # deferred with casadi
 
@@ -486,6 +498,9 @@ def summarise(
             "sd": float(seconds.std(ddof=1)) if len(seconds) > 1 else 0.0,
         },
         "sweep_wall_seconds_this_run": wall_seconds,
+        # what a user waits for: starts resolved and distinct verified optima a second of this run's wall time,
+        # and when the best optimum's start came in (from its run's start)
+        "throughput": _throughput(solutions, optima, len(solutions) if solved is None else solved, wall_seconds),
         "model_size": model_size,
         "paper": paper.figures_for(options.task),
         "versions": {"casadi": casadi.CasadiMeta.version(), "pyomo": pyomo.version.version},
@@ -505,6 +520,19 @@ def summarise(
                 staged, solutions, options.task, judge.holding.settings, trace, table_name=None, judge=judge
             )
     return run
+
+
+def _throughput(solutions: pd.DataFrame, optima: pd.DataFrame, solved: int, wall_seconds: float) -> dict:
+    per_second = 1.0 / wall_seconds if wall_seconds > 0 else float("nan")
+    best_after = None
+    if len(optima) and "found_after_s" in optima:
+        value = float(optima.loc[optima["Q"].idxmin(), "found_after_s"])
+        best_after = value if np.isfinite(value) else None
+    return {
+        "starts_per_s": solved * per_second,
+        "optima_per_s": len(optima) * per_second,
+        "best_Q_after_s": best_after,
+    }
 
 
 def _verifier_q_of_best(optima: pd.DataFrame) -> float | None:
