@@ -304,7 +304,7 @@ _sweep_model_options = _model_option_set(sweep=True)
 
 def _object_options(f):
     """--unit, --mass, --task-frame and --task-frame-outside: what a bare mesh or point cloud cannot say (a mesh
-    YAML's fields)."""
+    YAML's fields), passed on as the keywords ``unit``, ``mass_kg``, ``task_frame`` and ``task_frame_outside``."""
     f = click.option(
         "--task-frame-outside",
         is_flag=True,
@@ -387,10 +387,6 @@ def synthesize(
     out,
     hand,
     object_path,
-    unit,
-    mass_kg,
-    task_frame,
-    task_frame_outside,
     grasp_config,
     solver_config,
     starts,
@@ -403,6 +399,7 @@ def synthesize(
     fingers,
     physics_flag,
     physics_config,
+    **object_options,
 ):
     """Synthesize task-oriented grasps: the NLP of the paper's Sections 5-6 solved from many starts, every
     solution checked by the independent verifier. Writes OUT/TASK/solutions.parquet (one row per start),
@@ -425,10 +422,7 @@ def synthesize(
         resume=resume,
         fingers=fingers,
         physics=physics_config if physics_flag else None,
-        unit=unit,
-        mass_kg=mass_kg,
-        task_frame=task_frame,
-        task_frame_outside=task_frame_outside,
+        **object_options,  # --unit, --mass, --task-frame, --task-frame-outside
     )
     try:
         run = stages.run_synthesize(options, echo=click.echo)
@@ -482,26 +476,12 @@ def _object_said(run: dict) -> str:
 @_sweep_model_options
 @_object_options
 @_fingers_option("those SOLUTIONS holds contacts of")
-def verify_command(
-    solutions,
-    tasks_path,
-    task,
-    out,
-    hand,
-    object_path,
-    unit,
-    mass_kg,
-    task_frame,
-    task_frame_outside,
-    grasp_config,
-    fingers,
-):
+def verify_command(solutions, tasks_path, task, out, hand, object_path, grasp_config, fingers, **object_options):
     """Check every grasp in SOLUTIONS (solutions.parquet) again with the independent verifier; writes
     OUT/verification.parquet with one row per start and its verification figures."""
     table = stages.run_verify(
-        solutions, tasks_path, task, out, hand, object_path, grasp_config, fingers,
-        {"unit": unit, "mass_kg": mass_kg, "task_frame": task_frame, "task_frame_outside": task_frame_outside},
-    )  # fmt: skip
+        solutions, tasks_path, task, out, hand, object_path, grasp_config, fingers, object_options
+    )
     click.echo(f"{int(table['verified'].sum())}/{len(table)} grasps verified; wrote {out}/verification.parquet")
 
 
