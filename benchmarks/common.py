@@ -183,6 +183,21 @@ def time_shares(folder: Path) -> dict:
     }
 
 
+def held(sweep: Path, tasks: Path, task: str, out: Path) -> dict:
+    """The physics judge on one sweep's grasps: the share of the verified ones it holds."""
+    from grasptask.stages import PhysicsInputs, run_physics
+
+    began = time.perf_counter()
+    table = run_physics(PhysicsInputs(sweep / "solutions.parquet", tasks, task), out, 2, echo=lambda _: None)
+    solved = table[table["physics_passed"].notna()]
+    verified = solved[solved["verified"].astype(bool)]
+    return {
+        "held_of_verified": float(verified["physics_passed"].astype(bool).mean()) if len(verified) else None,
+        "seconds_per_grasp_median": float(solved["physics_seconds"].median()) if len(solved) else None,
+        "wall_s": time.perf_counter() - began,
+    }
+
+
 def first_attempt_cell(figures: dict | None) -> str:
     """A table cell for :func:`first_attempt_figures`: "-" for a sweep without retries."""
     if not figures or figures["median_s_per_start"] is None:

@@ -39,6 +39,7 @@ from common import (  # noqa: E402
     finished_sweep,
     first_attempt_cell,
     first_attempt_figures,
+    held,
     print_saved,
     ratios_to,
     save,
@@ -136,6 +137,10 @@ def compare(results: dict) -> dict:
             "median_within_2x_human3": all(
                 t["median_over_human3"] is not None and t["median_over_human3"] <= 2 for t in entry["tasks"].values()
             ),
+            # with --physics: the physics judge holds at least 90% of each task's verified grasps
+            "held_at_least_90pct": all(
+                (t["physics"]["held_of_verified"] or 0) >= 0.9 for t in entry["tasks"].values() if "physics" in t
+            ),
         }
         for hand, entry in results["hands"].items()
         if hand in ROBOTS
@@ -148,7 +153,9 @@ def compare(results: dict) -> dict:
     return results
 
 
-def main(n_starts: int | None, hands: list[str], name: str, solver: Path, keep: Path | None = None) -> dict:
+def main(
+    n_starts: int | None, hands: list[str], name: str, solver: Path, keep: Path | None = None, physics: bool = False
+) -> dict:
     from grasptask.stages import SynthesisOptions, run_synthesize
 
     results: dict = {"starts_per_task": n_starts or 126, "solver_config": str(solver), "hands": {}}
@@ -179,18 +186,30 @@ def main(n_starts: int | None, hands: list[str], name: str, solver: Path, keep: 
                     f"({time.perf_counter() - began:.0f} s)",
                     flush=True,
                 )
+                if physics:
+                    held_by(figures, tmp, hand, task, tasks)
                 save(name, results)  # partial results survive an interruption
     save_and_print(name, compare(results), markdown_table)
     return results
 
 
-def summarise(folder: Path, name: str) -> dict:
-    """The figures of sweeps kept with --keep, saved as hands.json, without solving anything."""
+def held_by(figures: dict, folder: Path, hand: str, task: str, tasks: Path) -> None:
+    """The physics judge on one kept sweep's grasps, added to its figures and said."""
+    figures["physics"] = held(folder / hand / task, tasks, task, folder / "physics" / hand / task)
+    share = figures["physics"]["held_of_verified"]
+    print(f"{hand} {task}: physics holds {'-' if share is None else f'{share:.0%}'} of the verified", flush=True)
+
+
+def summarise(folder: Path, name: str, physics: bool = False) -> dict:
+    """The figures of sweeps kept with --keep, saved as hands.json, without solving anything; with ``physics``,
+    each sweep's verified grasps held by the physics judge first."""
     results: dict = {"hands": {}}
     for hand, (path, fingers) in HANDS.items():
         tasks = {
             task: figures_of(folder / hand / task) for task in TASKS if (folder / hand / task / "run.json").exists()
         }
+        for task, figures in tasks.items() if physics else ():
+            held_by(figures, folder, hand, task, folder / "tasks" / "task_models.json")
         if tasks:
             shown = os.path.relpath(path, ROOT) if path else "hand.urdf"
             results["hands"][hand] = {"file": shown, "fingers": fingers, "tasks": tasks}
@@ -199,12 +218,17 @@ def summarise(folder: Path, name: str) -> dict:
     return results
 
 
+def _held(figures: dict) -> str:
+    share = figures.get("physics", {}).get("held_of_verified")
+    return "-" if share is None else f"{share:.0%}"
+
+
 def markdown_table(results: dict) -> str:
     """The README's table: one row per hand and task."""
     lines = [
         "| hand | task | model | median s (x human 3) | p90 s | verified | first attempt only: median s, verified "
-        "| optima | grasps failing only the torque check (median LP effort) |",
-        "|---|---|---|---|---|---|---|---|---|",
+        "| optima | grasps failing only the torque check (median LP effort) | held in physics |",
+        "|---|---|---|---|---|---|---|---|---|---|",
     ]
     for hand, entry in results["hands"].items():
         for task, f in entry["tasks"].items():
@@ -217,7 +241,7 @@ def markdown_table(results: dict) -> str:
             lines.append(
                 f"| {hand} | {task} | {size} | {f['median_s_per_start']:.2f}{ratio} | {f['p90_s_per_start']:.1f} | "
                 f"{f['verified_fraction']:.0%} | {first_attempt_cell(f.get('first_attempt'))} | "
-                f"{f['distinct_optima']} | {failing} |"
+                f"{f['distinct_optima']} | {failing} | {_held(f)} |"
             )
     return "\n".join(lines)
 
@@ -229,10 +253,11 @@ if __name__ == "__main__":
         "--keep", type=Path, help="run the sweeps in this folder and keep them (default: a temporary one)"
     )
     parser.add_argument("--summarise", type=Path, help="save and print the figures of sweeps kept in this folder")
+    parser.add_argument("--physics", action="store_true", help="hold each sweep's verified grasps in MuJoCo too")
     solver_option(parser)
     args = parser.parse_args()
     if args.summarise:
-        summarise(args.summarise, args.name)
+        summarise(args.summarise, args.name, args.physics)
         raise SystemExit(0)
     if args.table:
         print_saved(args.name, markdown_table)
@@ -241,4 +266,4 @@ if __name__ == "__main__":
     check_prerequisites(chosen)
     check_solver(args.solver)
     np.seterr(all="ignore")
-    main(args.starts, chosen, args.name, args.solver, args.keep)
+    main(args.starts, chosen, args.name, args.solver, args.keep, args.physics)

@@ -43,6 +43,7 @@ from common import (  # noqa: E402
     finished_sweep,
     first_attempt_cell,
     first_attempt_figures,
+    held,
     print_saved,
     ratios_to,
     save,
@@ -161,21 +162,6 @@ def compare(results: dict) -> dict:
         if name != "tool"
     }
     return results
-
-
-def held(sweep: Path, tasks: Path, task: str, out: Path) -> dict:
-    """The physics judge on one sweep's grasps: the share of the verified ones it holds."""
-    from grasptask.stages import PhysicsInputs, run_physics
-
-    began = time.perf_counter()
-    table = run_physics(PhysicsInputs(sweep / "solutions.parquet", tasks, task), out, 2, echo=lambda _: None)
-    solved = table[table["physics_passed"].notna()]
-    verified = solved[solved["verified"].astype(bool)]
-    return {
-        "held_of_verified": float(verified["physics_passed"].astype(bool).mean()) if len(verified) else None,
-        "seconds_per_grasp_median": float(solved["physics_seconds"].median()) if len(solved) else None,
-        "wall_s": time.perf_counter() - began,
-    }
 
 
 def main(
