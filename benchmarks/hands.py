@@ -90,6 +90,8 @@ def check_prerequisites(hands: list[str]) -> None:
 
 
 def sweep_figures(run: dict, solutions: pd.DataFrame) -> dict:
+    from grasptask.records.solutions import why_few_verified
+
     # grasps the verifier accepts in every respect but the torque check: where the hand's tendons or motors
     # fall short of the task (starts that failed other checks too say nothing about the hand's strength)
     failing = solutions[~solutions["verified"] & (solutions["verify_failures"].fillna("") == "torque_feasibility")]
@@ -107,7 +109,8 @@ def sweep_figures(run: dict, solutions: pd.DataFrame) -> dict:
         "sweep_wall_s": run["sweep_wall_seconds_this_run"],
         "first_attempt": first_attempt_figures(solutions),
         "all_axes_starts": run.get("all_axes_starts", 0),
-        "why_few_verified": run.get("why_few_verified"),
+        # as the sweep said it, or as this code says it of the same rows (a sweep kept from before it said so)
+        "why_few_verified": run.get("why_few_verified") or why_few_verified(solutions, run["task"]),
         "verified_penetration_max_mm": _verified_max_mm(solutions, "verify_penetration_m"),
         "verified_fingertip_gap_max_mm": _verified_max_mm(solutions, "verify_fingertip_gap_m_"),
     }

@@ -154,9 +154,12 @@ def test_a_sweep_of_a_hand_too_weak_for_the_task_says_so_with_numbers():
     )
     said = why_few_verified(table, "screwdriving")
     assert said == (
-        "the hand is too weak for screwdriving: 3 of 3 solved starts the verifier rejected needed 2.3-8.7x its "
+        "the hand is too weak for screwdriving: 3 of the 3 starts the verifier rejected needed 2.3-8.7x its "
         "motors' or tendons' rated strength"
     )
+    # a hand so weak that no start converges (the Inspire Hand's cutting): the points IPOPT left still say it
+    weak = table.assign(status="infeasible", verified=False)
+    assert why_few_verified(weak, "cutting").startswith("the hand is too weak for cutting: 3 of the 4 starts")
     table["verify_failures"] = ["pad_angle", "pad_angle", "torque_feasibility", "", ""]
     assert why_few_verified(table, "screwdriving") is None  # strength is not what failed most
     table["verified"] = [True, True, True, False, True]

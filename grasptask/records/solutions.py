@@ -142,7 +142,12 @@ def why_few_verified(solutions: Any, task: str) -> str | None:
         return None
     if "verify_failures" not in solutions or "verify_torque_effort" not in solutions:
         return None
-    solved = solutions["status"].isin(["optimal", "acceptable"]).to_numpy()
+    # every start IPOPT left a point at, converged or not: where none converges (a hand too weak for the task
+    # leaves the NLP infeasible), the verifier's figures at those points still say by how much
+    solved = (
+        np.isfinite(solutions["verify_torque_effort"].to_numpy(dtype=float))
+        | solutions["status"].isin(["optimal", "acceptable"]).to_numpy()
+    )
     rejected = solved & ~solutions["verified"].to_numpy(dtype=bool)
     failures = solutions["verify_failures"].fillna("").astype(str)
     weak = rejected & failures.str.contains("torque_feasibility").to_numpy()
@@ -153,6 +158,6 @@ def why_few_verified(solutions: Any, task: str) -> str | None:
     if not len(effort):
         return None
     return (
-        f"the hand is too weak for {task}: {int(weak.sum())} of {int(rejected.sum())} solved starts the verifier "
+        f"the hand is too weak for {task}: {int(weak.sum())} of the {int(rejected.sum())} starts the verifier "
         f"rejected needed {effort.min():.1f}-{effort.max():.1f}x its motors' or tendons' rated strength"
     )
