@@ -154,8 +154,8 @@ def test_a_sweep_of_a_hand_too_weak_for_the_task_says_so_with_numbers():
     )
     said = why_few_verified(table, "screwdriving")
     assert said == (
-        "the hand is too weak for screwdriving: 3 of the 3 starts the verifier rejected needed 2.3-8.7x its "
-        "motors' or tendons' rated strength"
+        "the hand is too weak for screwdriving: 3 of the 3 starts the verifier rejected failed its torque check, "
+        "asking 2.3-8.7x its motors' or tendons' rated strength"
     )
     # a hand so weak that no start converges (the Inspire Hand's cutting): the points IPOPT left still say it
     weak = table.assign(status="infeasible", verified=False)

@@ -134,30 +134,27 @@ FEW_VERIFIED = 0.5
 
 
 def why_few_verified(solutions: Any, task: str) -> str | None:
-    """Why a sweep verified few of its starts, where the hand is too weak for the task: most solved starts the
-    verifier rejected needed more than the motors' or tendons' strength (the torque check), by how much at the
-    least and the most (``verify_torque_effort``: the activation the task wrenches need, 1 the rating). None
-    where most starts verified or strength is not what failed them."""
+    """Why a sweep verified few of its starts, where the hand is too weak for the task: most starts the verifier
+    rejected failed its torque check, which asked of the motors or tendons more than their strength, by how much
+    at the least and the most (``verify_torque_effort``: the activation the task wrenches need, 1 the rating;
+    infinite where no activation holds them). Every start IPOPT left a point at counts, converged or not: where
+    none converges (a hand too weak for the task leaves the NLP infeasible), the verifier's figures at those
+    points still say by how much. None where most starts verified or strength is not what failed them."""
     if not len(solutions) or float(np.mean(solutions["verified"])) >= FEW_VERIFIED:
         return None
     if "verify_failures" not in solutions or "verify_torque_effort" not in solutions:
         return None
-    # every start IPOPT left a point at, converged or not: where none converges (a hand too weak for the task
-    # leaves the NLP infeasible), the verifier's figures at those points still say by how much
-    solved = (
-        np.isfinite(solutions["verify_torque_effort"].to_numpy(dtype=float))
-        | solutions["status"].isin(["optimal", "acceptable"]).to_numpy()
-    )
-    rejected = solved & ~solutions["verified"].to_numpy(dtype=bool)
+    effort = solutions["verify_torque_effort"].to_numpy(dtype=float)
+    judged = ~np.isnan(effort) | solutions["status"].isin(["optimal", "acceptable"]).to_numpy()
+    rejected = judged & ~solutions["verified"].to_numpy(dtype=bool)
     failures = solutions["verify_failures"].fillna("").astype(str)
     weak = rejected & failures.str.contains("torque_feasibility").to_numpy()
-    if not weak.any() or weak.sum() < FEW_VERIFIED * rejected.sum():
+    measured = effort[weak & np.isfinite(effort)]
+    if not len(measured) or weak.sum() < FEW_VERIFIED * rejected.sum():
         return None
-    effort = solutions["verify_torque_effort"].to_numpy(dtype=float)[weak]
-    effort = effort[np.isfinite(effort)]
-    if not len(effort):
-        return None
+    never = int((weak & np.isinf(effort)).sum())
     return (
         f"the hand is too weak for {task}: {int(weak.sum())} of the {int(rejected.sum())} starts the verifier "
-        f"rejected needed {effort.min():.1f}-{effort.max():.1f}x its motors' or tendons' rated strength"
+        f"rejected failed its torque check, asking {measured.min():.1f}-{measured.max():.1f}x its motors' or "
+        f"tendons' rated strength" + (f" ({never} more than any strength)" if never else "")
     )
