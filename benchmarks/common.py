@@ -139,8 +139,8 @@ def time_shares(folder: Path) -> dict:
     """Where a finished sweep's solver time went, by kind of start: verified at its first attempt as solved,
     verified after the verifier's feedback or the all-axes solve, verified on a retry posture, never verified;
     and, across those, verified starts that solved to an optimum an earlier start (by start id) had already
-    found. Per kind: starts, summed seconds and their share of the sweep's; and the median iterations and ms per
-    iteration of all starts (a start's seconds include placement and every attempt)."""
+    found. Per kind: starts, summed seconds and their share of the sweep's; and the median iterations of all starts
+    (a start's seconds include placement and every attempt; objects.py's sweep figures give ms per iteration)."""
     import numpy as np
     import pandas as pd
 
@@ -176,11 +176,7 @@ def time_shares(folder: Path) -> dict:
         for kind, mask in kinds.items()
     }
     iterations = solutions["iterations"].to_numpy(dtype=float)
-    return {
-        "kinds": shares,
-        "median_iterations": float(np.median(iterations)),
-        "ms_per_iteration": float(1e3 * np.nansum(seconds) / max(np.nansum(iterations), 1.0)),
-    }
+    return {"kinds": shares, "median_iterations": float(np.median(iterations))}
 
 
 def held(sweep: Path, tasks: Path, task: str, out: Path) -> dict:
