@@ -160,8 +160,16 @@ def test_a_sweep_of_a_hand_too_weak_for_the_task_says_so_with_numbers():
     # a hand so weak that no start converges (the Inspire Hand's cutting): the points IPOPT left still say it
     weak = table.assign(status="infeasible", verified=False)
     assert why_few_verified(weak, "cutting").startswith("the hand is too weak for cutting: 3 of the 4 starts")
-    table["verify_failures"] = ["pad_angle", "pad_angle", "torque_feasibility", "", ""]
-    assert why_few_verified(table, "screwdriving") is None  # strength is not what failed most
+    # contacts that hold the wrenches at no strength are no sign of weak motors (a 6 mm rod: 9 of 10 so)
+    table["verify_torque_effort"] = [2.3, np.inf, np.inf, np.nan, 0.5]
+    table["verify_failures"] = ["torque_feasibility", "torque_feasibility;force_closure", "torque_feasibility", "", ""]
+    assert why_few_verified(table, "drawing").endswith("(and 2 whose contacts could not hold them at any strength)")
+    table["verify_torque_effort"] = [2.3, 0.8, np.inf, np.nan, 0.5]
+    table["verify_failures"] = ["torque_feasibility;pad_angle", "pad_angle", "force_closure;torque_feasibility", "", ""]
+    assert why_few_verified(table, "screwdriving") == (  # strength is not what failed most: the checks that did
+        "of the 3 starts the verifier rejected (IPOPT converged on 3), 2 failed torque_feasibility, 2 pad_angle, "
+        "1 force_closure"
+    )
     table["verified"] = [True, True, True, False, True]
     assert why_few_verified(table, "screwdriving") is None  # most verified
 

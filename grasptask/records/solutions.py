@@ -11,6 +11,7 @@ the synthesis surrogate's signed distance at each contact minus the mesh's own.
 from __future__ import annotations
 
 import numbers
+from collections import Counter
 from collections.abc import Mapping
 from typing import Any
 
@@ -134,27 +135,36 @@ FEW_VERIFIED = 0.5
 
 
 def why_few_verified(solutions: Any, task: str) -> str | None:
-    """Why a sweep verified few of its starts, where the hand is too weak for the task: most starts the verifier
-    rejected failed its torque check, which asked of the motors or tendons more than their strength, by how much
-    at the least and the most (``verify_torque_effort``: the activation the task wrenches need, 1 the rating;
-    infinite where no activation holds them). Every start IPOPT left a point at counts, converged or not: where
-    none converges (a hand too weak for the task leaves the NLP infeasible), the verifier's figures at those
-    points still say by how much. None where most starts verified or strength is not what failed them."""
+    """Why a sweep verified few of its starts. Where the hand is too weak for the task, that: most of the
+    rejected starts whose contacts could hold the task's wrenches at all (``verify_torque_effort`` finite: the
+    activation they need, 1 the rating) failed the torque check, asking more than the motors' or tendons'
+    strength, by how much at the least and the most. Otherwise the checks most starts failed. Every start IPOPT
+    left a point at counts, converged or not: where none converges (a hand too weak for the task leaves the NLP
+    infeasible), the verifier's figures at those points still say why. None where most starts verified."""
     if not len(solutions) or float(np.mean(solutions["verified"])) >= FEW_VERIFIED:
         return None
     if "verify_failures" not in solutions or "verify_torque_effort" not in solutions:
         return None
     effort = solutions["verify_torque_effort"].to_numpy(dtype=float)
-    judged = ~np.isnan(effort) | solutions["status"].isin(["optimal", "acceptable"]).to_numpy()
-    rejected = judged & ~solutions["verified"].to_numpy(dtype=bool)
-    failures = solutions["verify_failures"].fillna("").astype(str)
-    weak = rejected & failures.str.contains("torque_feasibility").to_numpy()
-    measured = effort[weak & np.isfinite(effort)]
-    if not len(measured) or weak.sum() < FEW_VERIFIED * rejected.sum():
+    converged = solutions["status"].isin(["optimal", "acceptable"]).to_numpy()
+    rejected = (~np.isnan(effort) | converged) & ~solutions["verified"].to_numpy(dtype=bool)
+    if not rejected.any():
         return None
-    never = int((weak & np.isinf(effort)).sum())
+    failures = solutions["verify_failures"].fillna("").astype(str)
+    torque = failures.str.contains("torque_feasibility").to_numpy()
+    holdable = rejected & np.isfinite(effort)
+    weak = holdable & torque
+    if weak.sum() > FEW_VERIFIED * holdable.sum():
+        never = int((rejected & torque & np.isinf(effort)).sum())
+        return (
+            f"the hand is too weak for {task}: {int(weak.sum())} of the {int(rejected.sum())} starts the verifier "
+            f"rejected failed its torque check, asking {effort[weak].min():.1f}-{effort[weak].max():.1f}x its "
+            "motors' or tendons' rated strength"
+            + (f" (and {never} whose contacts could not hold them at any strength)" if never else "")
+        )
+    counts = Counter(check for listed in failures[rejected] for check in listed.split(";") if check)
+    commonest = ", ".join(f"{n} {check}" for check, n in counts.most_common(3)).replace(" ", " failed ", 1)
     return (
-        f"the hand is too weak for {task}: {int(weak.sum())} of the {int(rejected.sum())} starts the verifier "
-        f"rejected failed its torque check, asking {measured.min():.1f}-{measured.max():.1f}x its motors' or "
-        f"tendons' rated strength" + (f" ({never} more than any strength)" if never else "")
+        f"of the {int(rejected.sum())} starts the verifier rejected (IPOPT converged on "
+        f"{int((rejected & converged).sum())}), {commonest}"
     )
