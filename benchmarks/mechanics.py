@@ -21,6 +21,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT / "benchmarks"), str(ROOT)]
 from common import median_seconds, save  # noqa: E402
 
+from grasptask.grasp.settings import GraspSettings  # noqa: E402
 from grasptask.hand import forward, load_hand  # noqa: E402
 from grasptask.objects import load_object  # noqa: E402
 from grasptask.verifier.verify import verify  # noqa: E402
@@ -47,7 +48,7 @@ def main() -> dict:
     grasp, ball = ball_grasp()
     task = drawing_like_task()
     start = time.perf_counter()
-    verify(grasp, hand, ball, task)  # the first call builds the object's surface index
+    verify(grasp, hand, ball, task, GraspSettings())  # the first call builds the object's surface index
     results["surface_index_ball_s"] = time.perf_counter() - start
     perturbed = [
         dataclasses.replace(grasp, palm_position=grasp.palm_position + rng.normal(size=3) * 0.0005) for _ in range(100)
@@ -55,7 +56,7 @@ def main() -> dict:
     times, accepted = [], 0
     for g in perturbed:
         start = time.perf_counter()
-        accepted += verify(g, hand, ball, task).ok
+        accepted += verify(g, hand, ball, task, GraspSettings()).ok
         times.append(time.perf_counter() - start)
     results["verify_per_grasp_s"] = {
         "median": float(np.median(times)),

@@ -8,9 +8,9 @@ alone, as an exact superquadric (``benchmarks/proxies/``): its shape without a s
     python benchmarks/objects.py [--starts N] [--objects tool,mug,...] [--keep DIR]
     python benchmarks/objects.py --table     # the saved results as the README's table
 
-``scan_bottle`` and ``scan_box`` are scanned household objects as people download them, written by the run
-(``tests/scan_files.py``): bare textured OBJs split along every texture seam, no YAML, so their task frame is
-the default, their centre of volume.
+``scan_bottle``, ``scan_box`` and ``scan_marker`` are scanned household objects as people download them, written
+by the run (``tests/scan_files.py``): bare textured OBJs split along every texture seam, no YAML, so their task
+frame is the default, their centre of volume.
 
 ``ycb_mug``, ``ycb_wood_block`` and ``ycb_power_drill`` are three YCB scans as published
 (``../shared/zoo/objects``), bare files too; they run only when asked for (``--objects``). Each sweep's
@@ -78,15 +78,17 @@ OBJECTS.update(
 )  # fmt: skip
 
 #: scanned household objects as people download them, written by the run itself (tests/scan_files.py): bare
-#: textured OBJs split along their seams, base at the file's origin, no YAML
-SCANS = ("scan_bottle", "scan_box")
+#: textured OBJs split along their seams, base at the file's origin, no YAML; the marker is a rod 18 mm across and
+#: 12 cm long, as YCB's large marker, a thin object
+SCANS = ("scan_bottle", "scan_box", "scan_marker")
 
 
 def scan_file(name: str, folder: Path) -> Path:
-    from tests.scan_files import bottle, box, write_textured_obj
+    from tests.scan_files import bottle, box, rod, write_textured_obj
 
     folder.mkdir(parents=True, exist_ok=True)
-    return write_textured_obj(bottle() if name == "scan_bottle" else box(), folder / f"{name}.obj")
+    shapes = {"scan_bottle": bottle, "scan_box": box, "scan_marker": lambda: rod(radius=0.009)}
+    return write_textured_obj(shapes[name](), folder / f"{name}.obj")
 
 
 def object_path(name: str, folder: Path) -> Path:
@@ -107,10 +109,12 @@ def check_prerequisites(objects: list[str]) -> None:
 
 def build_seconds(path: Path, tasks: Path, task: str, solver: Path) -> float:
     """One worker's models, built in this process with the sweep's solver config, as a pool worker builds them."""
+    from grasptask.grasp.settings import load_grasp_settings
     from grasptask.synthesis.config import load_solver_config
     from grasptask.synthesis.context import Job, SolverContext
 
-    job = Job(str(ROOT / "configs/hands/human.yaml"), str(path), str(tasks), task, solver=load_solver_config(solver))
+    job = Job(str(ROOT / "configs/hands/human.yaml"), str(path), str(tasks), task, solver=load_solver_config(solver),
+              settings=load_grasp_settings())  # fmt: skip
     began = time.perf_counter()
     SolverContext(job)
     return time.perf_counter() - began
@@ -253,7 +257,9 @@ def summary(results: dict) -> str:
 
 if __name__ == "__main__":
     parser = sweep_parser(__doc__.splitlines()[0], "objects")
-    parser.add_argument("--objects", default="tool,mug,spray_bottle,kitchen_knife,screwdriver,scan_bottle,scan_box")
+    parser.add_argument(
+        "--objects", default="tool,mug,spray_bottle,kitchen_knife,screwdriver,scan_bottle,scan_box,scan_marker"
+    )
     parser.add_argument(
         "--keep", type=Path, help="run the sweeps in this folder and keep them (default: a temporary one)"
     )

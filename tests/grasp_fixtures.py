@@ -11,6 +11,7 @@ from functools import lru_cache
 import numpy as np
 from scipy.optimize import least_squares
 
+from grasptask.grasp.settings import GraspSettings
 from grasptask.hand import forward, load_hand
 from grasptask.objects import Superquadric
 from grasptask.records.reference import read_paper_synthesis
@@ -151,7 +152,7 @@ def ball_sweep(results, task="drawing"):
     )
     grasp, ball = ball_grasp()
     hand = load_hand().grasping_hand()
-    check = verify(grasp, hand, ball, drawing_like_task())
+    check = verify(grasp, hand, ball, drawing_like_task(), GraspSettings())
     assert check.ok, check.failures
     fingers = list(hand.fingers)
     good = {"status": "optimal", "iterations": 40, "Q": check.Q}

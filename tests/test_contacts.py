@@ -27,7 +27,7 @@ from tests.hand_files import write_mesh_gripper
 def test_the_rolling_contact_is_the_sphere_nearest_the_surface_sunk_by_the_compliance():
     grasp, ball = ball_grasp()
     hand = load_hand().grasping_hand()
-    result = verify(grasp, hand, ball, drawing_like_task())
+    result = verify(grasp, hand, ball, drawing_like_task(), GraspSettings())
     assert result.ok, result.failures
     pose = forward(hand, grasp.joint_angles, grasp.palm_rotation, grasp.palm_position)
     centres = pose.pad_centres()[0]
@@ -48,10 +48,10 @@ def test_the_penetration_check_rejects_a_fingertip_sunk_3_mm_into_the_object():
     pose = forward(hand, grasp.joint_angles, grasp.palm_rotation, grasp.palm_position)
     towards = -pose.pad_centres()[0][0] / np.linalg.norm(pose.pad_centres()[0][0])  # thumb tip to ball centre
     sunk = dataclasses.replace(grasp, palm_position=grasp.palm_position + 0.003 * towards)
-    result = verify(sunk, hand, ball, drawing_like_task())
+    result = verify(sunk, hand, ball, drawing_like_task(), GraspSettings())
     assert "penetration" in result.failures
     # the compliance's 2 mm and 3 mm more, less the thumb's contact distance in the fixture
-    before = verify(grasp, hand, ball, drawing_like_task()).contact_distance_m[0]
+    before = verify(grasp, hand, ball, drawing_like_task(), GraspSettings()).contact_distance_m[0]
     assert result.penetration_m == pytest.approx(0.005 - before, abs=5e-5)
     paper = verify(sunk, hand, ball, drawing_like_task(), GraspSettings(rolling_contacts=False))
     assert "penetration" not in paper.failures  # the paper's fixed pad point sets no such limit
@@ -66,7 +66,9 @@ def test_penetration_is_measured_on_the_true_geometry_a_box_edge(tmp_path):
     edge = np.array([0.03 + half, half, 0.035])  # finger 0's first link: a 12 mm box from z = 0 to 7 cm
     centre = edge + (radius - depth) * np.array([1.0, 1.0, 0.0]) / np.sqrt(2)
     grasp = Grasp(np.eye(3), -centre, np.zeros(hand.n_joints))
-    result = verify(grasp, hand, Superquadric(np.full(3, radius), 1.0, 1.0, name="ball"), drawing_like_task())
+    result = verify(
+        grasp, hand, Superquadric(np.full(3, radius), 1.0, 1.0, name="ball"), drawing_like_task(), GraspSettings()
+    )
     assert result.penetration_m == pytest.approx(depth, abs=1e-4)
     assert "penetration" in result.failures
     assert result.min_clearance_m < -depth + 1e-9  # the cover bulges beyond the edge, never short of it
@@ -74,7 +76,7 @@ def test_penetration_is_measured_on_the_true_geometry_a_box_edge(tmp_path):
 
 def test_the_paper_mode_keeps_the_fixed_pad_point():
     grasp, ball = ball_grasp()
-    rolling = build_model(load_hand(), ball, drawing_like_task()).model
+    rolling = build_model(load_hand(), ball, drawing_like_task(), GraspSettings()).model
     fixed = build_model(load_hand(), ball, drawing_like_task(), GraspSettings(rolling_contacts=False)).model
     assert len(rolling.eq2_rolling_contact) == 9 and len(rolling.eq2_contact_point) == 0
     assert len(fixed.eq2_rolling_contact) == 0 and len(fixed.eq2_contact_point) == 9

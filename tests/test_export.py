@@ -14,6 +14,7 @@ import trimesh
 from grasp_fixtures import ball_grasp, ball_sweep, drawing_like_task, results_with_tasks
 
 from grasptask.grasp.grasp import Grasp
+from grasptask.grasp.settings import GraspSettings
 from grasptask.hand import forward, load_hand
 from grasptask.records.export import glb_bytes, grasp_record
 from grasptask.records.scene import grasp_scene
@@ -127,7 +128,7 @@ def test_urdf_record_replays_in_yourdfpy(tmp_path):
         q = hand.apply_coupling(rng.uniform(hand.lower, hand.upper))
         rotation = np.linalg.qr(rng.normal(size=(3, 3)))[0]
         grasp = Grasp(rotation * np.sign(np.linalg.det(rotation)), rng.normal(scale=0.05, size=3), q)
-        check = verify(grasp, hand, grasp_ball, drawing_like_task())
+        check = verify(grasp, hand, grasp_ball, drawing_like_task(), GraspSettings())
         scene = grasp_scene(hand, grasp_ball.picture(500), grasp, check.contacts, check.normals, 0.5)
         record = json.loads(json.dumps(_record(hand, grasp, scene, check, path)))
         jsonschema.validate(record, SCHEMA)
@@ -168,7 +169,7 @@ def test_export_all_writes_every_verified_start(simulated, tmp_path, cli):
 def test_glb_bytes_are_a_binary_gltf():
     grasp, ball = ball_grasp()
     hand = load_hand().grasping_hand()
-    check = verify(grasp, hand, ball, drawing_like_task())
+    check = verify(grasp, hand, ball, drawing_like_task(), GraspSettings())
     data = glb_bytes(grasp_scene(hand, ball.picture(500), grasp, check.contacts, check.normals, 0.5))
     assert data[:4] == b"glTF"
 

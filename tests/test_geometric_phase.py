@@ -6,6 +6,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from grasptask.grasp.settings import GraspSettings
 from grasptask.paths import DEFAULT_HAND
 from grasptask.synthesis.config import load_solver_config
 from grasptask.synthesis.starts import make_starts, subset
@@ -18,7 +19,16 @@ def context(tasks):
 
     # the shipped seconds per solve: the start below must converge, also on a machine half as fast
     solver = replace(unhurried_solver(), geometric_iterations=5, torque_axes=4)
-    return SolverContext(Job(str(DEFAULT_HAND), "configs/objects/tool.yaml", str(tasks), "drawing", solver=solver))
+    return SolverContext(
+        Job(
+            str(DEFAULT_HAND),
+            "configs/objects/tool.yaml",
+            str(tasks),
+            "drawing",
+            solver=solver,
+            settings=GraspSettings(),
+        )
+    )
 
 
 def record_solves(monkeypatch, solvers: dict) -> list:
@@ -98,7 +108,9 @@ def test_the_phase_runs_longer_where_the_turn_is_held(tasks):
     solver = replace(fast, geometric_iterations=5, held_geometric_iterations=7, hold_axis_rotation=0.1)
     caps = {}
     for task in ("drawing", "cutting"):
-        job = Job(str(DEFAULT_HAND), "configs/objects/tool.yaml", str(tasks), task, solver=solver)
+        job = Job(
+            str(DEFAULT_HAND), "configs/objects/tool.yaml", str(tasks), task, solver=solver, settings=GraspSettings()
+        )
         context = SolverContext(job)
         caps[task] = (context.models.first.held_positions is not None, context.size["geometric_iterations"])
     assert caps == {"drawing": (True, 7), "cutting": (False, 5)}

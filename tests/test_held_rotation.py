@@ -10,6 +10,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
+from grasptask.grasp.settings import GraspSettings
 from grasptask.objects import load_object
 from grasptask.objects.superquadric import Superquadric
 from grasptask.objects.surface import ImplicitObject
@@ -123,7 +124,16 @@ def test_a_held_start_solves_verifies_and_keeps_its_turn(tasks):
     from grasptask.synthesis.starts import make_starts, subset
 
     solver = replace(unhurried_solver(), hold_axis_rotation=0.1)
-    context = SolverContext(Job(str(DEFAULT_HAND), "configs/objects/tool.yaml", str(tasks), "drawing", solver=solver))
+    context = SolverContext(
+        Job(
+            str(DEFAULT_HAND),
+            "configs/objects/tool.yaml",
+            str(tasks),
+            "drawing",
+            solver=solver,
+            settings=GraspSettings(),
+        )
+    )
     assert context.size["held_axis_rotation"]
     rows = [context.solve(start) for start in subset(make_starts(context.bounds), 12)[:3]]
     assert sum(row["verified"] for row in rows) >= 2, [(r["status"], r.get("verify_failures")) for r in rows]

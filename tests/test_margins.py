@@ -15,10 +15,10 @@ import pytest
 
 from grasptask.grasp.settings import GraspSettings, load_grasp_settings
 from grasptask.hand.model import Capability, Finger, Hand, Joint, Pad, Palm
+from grasptask.verifier.checks import torque_effort
 from grasptask.verifier.loads_lp import load_block
 from grasptask.verifier.margins import FRICTION_STEPS, friction_margin, strength_margin
 from grasptask.verifier.mechanics import friction_cone_edges
-from grasptask.verifier.verify import _torque_effort
 
 R = 0.02
 POINTS = np.array([[R, 0.0, 0.0], [-R, 0.0, 0.0]])
@@ -45,7 +45,7 @@ def _effort(effort: float, force: float, mu: float) -> float:
         lengths = np.array([force])
         axes = np.array([[0.0, 1.0, 0.0, 0.0, 0.0, 0.0]])
 
-    return _torque_effort(edges, POINTS, JACOBIANS, _hand(effort), Task())[0]  # type: ignore[arg-type]
+    return torque_effort(edges, POINTS, JACOBIANS, _hand(effort), Task())[0]  # type: ignore[arg-type]
 
 
 @pytest.mark.parametrize(("effort", "force", "mu"), [(2.0, 1.0, 0.5), (1.0, 0.6, 0.3), (3.0, 2.0, 0.8)])

@@ -8,6 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
+from grasptask.grasp.settings import GraspSettings
 from grasptask.hand import load_hand
 from grasptask.verifier.epsilon import ferrari_canny
 from grasptask.verifier.mechanics import (
@@ -120,7 +121,7 @@ def test_q_with_a_weight_matrix_equals_the_identity_case_when_it_is_the_identity
 @pytest.fixture(scope="module")
 def accepted():
     grasp, ball = ball_grasp()
-    return grasp, ball, verify(grasp, HAND, ball, drawing_like_task())
+    return grasp, ball, verify(grasp, HAND, ball, drawing_like_task(), GraspSettings())
 
 
 def test_verifier_accepts_a_real_precision_grasp(accepted):
@@ -135,14 +136,14 @@ def test_verifier_accepts_a_real_precision_grasp(accepted):
 
 def test_verifier_rejects_a_task_too_strong_for_the_tendons(accepted):
     grasp, ball, _ = accepted
-    result = verify(grasp, HAND, ball, drawing_like_task(scale=2.0))
+    result = verify(grasp, HAND, ball, drawing_like_task(scale=2.0), GraspSettings())
     assert result.failures == ["torque_feasibility"] and result.torque_effort > 1
 
 
 def test_verifier_rejects_a_finger_inside_the_object(accepted):
     grasp, ball, _ = accepted
     sunk = dataclasses.replace(grasp, palm_position=grasp.palm_position + np.array([0.0, 0.0, 0.012]))
-    result = verify(sunk, HAND, ball, drawing_like_task())
+    result = verify(sunk, HAND, ball, drawing_like_task(), GraspSettings())
     assert "clearance" in result.failures or "contact_distance" in result.failures
     assert result.min_clearance_m < -1e-3 or np.abs(result.contact_distance_m).max() > 1e-3
 
@@ -151,7 +152,7 @@ def test_verifier_rejects_a_joint_beyond_its_limit(accepted):
     grasp, ball, _ = accepted
     q = grasp.joint_angles.copy()
     q[HAND.grasping_hand().joint_names.index("index_mcp_abd")] = np.radians(25.0)
-    result = verify(dataclasses.replace(grasp, joint_angles=q), HAND, ball, drawing_like_task())
+    result = verify(dataclasses.replace(grasp, joint_angles=q), HAND, ball, drawing_like_task(), GraspSettings())
     assert "joint_limits" in result.failures and result.joint_limit_margin_deg < -9
 
 
@@ -159,9 +160,12 @@ def test_verifier_rejects_broken_coupling_and_a_non_rotation(accepted):
     grasp, ball, _ = accepted
     q = grasp.joint_angles.copy()
     q[HAND.grasping_hand().joint_names.index("index_dip")] += 0.2
-    assert "coupling" in verify(dataclasses.replace(grasp, joint_angles=q), HAND, ball, drawing_like_task()).failures
+    assert (
+        "coupling"
+        in verify(dataclasses.replace(grasp, joint_angles=q), HAND, ball, drawing_like_task(), GraspSettings()).failures
+    )
     skewed = dataclasses.replace(grasp, palm_rotation=grasp.palm_rotation * 1.01)
-    assert "palm_rotation" in verify(skewed, HAND, ball, drawing_like_task()).failures
+    assert "palm_rotation" in verify(skewed, HAND, ball, drawing_like_task(), GraspSettings()).failures
 
 
 def test_verifier_rejects_all_contacts_on_one_side(accepted):
@@ -175,7 +179,7 @@ def test_verifier_rejects_all_contacts_on_one_side(accepted):
     # a big ball touched near one pole: every pad on the same cap
     centre = pads.mean(axis=0) + normals.mean(axis=0) / np.linalg.norm(normals.mean(axis=0)) * 0.5
     ball = Superquadric(np.full(3, np.linalg.norm(pads - centre, axis=1).mean()), 1.0, 1.0, position=centre)
-    result = verify(grasp, HAND, ball, drawing_like_task())
+    result = verify(grasp, HAND, ball, drawing_like_task(), GraspSettings())
     assert "force_closure" in result.failures and result.epsilon == 0.0
 
 
@@ -199,12 +203,12 @@ def test_verifier_measures_each_contact_against_its_fingertips_own_mesh(accepted
     Hand's verified contacts lay 1-6.7 mm off its fingertip meshes."""
     grasp, ball, plain = accepted
     hand = HAND.grasping_hand()
-    on_tip = verify(grasp, _with_tip_meshes(hand), ball, drawing_like_task())
+    on_tip = verify(grasp, _with_tip_meshes(hand), ball, drawing_like_task(), GraspSettings())
     assert on_tip.ok, on_tip.failures
     assert np.isnan(plain.fingertip_gap_m).all()  # no mesh, nothing to measure
     assert (on_tip.fingertip_gap_m < 0).all()  # inside the tip: it gives by the compliance there
     # a contact sits the compliance (2 mm for the human hand) inside its pad sphere: 6 mm smaller, 4 mm outside
-    off_tip = verify(grasp, _with_tip_meshes(hand, shrink_m=0.006), ball, drawing_like_task())
+    off_tip = verify(grasp, _with_tip_meshes(hand, shrink_m=0.006), ball, drawing_like_task(), GraspSettings())
     assert off_tip.failures == ["fingertip_contact"]
     np.testing.assert_allclose(off_tip.fingertip_gap_m, 0.004, atol=6e-4)  # contacts sit within 1 mm
 

@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
 from grasptask.errors import BadInputError
-from grasptask.grasp.settings import load_grasp_settings
+from grasptask.grasp.settings import GraspSettings, load_grasp_settings
 from grasptask.objects import load_object
 from grasptask.objects.mesh_object import MeshObject, PointCloudObject
 from tests.test_bad_input import assert_rejected
@@ -207,7 +207,14 @@ def test_a_mesh_gives_verified_grasps_end_to_end(cli, simulated, tmp_path):
     tasks = simulated[0] / "tasks" / "task_models.json"
     solver = load_solver_config("configs/solver.yaml")
     context = SolverContext(
-        Job("configs/hands/human.yaml", "configs/objects/mug.yaml", str(tasks), "drawing", solver=solver)
+        Job(
+            "configs/hands/human.yaml",
+            "configs/objects/mug.yaml",
+            str(tasks),
+            "drawing",
+            solver=solver,
+            settings=GraspSettings(),
+        )
     )
     tried = []
     for start in subset(make_starts(context.bounds), 12)[:6]:
@@ -371,6 +378,9 @@ def test_a_workers_models_share_one_distance_grid(tasks, tmp_path):
     path = tmp_path / "handle.stl"
     handle().export(path)
     obj, hand, task = load_object(path), load_hand(), load_task_models(tasks)["drawing"]
-    first, whole = build_model(hand, obj, task, torque_axes=2), build_model(hand, obj, task)
+    first, whole = (
+        build_model(hand, obj, task, GraspSettings(), torque_axes=2),
+        build_model(hand, obj, task, GraspSettings()),
+    )
     assert first.surrogate is not None and first.surrogate.grid is whole.surrogate.grid is obj.distance_grid
     assert load_object(path).distance_grid is not obj.distance_grid  # another object, its own grid

@@ -12,6 +12,7 @@ from hypothesis import strategies as st
 from pyomo.core.expr.calculus.derivatives import Modes, differentiate
 
 from grasptask.errors import BadInputError
+from grasptask.grasp.settings import GraspSettings
 from grasptask.hand import load_hand
 from grasptask.objects import load_object
 from grasptask.synthesis.config import IPOPT_DEFAULTS, Regularisation, SearchBounds, SolverConfig, load_solver_config
@@ -28,7 +29,7 @@ TOOL = "configs/objects/tool.yaml"
 def nlp(simulated):
     root, _, _ = simulated
     task = load_task_models(root / "tasks" / "task_models.json")["drawing"]
-    return build_model(load_hand(), load_object(TOOL), task)
+    return build_model(load_hand(), load_object(TOOL), task, GraspSettings())
 
 
 def test_anchor_is_the_nearest_point_of_the_shrunken_box():
@@ -69,7 +70,7 @@ def test_placement_is_deterministic(nlp):
 def test_search_bounds_reach_the_force_variables(simulated):
     root, _, _ = simulated
     task = load_task_models(root / "tasks" / "task_models.json")["cutting"]
-    model = build_model(load_hand(), load_object(TOOL), task, bounds=SearchBounds(80.0, None)).model
+    model = build_model(load_hand(), load_object(TOOL), task, GraspSettings(), bounds=SearchBounds(80.0, None)).model
     assert all(v.lb == -80.0 and v.ub == 80.0 for v in model.force.values())
     assert all(v.lb == 0 and v.ub is None for v in model.lam.values())
 
@@ -82,7 +83,7 @@ def test_regularisation_leaves_q_as_eq_12_alone(simulated):
     start = make_starts(load_object(TOOL).bounds(), seed=0)[7]
     values = {}
     for name, weights in (("paper", Regularisation(0.0, 0.0, 0.0)), ("default", Regularisation())):
-        nlp = build_model(load_hand(), load_object(TOOL), task, regularisation=weights)
+        nlp = build_model(load_hand(), load_object(TOOL), task, GraspSettings(), regularisation=weights)
         nlp.initialise(start.palm_rotation, start.palm_position, nlp.hand.mid_range())
         for a, j, i in nlp.model.force:
             nlp.model.force[a, j, i].set_value(0.1 * (i + 1))  # Q > 0

@@ -175,11 +175,11 @@ def test_a_sweep_of_a_hand_too_weak_for_the_task_says_so_with_numbers():
 
 
 def test_the_summary_line_says_which_q_is_which_where_the_judges_differ():
-    from grasptask.cli import _verifier_said
+    from grasptask.cli.summaries import verifier_said
 
-    assert _verifier_said({"best_Q": 0.0100, "best_Q_verifier": 0.01005}) == ""
-    assert _verifier_said({"best_Q": 0.0100, "best_Q_verifier": 0.0920}) == " (the NLP's; the verifier's 0.092)"
-    assert _verifier_said({"best_Q": None, "best_Q_verifier": None}) == ""
+    assert verifier_said({"best_Q": 0.0100, "best_Q_verifier": 0.01005}) == ""
+    assert verifier_said({"best_Q": 0.0100, "best_Q_verifier": 0.0920}) == " (the NLP's; the verifier's 0.092)"
+    assert verifier_said({"best_Q": None, "best_Q_verifier": None}) == ""
 
 
 def test_a_joint_shared_by_two_fingers_moves_both_and_its_torque_is_counted_once(tmp_path):

@@ -133,7 +133,7 @@ def test_effort_limits_reach_the_nlp_and_the_verifier(tmp_path):
     doubled = tmp_path / "strong.urdf"
     doubled.write_text(text.replace('effort="1.8"', 'effort="3.6"'))
     hand, strong = load_hand(BARRETT), load_hand(doubled)
-    nlp = build_model(hand, load_object("configs/objects/tool.yaml"), drawing_like_task())
+    nlp = build_model(hand, load_object("configs/objects/tool.yaml"), drawing_like_task(), GraspSettings())
     coefficients = {
         round(abs(c), 6)
         for con in nlp.model.eq10_torque.values()

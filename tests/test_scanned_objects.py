@@ -17,6 +17,7 @@ from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
 from grasptask.errors import BadInputError
+from grasptask.grasp.settings import GraspSettings
 from grasptask.objects import load_object
 from grasptask.objects.loading import FRAME_DEPTH_M, file_object_name
 from grasptask.objects.mesh_file import holes, non_manifold_edges, open_edges
@@ -295,7 +296,14 @@ def test_a_scan_as_published_gives_a_verified_grasp_in_its_default_frame(simulat
     shapes = {"marker": lambda: rod(radius=0.009), "rod": rod, "cup": cup, "box": box}
     path = write_textured_obj(shapes[shape](), tmp_path / shape / "textured.obj")
     tasks = str(simulated[0] / "tasks" / "task_models.json")
-    job = Job("configs/hands/human.yaml", str(path), tasks, task, solver=load_solver_config("configs/solver.yaml"))
+    job = Job(
+        "configs/hands/human.yaml",
+        str(path),
+        tasks,
+        task,
+        solver=load_solver_config("configs/solver.yaml"),
+        settings=GraspSettings(),
+    )
     context = SolverContext(job)
     assert context.obj.name == shape and context.obj.task_frame_rule == "centre"
     tried = []

@@ -18,6 +18,7 @@ import pandas as pd
 import pyomo.environ as pyo
 import pytest
 
+from grasptask.grasp.settings import GraspSettings
 from grasptask.hand import load_hand
 from grasptask.objects import load_object
 from grasptask.paths import DEFAULT_HAND
@@ -35,7 +36,9 @@ def synthesize(cli, tasks, out, *extra):
 
 
 def test_model_components_cite_the_paper_and_size_is_recorded(tasks):
-    nlp = build_model(load_hand(), load_object("configs/objects/tool.yaml"), load_task_models(tasks)["drawing"])
+    nlp = build_model(
+        load_hand(), load_object("configs/objects/tool.yaml"), load_task_models(tasks)["drawing"], GraspSettings()
+    )
     names = {c.local_name for c in nlp.model.component_objects((pyo.Constraint, pyo.Objective), active=True)}
     for expected in (
         "eq2_frame",
@@ -62,7 +65,9 @@ def test_model_initialisation_reproduces_the_hand_kinematics(tasks):
     from grasptask.hand import forward
 
     hand = load_hand()
-    nlp = build_model(hand, load_object("configs/objects/tool.yaml"), load_task_models(tasks)["drawing"])
+    nlp = build_model(
+        hand, load_object("configs/objects/tool.yaml"), load_task_models(tasks)["drawing"], GraspSettings()
+    )
     start = make_starts(np.array([[-0.01, -0.01, -0.1], [0.01, 0.01, 0.1]]))[17]
     q = nlp.hand.mid_range()
     nlp.initialise(start.palm_rotation, start.palm_position, q)
@@ -81,7 +86,9 @@ def test_model_initialisation_reproduces_the_hand_kinematics(tasks):
 def test_initialisation_satisfies_every_defining_equality(tasks):
     """Each auxiliary variable (frames, contacts, normals, tangents, cone edges, wrenches, Jacobians, edge
     torques) is set from the expression its equality constraint states, so they all hold at a start."""
-    nlp = build_model(load_hand(), load_object("configs/objects/tool.yaml"), load_task_models(tasks)["drawing"])
+    nlp = build_model(
+        load_hand(), load_object("configs/objects/tool.yaml"), load_task_models(tasks)["drawing"], GraspSettings()
+    )
     start = make_starts(np.array([[-0.01, -0.01, -0.1], [0.01, 0.01, 0.1]]))[40]
     nlp.initialise(start.palm_rotation, start.palm_position, nlp.hand.mid_range())
     m = nlp.model
@@ -180,6 +187,7 @@ def test_sweep_on_a_gp_object(cli, tasks, tmp_path):
 CRASHING_WORKER = """
 import os
 from grasptask.synthesis import context
+from grasptask.grasp.settings import GraspSettings
 
 _solve = context.SolverContext.solve
 
@@ -349,13 +357,13 @@ def test_cyipopt_backend_on_the_grasp_nlp(cli, tasks, tmp_path):
 def test_eq10_for_the_task_longest_axes_only(tasks):
     """``torque_axes`` keeps eq. 10's blocks for the task's longest axes, both signs, and every other family."""
     hand, obj, task = load_hand(), load_object("configs/objects/tool.yaml"), load_task_models(tasks)["cutting"]
-    whole = build_model(hand, obj, task).model
-    two = build_model(hand, obj, task, torque_axes=2).model
+    whole = build_model(hand, obj, task, GraspSettings()).model
+    two = build_model(hand, obj, task, GraspSettings(), torque_axes=2).model
     assert len(whole.eq10_wrench) == 6 * 2 * 6 and len(two.eq10_wrench) == 2 * 2 * 6
     assert {index[:2] for index in two.act.index_set()} == {(0, 0), (0, 1), (1, 0), (1, 1)}
     for name in ("eq2_frame", "eq4_force_closure", "eq8_task_force", "eq14_collision"):
         assert len(getattr(two, name)) == len(getattr(whole, name))
-    assert build_model(hand, obj, task, torque_axes=9).model.act.index_set() == whole.act.index_set()
+    assert build_model(hand, obj, task, GraspSettings(), torque_axes=9).model.act.index_set() == whole.act.index_set()
 
 
 @pytest.mark.slow
@@ -370,7 +378,16 @@ def test_a_grasp_the_left_out_axes_reject_is_solved_again_with_all_of_them(tasks
     from grasptask.synthesis.models import values as _values
 
     solver = replace(load_solver_config(FAST), torque_axes=1, retry_postures=(), feedback_rounds=0)
-    context = SolverContext(Job(str(DEFAULT_HAND), "configs/objects/tool.yaml", str(tasks), "cutting", solver=solver))
+    context = SolverContext(
+        Job(
+            str(DEFAULT_HAND),
+            "configs/objects/tool.yaml",
+            str(tasks),
+            "cutting",
+            solver=solver,
+            settings=GraspSettings(),
+        )
+    )
     first, whole = context.models.first, context.models.whole
     assert first.nlp.size()["variables"] < whole.nlp.size()["variables"]
     rows = [context.solve(start) for start in subset(make_starts(context.bounds), 12)[:6]]
@@ -393,7 +410,16 @@ def test_attempts_start_from_the_first_posture_then_each_retry_posture(tasks, mo
 
     solver = replace(load_solver_config(FAST), first_posture=0.25, retry_postures=(0.25, 0.5, 0.1))
     assert solver.postures == (0.25, 0.5, 0.1)
-    context = SolverContext(Job(str(DEFAULT_HAND), "configs/objects/tool.yaml", str(tasks), "cutting", solver=solver))
+    context = SolverContext(
+        Job(
+            str(DEFAULT_HAND),
+            "configs/objects/tool.yaml",
+            str(tasks),
+            "cutting",
+            solver=solver,
+            settings=GraspSettings(),
+        )
+    )
     tried = []
 
     def attempt(start, joints):

@@ -13,7 +13,7 @@ import trimesh
 from grasptask.grasp.grasp import Grasp
 from grasptask.hand.model import Hand
 from grasptask.records.scene import CONTACT_COLOUR, OBJECT_COLOUR, PALM_COLOUR, GraspScene, spheres_mesh
-from grasptask.verifier.verify import Verification
+from grasptask.verifier.verification import Verification
 
 RECORD_FORMAT = "grasptask.grasp/1"
 #: the contacts' spheres in the GLB (m): big enough to see beside a fingertip, small enough not to hide it

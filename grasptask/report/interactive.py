@@ -18,7 +18,7 @@ from grasptask.records.scene import CONTACT_COLOUR, OBJECT_COLOUR, PALM_COLOUR, 
 from grasptask.task.ellipsoid import FORCE, TORQUE
 from grasptask.task.units import PAPER_TORQUE_UNIT, TORQUE_UNITS
 from grasptask.verifier.mechanics import friction_cone_edges
-from grasptask.verifier.verify import Verification
+from grasptask.verifier.verification import Verification
 
 #: the friction cones' drawn length (m) and edges: long enough to read the cone's opening beside a fingertip
 CONE_LENGTH, CONE_EDGES = 0.015, 16

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import time
 import traceback
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -39,7 +39,8 @@ class Job:
     task: str
     backend: str = "casadi"
     solver: SolverConfig = SolverConfig()
-    settings: GraspSettings = GraspSettings()
+    #: the grasp settings, always given: a forgotten argument must not silently mean the defaults
+    settings: GraspSettings = field(kw_only=True)
     #: the grasping fingers, when not the hand file's own choice
     fingers: tuple[str, ...] | None = None
     #: each verified grasp is also held in MuJoCo with these (grasptask.physics); None: not

@@ -12,7 +12,8 @@ from grasptask.grasp.grasp import Grasp
 from grasptask.physics.judge import Holding
 from grasptask.records.solutions import grasp_columns
 from grasptask.synthesis.models import Solver, assign
-from grasptask.verifier.verify import Verification, verify
+from grasptask.verifier.verification import Verification
+from grasptask.verifier.verify import verify
 
 if TYPE_CHECKING:
     from grasptask.grasp.settings import GraspSettings

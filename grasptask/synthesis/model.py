@@ -585,7 +585,7 @@ def build_model(
     hand: Hand,
     obj: ImplicitObject,
     task: TaskModel,
-    settings: GraspSettings = GraspSettings(),
+    settings: GraspSettings,
     bounds: SearchBounds = SearchBounds(),
     regularisation: Regularisation = Regularisation(),
     torque_axes: int | None = None,

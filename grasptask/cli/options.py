@@ -1,0 +1,182 @@
+"""The option groups several commands share, each declared once: the output folder, the hand, object and grasp
+settings (the package's defaults, or a sweep's own), what a bare mesh cannot say, the grasping fingers and the
+physics config."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+
+from grasptask import stages
+from grasptask.stages import DEFAULT_GRASP_CONFIG, DEFAULT_HAND, DEFAULT_OBJECT, DEFAULT_SOLVER_CONFIG
+
+
+def out_option(f):
+    return click.option(
+        "--out", required=True, type=click.Path(file_okay=False, path_type=Path), help="Output folder."
+    )(f)
+
+
+def finger_list(ctx, param, value):
+    if value is None:
+        return None
+    names = tuple(n.strip() for n in value.split(",") if n.strip())
+    if not names:
+        raise click.BadParameter("name the fingers, e.g. thumb,index,middle,ring")
+    return names
+
+
+def fingers_option(default: str):
+    def decorate(f):
+        return click.option(
+            "--fingers",
+            default=None,
+            callback=finger_list,
+            help=f"Grasping fingers, comma-separated (e.g. thumb,index,middle,ring) [default: {default}].",
+        )(f)
+
+    return decorate
+
+
+def physics_config_option(help_text: str):
+    return click.option(
+        "--physics-config",
+        type=click.Path(path_type=Path),
+        default=stages.DEFAULT_PHYSICS_CONFIG,
+        show_default=True,
+        help=help_text,
+    )
+
+
+def scale_option(name: str, help_text: str):
+    """A positive multiple of a model's value, 1 by default."""
+    return click.option(
+        name, type=click.FloatRange(min=0, min_open=True), default=1.0, show_default=True, help=help_text
+    )
+
+
+def model_option_set(sweep: bool):
+    """--hand, --object and --grasp-config: the package's defaults (synthesize, verify), or with ``sweep`` what
+    the sweep of SOLUTIONS used, from its run.json (physics, export)."""
+    options = (
+        ("--grasp-config", "grasp_config", DEFAULT_GRASP_CONFIG, "Friction and pad-angle settings (YAML)."),
+        ("--object", "object_path", DEFAULT_OBJECT, "Object config (YAML) or mesh."),
+        ("--hand", "hand", DEFAULT_HAND,
+         "Hand: the project's YAML, a URDF, an MJCF file, or a YAML pointing at one (model: FILE)."),
+    )  # fmt: skip
+
+    def decorate(f):
+        for flag, name, default, text in options:
+            if sweep:
+                f = click.option(flag, name, type=click.Path(path_type=Path), default=None,
+                                 help=f"{text} [default: the sweep's, from run.json].")(f)  # fmt: skip
+            else:
+                f = click.option(flag, name, type=click.Path(path_type=Path), default=default, show_default=True,
+                                 help=text)(f)  # fmt: skip
+        return f
+
+    return decorate
+
+
+model_options = model_option_set(sweep=False)
+sweep_model_options = model_option_set(sweep=True)
+
+
+def object_options(f):
+    """--unit, --mass, --task-frame and --task-frame-outside: what a bare mesh or point cloud cannot say (a mesh
+    YAML's fields), passed on as the keywords ``unit``, ``mass_kg``, ``task_frame`` and ``task_frame_outside``."""
+    f = click.option(
+        "--task-frame-outside",
+        is_flag=True,
+        default=None,
+        help="Take a task frame (origin) that lies outside the object or within 5 mm of its surface "
+        "(task_frame_outside in a mesh YAML); the centre is always taken.",
+    )(f)
+    f = click.option(
+        "--task-frame",
+        type=click.Choice(["centre", "origin"]),
+        default=None,
+        help="The object's task frame: centre (its centre of volume, z along its longest axis: a bare file's "
+        "default) or origin (the file's own frame).",
+    )(f)
+    f = click.option(
+        "--mass", "mass_kg", type=click.FloatRange(min=0, min_open=True), default=None,
+        help="The object's mass (kg), for the physics check [default: the object YAML's mass_kg; none is stated].",
+    )(f)  # fmt: skip
+    return click.option(
+        "--unit",
+        type=click.Choice(["m", "cm", "mm"]),
+        default=None,
+        help="The length unit of a mesh or point-cloud object's file [default: the YAML's unit, or m].",
+    )(f)
+
+
+def sweep_task_options(f):
+    """--tasks and --task of a command that reads a finished sweep: by default the sweep's own."""
+    f = click.option("--task", default=None, help="The task the solutions were made for [default: the sweep's].")(f)
+    return click.option(
+        "--tasks", "tasks_path", type=click.Path(path_type=Path), default=None,
+        help="task_models.json [default: the sweep's, from its run.json].",
+    )(f)  # fmt: skip
+
+
+def synthesis_options(f):
+    """Everything ``synthesize`` takes: the task, the models, the solver, the starts and where they run."""
+    for option in reversed(_SYNTHESIS):
+        f = option(f)
+    return f
+
+
+_SYNTHESIS = [
+    click.option(
+        "--tasks", "tasks_path", required=True, type=click.Path(path_type=Path), help="task_models.json from fit-task."
+    ),
+    click.option("--task", required=True, help="Task to grasp for, e.g. drawing, cutting, screwdriving."),
+    out_option,
+    model_options,
+    object_options,
+    click.option(
+        "--solver-config",
+        type=click.Path(path_type=Path),
+        default=DEFAULT_SOLVER_CONFIG,
+        show_default=True,
+        help="IPOPT options and time limits (YAML).",
+    ),
+    click.option(
+        "--starts", type=click.IntRange(min=1), default=None, help="Run a deterministic subset of the 126 starts."
+    ),
+    click.option("--seed", type=int, default=0, show_default=True, help="Seed of the starts' jitter."),
+    click.option("--workers", type=click.IntRange(min=1), default=1, show_default=True, help="Solver processes."),
+    click.option(
+        "--executor",
+        type=click.Choice(["pool", "serial", "dask"]),
+        default="pool",
+        show_default=True,
+        help="pool: local processes (a crashed or hung start is recorded and the sweep goes on); serial: in "
+        "this process; dask: a Dask cluster at --scheduler.",
+    ),
+    click.option("--scheduler", default=None, help="Dask scheduler address, e.g. tcp://10.0.0.5:8786."),
+    click.option(
+        "--solver",
+        "backend",
+        type=click.Choice(["casadi", "cyipopt"]),
+        default="casadi",
+        show_default=True,
+        help="IPOPT through CasADi's nlpsol, or the same CasADi functions through cyipopt.",
+    ),
+    click.option(
+        "--resume",
+        is_flag=True,
+        help="Keep the starts already in solutions.jsonl and solve only the rest; refused if the folder holds "
+        "another run.",
+    ),
+    fingers_option("the hand file's choice; for a URDF or MJCF hand, all its fingers"),
+    click.option(
+        "--physics",
+        "physics_flag",
+        is_flag=True,
+        help="Also hold each verified grasp in MuJoCo against the task's wrenches (see `grasptask physics`).",
+    ),
+    physics_config_option("With --physics: scene, controller, protocol and thresholds (YAML)."),
+]
