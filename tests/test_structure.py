@@ -129,3 +129,13 @@ def test_every_docs_page_the_code_names_exists():
         if not Path(page).is_file()
     )
     assert not dangling, dangling
+
+
+def test_no_function_in_the_package_is_over_60_lines_and_no_cli_module_over_400():
+    long = []
+    for module in Path("grasptask").rglob("*.py"):
+        for node in ast.walk(ast.parse(module.read_text())):
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)) and node.end_lineno - node.lineno >= 60:
+                long.append(f"{module}:{node.lineno} {node.name} ({node.end_lineno - node.lineno + 1} lines)")
+    assert not long, long
+    assert all(len(m.read_text().splitlines()) <= 400 for m in Path("grasptask/cli").glob("*.py"))

@@ -557,6 +557,42 @@ def hand_from_tree(tree: Tree, source: Path, options: HandOptions = HandOptions(
     into = _check(tree, source)
     root = _root(tree, into, source)
     palm, tips = _palm_and_tips(tree, into, root, options, source)
+    _check_tips(into, tips, options, source)
+    names = list(options.finger_names) if options.finger_names else tips
+    if len(names) != len(tips):
+        raise options.fault(source, "finger_names", f"{len(names)} finger names for {len(tips)} fingertips")
+    paths = {name: _path(into, palm, tip, source) for name, tip in zip(names, tips, strict=True)}
+    on_path = {j.child for path in paths.values() for j in path}
+    attached: set[str] = set()  # links whose geometry an earlier finger's chain carries
+    chains = {name: _chain(tree, path, source, on_path, attached) for name, path in paths.items()}
+    shared = _share_joints(chains, {j.name for j in tree.joints})
+    couplings = _mimic(tree, chains, source)
+    capability_couplings = {**couplings, **{copy: (original, 1.0, 0.0) for copy, original in shared.items()}}
+    fingers = _pads(_fingers(chains, couplings), chains, tips, options, source)
+    held = held_joints(into, root, palm, options, source)
+    joint_names = [j.name for f in fingers.values() for j in f.joints]
+    efforts = {j.name: j.effort for j in tree.joints}
+    capability = _capability(joint_names, efforts, capability_couplings, source)
+    grasping = _grasping(fingers, options, source)
+    return Hand(
+        options.name or source.stem,
+        fingers,
+        _palm(tree, into, palm),
+        grasping,
+        capability,
+        approach=_approach(fingers, options),
+        model_file=source.resolve(),
+        palm_link=palm,
+        compliance_m=options.compliance_m,
+        fingertip_links=dict(zip(names, tips, strict=True)),
+        held_joints=held,
+        unbalanced_inertia=tuple(tree.unbalanced),
+        cover_reach_m={name: link.cover_reach_m for name, link in tree.links.items() if link.meshes},
+    )
+
+
+def _check_tips(into: dict, tips: list[str], options: HandOptions, source: Path) -> None:
+    """The fingertips make a hand: the YAML's pads are on them, no two sit on one chain, and there are two."""
     for link in options.pads:
         if link not in tips:
             raise options.fault(source, f"pads.{link}", f"link '{link}' is not a fingertip ({', '.join(tips)})")
@@ -574,16 +610,10 @@ def hand_from_tree(tree: Tree, source: Path, options: HandOptions = HandOptions(
             f"a hand needs at least two fingertips, found {len(tips)} ({found}){why}: name them under 'fingertips' "
             "in a hand YAML with 'model: <this file>'",
         )
-    names = list(options.finger_names) if options.finger_names else tips
-    if len(names) != len(tips):
-        raise options.fault(source, "finger_names", f"{len(names)} finger names for {len(tips)} fingertips")
-    paths = {name: _path(into, palm, tip, source) for name, tip in zip(names, tips, strict=True)}
-    on_path = {j.child for path in paths.values() for j in path}
-    attached: set[str] = set()  # links whose geometry an earlier finger's chain carries
-    chains = {name: _chain(tree, path, source, on_path, attached) for name, path in paths.items()}
-    shared = _share_joints(chains, {j.name for j in tree.joints})
-    couplings = _mimic(tree, chains, source)
-    capability_couplings = {**couplings, **{copy: (original, 1.0, 0.0) for copy, original in shared.items()}}
+
+
+def _fingers(chains: dict[str, _Chain], couplings: dict[str, tuple[str, float, float]]) -> dict[str, Finger]:
+    """Each chain as a finger, its coupled joints marked, its pad not yet placed (:func:`_pads` places it)."""
     fingers = {}
     unset = Pad(np.zeros(3), np.array([0.0, 0.0, 1.0]), np.array([1.0, 0.0, 0.0]))
     for name, chain in chains.items():
@@ -598,17 +628,22 @@ def hand_from_tree(tree: Tree, source: Path, options: HandOptions = HandOptions(
         radius = float(np.median([s.radius for s in chain.spheres])) if chain.spheres else 0.008
         end = chain.tip_frame[:3, 3].copy()
         fingers[name] = Finger(name, joints, tuple(chain.spheres), unset, end, radius, tuple(chain.skin))
-    fingers = _pads(fingers, chains, tips, options, source)
-    held = held_joints(into, root, palm, options, source)
+    return fingers
+
+
+def _palm(tree: Tree, into: dict, palm: str) -> Palm:
+    """The palm's collision spheres and skin: its own link's and those of every link fixed to it."""
     palm_spheres, palm_skin = [], [np.zeros((0, 3))]
     for link, frame in fixed_to_palm(tree, into, palm):
         palm_spheres += _transform_spheres(tree.links[link].spheres, frame)
         palm_skin.append(_skin(tree.links[link], frame))
     centres, radii = np.array([c for c, _ in palm_spheres]).reshape(-1, 3), np.array([r for _, r in palm_spheres])
-    palm_model = Palm(centres, radii, np.vstack(palm_skin))
-    joint_names = [j.name for f in fingers.values() for j in f.joints]
-    efforts = {j.name: j.effort for j in tree.joints}
-    capability = _capability(joint_names, efforts, capability_couplings, source)
+    return Palm(centres, radii, np.vstack(palm_skin))
+
+
+def _grasping(fingers: dict[str, Finger], options: HandOptions, source: Path) -> tuple[str, ...]:
+    """The grasping fingers (the YAML's, or all), each a finger of the hand, and a compliance below every
+    fingertip's radius."""
     grasping = tuple(options.grasping) if options.grasping else tuple(fingers)
     for finger in grasping:
         if finger not in fingers:
@@ -616,7 +651,6 @@ def hand_from_tree(tree: Tree, source: Path, options: HandOptions = HandOptions(
             raise options.fault(
                 source, "grasping_fingers", f"grasping finger '{finger}' is not a finger of this hand ({known})"
             )
-    approach = _approach(fingers, options)
     rounded = [f.pad.radius for f in fingers.values() if f.pad.radius > 0]
     if rounded and options.compliance_m >= min(rounded):
         raise options.fault(
@@ -624,18 +658,4 @@ def hand_from_tree(tree: Tree, source: Path, options: HandOptions = HandOptions(
             "compliance_m",
             f"compliance {options.compliance_m} m is not below the fingertip radius {min(rounded)} m",
         )
-    return Hand(
-        options.name or source.stem,
-        fingers,
-        palm_model,
-        grasping,
-        capability,
-        approach=approach,
-        model_file=source.resolve(),
-        palm_link=palm,
-        compliance_m=options.compliance_m,
-        fingertip_links=dict(zip(names, tips, strict=True)),
-        held_joints=held,
-        unbalanced_inertia=tuple(tree.unbalanced),
-        cover_reach_m={name: link.cover_reach_m for name, link in tree.links.items() if link.meshes},
-    )
+    return grasping

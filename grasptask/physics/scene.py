@@ -10,6 +10,7 @@ contact: the soft pulp the grasp presses with."""
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
 
 import mujoco
 import numpy as np
@@ -237,21 +238,13 @@ def build_scene(
     actuators ``strength`` times as strong as the hand model's."""
     contact = [friction, settings.torsional_friction_m, 0.0]
     contacts, normals = pad_contacts(hand, obj, grasp)
-    if hand.model_file is not None:
-        solref = [CONTACT_TIME_CONSTANT_S, 1.0]
-        spec = _configure(file_hand_spec(hand, grasp, settings, contact, solref, (HAND_BIT, OBJECT_BIT)), settings)
-        source, prefix = hand.model_file, ""
-    else:
-        spec = _configure(mujoco.MjSpec(), settings)
-        _add_project_hand(spec, hand, grasp, contacts, normals, settings, contact)
-        source, prefix = None, PROJECT_PREFIX
+    spec, source, prefix = _hand_spec(hand, grasp, settings, contact, contacts, normals)
     _add_object(spec, body, contact)
     # a hand file's joint two fingers share is one joint in MuJoCo: its copies' columns go (T's columns for a
     # copy and its original are equal, so T tau stays the joint's whole torque)
     names = hand.file_joint_names if source is not None else hand.joint_names
     unique = list(dict.fromkeys(names))
-    columns = np.array([names.index(n) for n in unique])
-    expand = np.array([unique.index(n) for n in names])
+    columns, expand = np.array([names.index(n) for n in unique]), np.array([unique.index(n) for n in names])
     capability = hand.capability
     transmission, torque_map = capability.transmission[:, columns], strength * capability.torque_map
     actuation = transmission.T @ torque_map
@@ -263,12 +256,7 @@ def build_scene(
     data = mujoco.MjData(model)
     data.qpos[model.jnt_qposadr[ids]] = posture
     mujoco.mj_kinematics(model, data)
-    name = (lambda j: j.file_name) if source is not None else (lambda j: j.name)
-    last = [model.joint(prefix + name(f.joints[-1])).id for f in hand.fingers.values()]
-    # each finger's own first joint: a link that a shared joint moves belongs to no one finger, passive as the palm
-    shared = hand.shared_joints()
-    own = [next((j for j in f.joints if j.file_name not in shared), f.joints[-1]) for f in hand.fingers.values()]
-    first = [model.joint(prefix + name(j)).id for j in own]
+    last, first = _finger_joint_ids(model, hand, prefix, source is not None)
     pad_bodies = model.jnt_bodyid[last].copy()
     pad_points = np.einsum("bji,bj->bi", data.xmat[pad_bodies].reshape(-1, 3, 3), contacts - data.xpos[pad_bodies])
     object_id = model.body("object").id
@@ -295,3 +283,32 @@ def build_scene(
         columns=columns,
         expand=expand,
     )
+
+
+def _hand_spec(
+    hand: Hand,
+    grasp: Grasp,
+    settings: PhysicsSettings,
+    contact: list[float],
+    contacts: np.ndarray,
+    normals: np.ndarray,
+) -> tuple[mujoco.MjSpec, Path | None, str]:
+    """The scene's spec with the hand in it: a hand file's own bodies (its source file, no prefix), or the
+    project's hand built from its model (no file, its joints prefixed)."""
+    if hand.model_file is not None:
+        solref = [CONTACT_TIME_CONSTANT_S, 1.0]
+        spec = _configure(file_hand_spec(hand, grasp, settings, contact, solref, (HAND_BIT, OBJECT_BIT)), settings)
+        return spec, hand.model_file, ""
+    spec = _configure(mujoco.MjSpec(), settings)
+    _add_project_hand(spec, hand, grasp, contacts, normals, settings, contact)
+    return spec, None, PROJECT_PREFIX
+
+
+def _finger_joint_ids(model: mujoco.MjModel, hand: Hand, prefix: str, from_file: bool) -> tuple[list[int], list[int]]:
+    """Each finger's last joint in ``model``, and its own first one: a link that a shared joint moves belongs to
+    no one finger, passive as the palm. A hand file's joints go by the file's names."""
+    name = (lambda j: j.file_name) if from_file else (lambda j: j.name)
+    last = [model.joint(prefix + name(f.joints[-1])).id for f in hand.fingers.values()]
+    shared = hand.shared_joints()
+    own = [next((j for j in f.joints if j.file_name not in shared), f.joints[-1]) for f in hand.fingers.values()]
+    return last, [model.joint(prefix + name(j)).id for j in own]

@@ -94,20 +94,8 @@ def grasp_record(
     (its LP gives the contact forces and activations per task wrench) and ``sources`` the input files."""
     fingers = list(hand.fingers)
     joints = hand.file_joint_names  # the hand file's names: a joint two fingers share is one entry, its torque summed
-    actuators = list(hand.capability.actuators)
     optimum = row.get("optimum_id")
-    wrenches = []
-    for k, load in enumerate(verification.loads):
-        wrenches.append(
-            {
-                "axis": k // 2 + 1,
-                "sign": 1 if k % 2 == 0 else -1,
-                "wrench": _vector(load.wrench),
-                "contact_forces": {f: _vector(v) for f, v in zip(fingers, load.contact_forces, strict=True)},
-                "joint_torques": _by_joint(joints, load.joint_torques, lambda a, b: a + b),
-                "activations": {a: float(v) for a, v in zip(actuators, load.activations, strict=True)},
-            }
-        )
+    wrenches = _wrench_loads(verification, fingers, joints, list(hand.capability.actuators))
     contacts = [
         {
             "finger": finger.name,
@@ -147,3 +135,21 @@ def grasp_record(
             "figures": _figures(verification, fingers),
         },
     }
+
+
+def _wrench_loads(
+    verification: Verification, fingers: list[str], joints: list[str], actuators: list[str]
+) -> list[dict[str, Any]]:
+    """How the grasp applies each task wrench, as the verifier's LP found it: contact forces, joint torques (a
+    joint two fingers share summed) and activations."""
+    return [
+        {
+            "axis": k // 2 + 1,
+            "sign": 1 if k % 2 == 0 else -1,
+            "wrench": _vector(load.wrench),
+            "contact_forces": {f: _vector(v) for f, v in zip(fingers, load.contact_forces, strict=True)},
+            "joint_torques": _by_joint(joints, load.joint_torques, lambda a, b: a + b),
+            "activations": {a: float(v) for a, v in zip(actuators, load.activations, strict=True)},
+        }
+        for k, load in enumerate(verification.loads)
+    ]

@@ -186,66 +186,76 @@ def check_page(
 ) -> BrowserCheck:
     """Open ``page`` and check it (see the module docstring); ``view_screenshot`` saves the first grasp view
     (or the first view) as drawn."""
-    from selenium import webdriver  # deferred: only for the browser check
-    from selenium.webdriver.chrome.service import Service  # deferred: only for the browser check
-    from selenium.webdriver.common.by import By  # deferred: only for the browser check
-
     found = find_chromium()
     if found is None:
         raise BadInputError(
             "chromium", "not installed (apt-get install chromium chromium-driver, or make setup-browser)"
         )
     os.environ.setdefault("SE_OFFLINE", "true")  # selenium must not try to download a driver
-    browser, driver_path = found
     temporary = Path(tempfile.gettempdir())
     remove_stale_folders(temporary, PROFILE_PREFIX)  # the folders of checks that were killed
     scratch = make_owned_folder(temporary, PROFILE_PREFIX)
-    profile, own_tmp = scratch / "profile", scratch / "tmp"  # the browser's profile, and its temporary files
-    own_tmp.mkdir()
     # the driver and the browser in a group of their own, which the reaper kills, and whose folder it removes,
     # however this process ends (a kill -9 left chromedriver, 11 Chromium processes and the profile behind)
     with Reaper((scratch,)) as reaper:
-        options = webdriver.ChromeOptions()
-        options.binary_location = browser
-        for flag in (*FLAGS, f"--user-data-dir={profile}", f"--window-size={width},{height}"):
-            options.add_argument(flag)
-        options.set_capability("goog:loggingPrefs", {"browser": "ALL"})
-        service = Service(
-            executable_path=driver_path,
-            env={**os.environ, "TMPDIR": str(own_tmp)},
-            popen_kw={"start_new_session": True},
-        )
-        started = service.start
-
-        def start_and_arm() -> None:  # armed as soon as the driver runs, before it starts the browser
-            started()
-            reaper.arm(service.process.pid)
-
-        service.start = start_and_arm  # type: ignore[method-assign]
-        driver = webdriver.Chrome(service=service, options=options)
+        driver = _start_driver(found, scratch, reaper, width, height)
         try:
-            driver.set_script_timeout(DRAW_WAIT_S)
-            driver.get(Path(page).resolve().as_uri())
-            ready = driver.execute_script(
-                "var t = performance.getEntriesByType('navigation')[0]; return t ? t.loadEventEnd / 1000 : 0;"
-            )
-            images = driver.execute_script(
-                "return Array.from(document.images).map(i => [i.alt, i.complete && i.naturalWidth > 0]);"
-            )
-            if screenshot is not None:
-                Path(screenshot).parent.mkdir(parents=True, exist_ok=True)
-                driver.save_screenshot(str(screenshot))
-            elements = driver.find_elements(By.CSS_SELECTOR, "div.view")
-            keys = [str(e.get_attribute("id")) for e in elements]
-            pictured = next((k for k in keys if k.startswith("view-grasp")), keys[0] if keys else None)
-            views = [
-                _check_view(driver, e, view_screenshot if k == pictured else None)
-                for e, k in zip(elements, keys, strict=True)
-            ]
-            view_errors = list(driver.execute_script("return (window.grasptaskViews || {errors: []}).errors;"))
-            errors = [e["message"] for e in driver.get_log("browser") if e.get("level") == "SEVERE"]
-            title = driver.title
+            return _inspect(driver, page, screenshot, view_screenshot)
         finally:
             driver.quit()
+
+
+def _start_driver(found: tuple[str, str], scratch: Path, reaper: Reaper, width: int, height: int) -> Any:
+    """Chromium under its driver, with its profile and temporary files in ``scratch``, the driver's process
+    group armed in ``reaper`` as soon as it runs, before it starts the browser."""
+    from selenium import webdriver  # deferred: only for the browser check
+    from selenium.webdriver.chrome.service import Service  # deferred: only for the browser check
+
+    browser, driver_path = found
+    profile, own_tmp = scratch / "profile", scratch / "tmp"  # the browser's profile, and its temporary files
+    own_tmp.mkdir()
+    options = webdriver.ChromeOptions()
+    options.binary_location = browser
+    for flag in (*FLAGS, f"--user-data-dir={profile}", f"--window-size={width},{height}"):
+        options.add_argument(flag)
+    options.set_capability("goog:loggingPrefs", {"browser": "ALL"})
+    service = Service(
+        executable_path=driver_path,
+        env={**os.environ, "TMPDIR": str(own_tmp)},
+        popen_kw={"start_new_session": True},
+    )
+    started = service.start
+
+    def start_and_arm() -> None:
+        started()
+        reaper.arm(service.process.pid)
+
+    service.start = start_and_arm  # type: ignore[method-assign]
+    return webdriver.Chrome(service=service, options=options)
+
+
+def _inspect(driver: Any, page: Path, screenshot: Path | None, view_screenshot: Path | None) -> BrowserCheck:
+    """The page loaded in ``driver``: its images, every view drawn, the console's errors."""
+    from selenium.webdriver.common.by import By  # deferred: only for the browser check
+
+    driver.set_script_timeout(DRAW_WAIT_S)
+    driver.get(Path(page).resolve().as_uri())
+    ready = driver.execute_script(
+        "var t = performance.getEntriesByType('navigation')[0]; return t ? t.loadEventEnd / 1000 : 0;"
+    )
+    images = driver.execute_script(
+        "return Array.from(document.images).map(i => [i.alt, i.complete && i.naturalWidth > 0]);"
+    )
+    if screenshot is not None:
+        Path(screenshot).parent.mkdir(parents=True, exist_ok=True)
+        driver.save_screenshot(str(screenshot))
+    elements = driver.find_elements(By.CSS_SELECTOR, "div.view")
+    keys = [str(e.get_attribute("id")) for e in elements]
+    pictured = next((k for k in keys if k.startswith("view-grasp")), keys[0] if keys else None)
+    views = [
+        _check_view(driver, e, view_screenshot if k == pictured else None) for e, k in zip(elements, keys, strict=True)
+    ]
+    view_errors = list(driver.execute_script("return (window.grasptaskViews || {errors: []}).errors;"))
+    errors = [e["message"] for e in driver.get_log("browser") if e.get("level") == "SEVERE"]
     broken = [alt for alt, ok in images if not ok]
-    return BrowserCheck(len(images), broken, errors, title, float(ready), views, view_errors)
+    return BrowserCheck(len(images), broken, errors, driver.title, float(ready), views, view_errors)

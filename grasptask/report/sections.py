@@ -3,6 +3,7 @@ each beside the paper's figures. A part whose inputs are missing becomes a note 
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -10,12 +11,13 @@ import numpy as np
 import pandas as pd
 
 from grasptask.errors import BadInputError
-from grasptask.grasp.settings import load_grasp_settings
+from grasptask.grasp.settings import GraspSettings, load_grasp_settings
 from grasptask.hand import load_hand
 from grasptask.hand.model import Hand
 from grasptask.io.artifacts import StagedOutput, file_stem
 from grasptask.io.config import read_json
 from grasptask.objects import load_object
+from grasptask.objects.surface import ImplicitObject
 from grasptask.paths import DEFAULT_GRASP_CONFIG, DEFAULT_HAND, DEFAULT_OBJECT, PAPER_ELLIPSOID_TABLES
 from grasptask.progress import progress
 from grasptask.records.reference import PaperSynthesis
@@ -35,7 +37,7 @@ from grasptask.report.sweep_plots import plot_sweeps
 from grasptask.task.distances import read_distances
 from grasptask.task.ellipsoid import ellipsoid_matrices
 from grasptask.task.fit import read_ellipsoids
-from grasptask.task.model import load_task_models
+from grasptask.task.model import TaskModel, load_task_models
 from grasptask.task.stats import read_reference
 from grasptask.verifier.verify import verify
 
@@ -311,43 +313,11 @@ def grasps_section(
             obj = load_object(object_path, say=lambda _: None)  # synthesize said what it repaired
             objects[object_path] = obj, display_mesh(obj), display_mesh(obj, VIEW_FACES)
         obj, mesh, view_mesh = objects[object_path]
-        task_axis = task_models[task].axes[0] if task in task_models else None
+        shown = _Shown(hand, fingers, obj, mesh, view_mesh, settings, task_models.get(task))
         rows = list(sweep.optima.iterrows())
         for _, optimum in progress(rows, desc=f"report: {task} grasps", unit="grasps"):
-            grasp = grasp_from_row(optimum, hand.joint_names)
-            number = int(optimum["optimum_id"])
-            path = writer.figure(f"grasp_{file_stem(task)}_{number:02d}")
-            contacts = contacts_from_row(optimum, fingers)
-            normals = normals_from_row(optimum, fingers)
-            check = verify(grasp, hand, obj, task_models[task], settings) if task in task_models else None
-            quality = check.Q if check is not None else verifier_q(optimum)
-            shown_q[task, number] = quality
-            title = f"{task}, optimum {number}: Q = {quality:.3g} ({int(optimum['members'])} starts)"  # as tables
-            if check is not None:
-                scene = grasp_scene(
-                    hand, view_mesh, grasp, check.contacts, check.normals, settings.friction_coefficient
-                )
-                view = grasp_view(scene, check, title, np.zeros(3), task_axis)  # objects live in their task frame
-                caption = (
-                    f"{title}: drag to turn, scroll to zoom, click a legend entry to hide it; hover over a contact "
-                    "for its forces under the task wrenches (the verifier's LP) and the verifier's figures."
-                )
-                section.blocks.append(writer.view(f"grasp_{task}_{number:02d}", view, caption, HEIGHT))
-            render_grasp(
-                path,
-                title,
-                hand=hand,
-                obj=obj,
-                palm_rotation=grasp.palm_rotation,
-                palm_position=grasp.palm_position,
-                joint_angles=grasp.joint_angles,
-                contacts=contacts,
-                normals=normals,
-                mu=settings.friction_coefficient,
-                task_axis=task_axis,
-                mesh=mesh,
-            )
-            section.blocks.append(Figure(path, f"{title}: two fixed viewpoints (for print)"))
+            blocks, shown_q[task, int(optimum["optimum_id"])] = _optimum_blocks(task, optimum, shown, writer)
+            section.blocks.extend(blocks)
     if not task_models:
         section.blocks.append(Note(f"no task models at {results.task_models}: the grasps have no interactive views"))
     table = writer.table(
@@ -357,6 +327,61 @@ def grasps_section(
     )
     section.blocks.append(table)
     return section
+
+
+@dataclass(frozen=True)
+class _Shown:
+    """What a task's optima are drawn with: the sweep's hand, its object (as loaded, and as the two meshes the
+    figures and the views draw), its grasp settings and task model (None: no task model found)."""
+
+    hand: Hand
+    fingers: list[str]
+    obj: ImplicitObject
+    mesh: Any  # trimesh meshes
+    view_mesh: Any
+    settings: GraspSettings
+    task_model: TaskModel | None
+
+    @property
+    def task_axis(self) -> np.ndarray | None:
+        return self.task_model.axes[0] if self.task_model is not None else None
+
+
+def _optimum_blocks(task: str, optimum: pd.Series, shown: _Shown, writer: Writer) -> tuple[list[View | Figure], float]:
+    """One optimum as an interactive view (where the task model is known) and two fixed viewpoints, and the Q
+    they show: the verifier's, recomputed here, as the tables show it."""
+    hand, settings = shown.hand, shown.settings
+    grasp = grasp_from_row(optimum, hand.joint_names)
+    number = int(optimum["optimum_id"])
+    path = writer.figure(f"grasp_{file_stem(task)}_{number:02d}")
+    check = verify(grasp, hand, shown.obj, shown.task_model, settings) if shown.task_model is not None else None
+    quality = check.Q if check is not None else verifier_q(optimum)
+    title = f"{task}, optimum {number}: Q = {quality:.3g} ({int(optimum['members'])} starts)"  # as the tables
+    blocks: list[View | Figure] = []
+    if check is not None:
+        scene = grasp_scene(hand, shown.view_mesh, grasp, check.contacts, check.normals, settings.friction_coefficient)
+        view = grasp_view(scene, check, title, np.zeros(3), shown.task_axis)  # objects live in their task frame
+        caption = (
+            f"{title}: drag to turn, scroll to zoom, click a legend entry to hide it; hover over a contact "
+            "for its forces under the task wrenches (the verifier's LP) and the verifier's figures."
+        )
+        blocks.append(writer.view(f"grasp_{task}_{number:02d}", view, caption, HEIGHT))
+    render_grasp(
+        path,
+        title,
+        hand=hand,
+        obj=shown.obj,
+        palm_rotation=grasp.palm_rotation,
+        palm_position=grasp.palm_position,
+        joint_angles=grasp.joint_angles,
+        contacts=contacts_from_row(optimum, shown.fingers),
+        normals=normals_from_row(optimum, shown.fingers),
+        mu=settings.friction_coefficient,
+        task_axis=shown.task_axis,
+        mesh=shown.mesh,
+    )
+    blocks.append(Figure(path, f"{title}: two fixed viewpoints (for print)"))
+    return blocks, quality
 
 
 def _task_card(task: str, sweep: SweepResult, physics: PhysicsOutcome | None) -> str:

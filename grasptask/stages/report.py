@@ -44,20 +44,8 @@ def build_report(results_dir: str | Path, out: str | Path) -> ReportSummary:
     ``out/report.json`` from the results folder ``results_dir``."""
     start = time.perf_counter()
     results = find_results(results_dir)
-    sweeps: dict[str, SweepResult] = {}
     hands: dict[Path, Hand] = {}
-    who: dict[str, str] = {}
-    for folder in results.sweep_folders():
-        sweep = read_sweep(folder)
-        hand, _ = sweep_hand(sweep, hands)  # a table of another hand is one line now, not after minutes of figures
-        if sweep.task in sweeps:
-            raise BadInputError(
-                folder / "run.json",
-                f"a second sweep of task '{sweep.task}' (the first: {sweeps[sweep.task].folder}); report one folder",
-            )
-        sweeps[sweep.task] = sweep
-        who[sweep.task] = hand.name
-    sweeps = {task: sweeps[task] for task in sorted(sweeps, key=task_order)}
+    sweeps, who = _sweeps(results, hands)
     found = _found(results, sweeps)
     inputs = [
         p
@@ -102,6 +90,24 @@ def build_report(results_dir: str | Path, out: str | Path) -> ReportSummary:
     index = Path(out) / "index.html"
     seconds = time.perf_counter() - start
     return ReportSummary(index, len(writer.figures), len(writer.views), len(writer.tables), notes, seconds, found)
+
+
+def _sweeps(results: ResultsFolder, hands: dict[Path, Hand]) -> tuple[dict[str, SweepResult], dict[str, str]]:
+    """The results folder's sweeps by task, in the paper's order, and the name of each one's hand; ``hands``
+    keeps the hands loaded. A second sweep of a task is refused: one folder is reported at a time."""
+    sweeps: dict[str, SweepResult] = {}
+    who: dict[str, str] = {}
+    for folder in results.sweep_folders():
+        sweep = read_sweep(folder)
+        hand, _ = sweep_hand(sweep, hands)  # a table of another hand is one line now, not after minutes of figures
+        if sweep.task in sweeps:
+            raise BadInputError(
+                folder / "run.json",
+                f"a second sweep of task '{sweep.task}' (the first: {sweeps[sweep.task].folder}); report one folder",
+            )
+        sweeps[sweep.task] = sweep
+        who[sweep.task] = hand.name
+    return {task: sweeps[task] for task in sorted(sweeps, key=task_order)}, who
 
 
 def _found(results: ResultsFolder, sweeps: dict[str, SweepResult]) -> list[str]:

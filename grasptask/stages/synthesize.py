@@ -455,42 +455,9 @@ def summarise(
     solutions["verified"] = solutions["verified"].fillna(False).astype(bool)
     optima = cluster(solutions, fingers, symmetry)
     seconds = solutions["seconds"].astype(float)
-    again = retried(solutions)
-    status_counts = {s: int((solutions["status"] == s).sum()) for s in STATUSES}
-    run = {  # paths absolute: export, report and physics read them from any working directory
-        "task": options.task,
-        "object": os.path.abspath(options.object_used),
-        # the object's task frame in its file's coordinates and how it was chosen, its unit and its mass (None:
-        # not given; the physics check then assumes its config's object_mass_kg)
-        **(object_facts or {}),
-        "object_options": options.object_overrides,
-        "hand": os.path.abspath(options.hand),
-        "grasp_config": os.path.abspath(options.grasp_config),
-        "tasks": os.path.abspath(options.tasks),
-        "fingers": fingers,
-        # the physics config of synthesize --physics (None: not checked; a physics_summary.json beside this
-        # run.json is then an earlier run's)
-        "physics_config": os.path.abspath(options.physics) if options.physics is not None else None,
-        "backend": options.backend,
-        "executor": options.executor,
-        "workers": options.workers,
-        "starts": int(len(solutions)),
-        "log_rows": len(rows),
-        "status_counts": status_counts,
-        "verified": int(solutions["verified"].sum()),
-        "verified_fraction": float(solutions["verified"].mean()) if len(solutions) else 0.0,
-        # where few starts verified and the hand's strength is why, by how much (None: not so)
-        "why_few_verified": why_few_verified(solutions, options.task),
-        # starts solved again from the solver config's retry postures, and those of them the verifier accepted
-        "retried_starts": int(again.sum()),
-        "verified_on_retry": int((again & solutions["verified"]).sum()),
-        # starts with an attempt solved again with eq. 10 for all six task axes (solver config torque_axes)
-        "all_axes_starts": int(solved_with_all_axes(solutions).sum()),
-        "distinct_optima": int(len(optima)),
-        "best_Q": float(optima["Q"].min()) if len(optima) else None,
-        # the verifier's own Q of that optimum, which the report shows: the two differ where the NLP's contact
-        # model is not the verifier's (a fitted pad sphere against the fingertip's mesh)
-        "best_Q_verifier": _verifier_q_of_best(optima),
+    run = {
+        **_run_inputs(options, fingers, object_facts),
+        **_run_outcome(solutions, optima, options.task, len(rows)),
         "seconds_per_start": {
             "median": float(seconds.median()),
             "p90": float(np.percentile(seconds, 90)),
@@ -520,6 +487,53 @@ def summarise(
                 staged, solutions, options.task, judge.holding.settings, trace, table_name=None, judge=judge
             )
     return run
+
+
+def _run_inputs(options: SynthesisOptions, fingers: list[str], object_facts: dict[str, Any] | None) -> dict:
+    """What the sweep was run on and how, for run.json; paths absolute: export, report and physics read them from
+    any working directory."""
+    return {
+        "task": options.task,
+        "object": os.path.abspath(options.object_used),
+        # the object's task frame in its file's coordinates and how it was chosen, its unit and its mass (None:
+        # not given; the physics check then assumes its config's object_mass_kg)
+        **(object_facts or {}),
+        "object_options": options.object_overrides,
+        "hand": os.path.abspath(options.hand),
+        "grasp_config": os.path.abspath(options.grasp_config),
+        "tasks": os.path.abspath(options.tasks),
+        "fingers": fingers,
+        # the physics config of synthesize --physics (None: not checked; a physics_summary.json beside this
+        # run.json is then an earlier run's)
+        "physics_config": os.path.abspath(options.physics) if options.physics is not None else None,
+        "backend": options.backend,
+        "executor": options.executor,
+        "workers": options.workers,
+    }
+
+
+def _run_outcome(solutions: pd.DataFrame, optima: pd.DataFrame, task: str, log_rows: int) -> dict:
+    """What the sweep found, for run.json: statuses, verified starts, retries and the distinct optima."""
+    again = retried(solutions)
+    return {
+        "starts": int(len(solutions)),
+        "log_rows": log_rows,
+        "status_counts": {s: int((solutions["status"] == s).sum()) for s in STATUSES},
+        "verified": int(solutions["verified"].sum()),
+        "verified_fraction": float(solutions["verified"].mean()) if len(solutions) else 0.0,
+        # where few starts verified, why: the hand's strength, or the checks most starts failed (None: most did)
+        "why_few_verified": why_few_verified(solutions, task),
+        # starts solved again from the solver config's retry postures, and those of them the verifier accepted
+        "retried_starts": int(again.sum()),
+        "verified_on_retry": int((again & solutions["verified"]).sum()),
+        # starts with an attempt solved again with eq. 10 for all six task axes (solver config torque_axes)
+        "all_axes_starts": int(solved_with_all_axes(solutions).sum()),
+        "distinct_optima": int(len(optima)),
+        "best_Q": float(optima["Q"].min()) if len(optima) else None,
+        # the verifier's own Q of that optimum, which the report shows: the two differ where the NLP's contact
+        # model is not the verifier's (a fitted pad sphere against the fingertip's mesh)
+        "best_Q_verifier": _verifier_q_of_best(optima),
+    }
 
 
 def _throughput(solutions: pd.DataFrame, optima: pd.DataFrame, solved: int, wall_seconds: float) -> dict:

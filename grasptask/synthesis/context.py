@@ -101,31 +101,39 @@ class SolverContext:
                 break
         return {**row, **spent, **first, "attempts": attempt}
 
+    def _initial_point(self, start: Start, joints: np.ndarray, row: dict[str, Any]) -> tuple[np.ndarray, float, int]:
+        """The first model's initial point from ``start`` in the posture ``joints``: placed (or initialised),
+        then moved by the geometric phase where there is one; its seconds and iterations. The placement's
+        figures go into ``row``."""
+        from grasptask.synthesis.placement import place  # Pyomo, loaded in the workers
+
+        models = self.models
+        began = time.perf_counter()
+        if self.job.solver.placement:
+            row["placement_backoff_m"] = place(self.nlp, start, self.anchors, joints)
+        else:
+            self.nlp.initialise(start.palm_rotation, start.palm_position, joints)
+        row["placement_seconds"] = seconds = time.perf_counter() - began
+        x0, iterations = values(models.first.order), 0
+        if models.geometric is not None:  # the first iterations without eq. 10, carried into the first model
+            phase = models.geometric.solve(x0[models.geometric_positions])
+            seconds, iterations = seconds + phase.seconds, phase.iterations
+            if phase.x is not None and phase.status in ("optimal", "acceptable", "max-iter"):
+                x0[models.geometric_positions] = phase.x
+        return x0, seconds, iterations
+
     def _attempt(self, start: Start, joints: np.ndarray) -> dict:
         """Placement, IPOPT and the verifier from one posture; the whole model's solve when the first model left
         out an axis the grasp cannot hold; the verifier's feedback rounds."""
-        from grasptask.synthesis.placement import place  # Pyomo, loaded in the workers
-
         models = self.models
         row: dict[str, Any] = {
             "start_id": start.start_id,
             "orientation": start.orientation,
             "position": start.position_name,
         }
-        began = time.perf_counter()
-        if self.job.solver.placement:
-            row["placement_backoff_m"] = place(self.nlp, start, self.anchors, joints)
-        else:
-            self.nlp.initialise(start.palm_rotation, start.palm_position, joints)
-        row["placement_seconds"] = placed = time.perf_counter() - began
         solver = models.first
-        x0 = values(solver.order)
-        seconds, iterations, rounds, whole = placed, 0, 0, 0
-        if models.geometric is not None:  # the first iterations without eq. 10, carried into the first model
-            phase = models.geometric.solve(x0[models.geometric_positions])
-            seconds, iterations = seconds + phase.seconds, phase.iterations
-            if phase.x is not None and phase.status in ("optimal", "acceptable", "max-iter"):
-                x0[models.geometric_positions] = phase.x
+        x0, seconds, iterations = self._initial_point(start, joints, row)
+        rounds, whole = 0, 0
         result = solver.solve(x0)
         seconds, iterations = seconds + result.seconds, iterations + result.iterations
         judged = self.judges.judge(solver, result)

@@ -200,19 +200,8 @@ def surrogate_terms(x: Any, lam: Any, spec: SurrogateSpec, n_rows: int) -> Surro
         stacked = casadi.vertcat(*parts)
         return stacked[[offset[k][0] + 3**k * offset[k][1].index(j) + i for k, j, i in entries]]
 
-    values, jac, hess = [], [], []  # (row, entry); (row, column, entry); (row, column, multiplier row, entry)
-    for k, component in enumerate(spec.components):
-        j, columns, row = which[k], spec.points[k], spec.rows[k]
-        c = 0 if component is None else 1  # a distance row is S, a normal's row its derivative dS/dq_component
-        first = 0 if component is None else component
-        values.append((row, (c, j, first)))
-        for a in range(3):
-            jac.append((row, columns[a], (c + 1, j, first + 3**c * a)))
-            for b in range(3):
-                if columns[a] <= columns[b]:  # the upper triangle
-                    hess.append((columns[a], columns[b], row, (c + 2, j, first + 3**c * (a + 3 * b))))
+    values, jac, hess = _entries(spec, which)
     n_x = x.shape[0]
-    values.sort()
     correction = casadi.MX(
         casadi.Sparsity.triplet(n_rows, 1, [r for r, _ in values], [0] * len(values)), -picked([e for _, e in values])
     )
@@ -233,3 +222,22 @@ def surrogate_terms(x: Any, lam: Any, spec: SurrogateSpec, n_rows: int) -> Surro
         casadi.mtimes(assembly, contributions),
     )
     return SurrogateTerms(correction, jacobian, hessian)
+
+
+def _entries(spec: SurrogateSpec, which: list[int]) -> tuple[list, list, list]:
+    """Where each derivative the surrogate's rows need goes, as ``(order, point, index)`` entries: the rows'
+    values ``(row, entry)`` (sorted), their Jacobian ``(row, column, entry)`` and the upper triangle of their
+    Hessians ``(row, column, multiplier row, entry)``."""
+    values, jac, hess = [], [], []
+    for k, component in enumerate(spec.components):
+        j, columns, row = which[k], spec.points[k], spec.rows[k]
+        c = 0 if component is None else 1  # a distance row is S, a normal's row its derivative dS/dq_component
+        first = 0 if component is None else component
+        values.append((row, (c, j, first)))
+        for a in range(3):
+            jac.append((row, columns[a], (c + 1, j, first + 3**c * a)))
+            for b in range(3):
+                if columns[a] <= columns[b]:  # the upper triangle
+                    hess.append((columns[a], columns[b], row, (c + 2, j, first + 3**c * (a + 3 * b))))
+    values.sort()
+    return values, jac, hess
