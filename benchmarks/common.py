@@ -97,7 +97,7 @@ def solver_option(parser: Any) -> None:
 def check_solver(path: Path) -> None:
     """One line and exit, before any sweep, when the solver config cannot be read."""
     from grasptask.errors import BadInputError
-    from grasptask.synthesis.config import load_solver_config
+    from grasptask.synthesis.solver_config import load_solver_config
 
     try:
         load_solver_config(path)

@@ -69,7 +69,7 @@ NEIGHBOURS = (
 def check_prerequisites(hands: list[str]) -> None:
     import mujoco  # noqa: F401
 
-    from grasptask.grasp.settings import load_grasp_settings
+    from grasptask.grasp.grasp_settings import load_grasp_settings
 
     for name in hands:
         if name not in HANDS:
@@ -81,7 +81,7 @@ def check_prerequisites(hands: list[str]) -> None:
 def routes(folder: Path) -> dict[str, tuple[Path, bool]]:
     """Each route's grasp config, and whether it is a neighbour (run on fewer starts)."""
     found = {"paper_model": (PAPER_MODEL, False), "default": (DEFAULT, False)}
-    from grasptask.io.config import load_yaml
+    from grasptask.io.config_schema import load_yaml
 
     default = settings_of(DEFAULT)
     for key, change in NEIGHBOURS:
@@ -96,7 +96,7 @@ def routes(folder: Path) -> dict[str, tuple[Path, bool]]:
 
 def settings_of(config: Path) -> dict:
     """Every grasp setting a config file gives, its defaults included (a shipped file sets only differences)."""
-    from grasptask.grasp.settings import load_grasp_settings
+    from grasptask.grasp.grasp_settings import load_grasp_settings
 
     return dataclasses.asdict(load_grasp_settings(config))
 

@@ -21,7 +21,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT / "benchmarks"), str(ROOT)]
 from common import median_seconds, save  # noqa: E402
 
-from grasptask.grasp.settings import GraspSettings  # noqa: E402
+from grasptask.grasp.grasp_settings import GraspSettings  # noqa: E402
 from grasptask.hand import forward, load_hand  # noqa: E402
 from grasptask.objects import load_object  # noqa: E402
 from grasptask.verifier.verify import verify  # noqa: E402

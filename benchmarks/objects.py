@@ -109,9 +109,9 @@ def check_prerequisites(objects: list[str]) -> None:
 
 def build_seconds(path: Path, tasks: Path, task: str, solver: Path) -> float:
     """One worker's models, built in this process with the sweep's solver config, as a pool worker builds them."""
-    from grasptask.grasp.settings import load_grasp_settings
-    from grasptask.synthesis.config import load_solver_config
+    from grasptask.grasp.grasp_settings import load_grasp_settings
     from grasptask.synthesis.context import Job, SolverContext
+    from grasptask.synthesis.solver_config import load_solver_config
 
     job = Job(str(ROOT / "configs/hands/human.yaml"), str(path), str(tasks), task, solver=load_solver_config(solver),
               settings=load_grasp_settings())  # fmt: skip

@@ -39,7 +39,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT / "benchmarks"), str(ROOT)]
 from common import check_solver, save, solver_option  # noqa: E402
 
-from grasptask.io.config import load_yaml  # noqa: E402
+from grasptask.io.config_schema import load_yaml  # noqa: E402
 from grasptask.records.reference import read_paper_synthesis  # noqa: E402
 from grasptask.records.solutions import contacts_from_row, palm_normal_from_row  # noqa: E402
 from grasptask.stages import SynthesisOptions, run_fit_task, run_simulate, run_synthesize  # noqa: E402  # noqa: E402

@@ -11,15 +11,15 @@ from functools import lru_cache
 import numpy as np
 from scipy.optimize import least_squares
 
-from grasptask.grasp.settings import GraspSettings
+from grasptask.grasp.grasp_settings import GraspSettings
 from grasptask.hand import forward, load_hand
 from grasptask.objects import Superquadric
 from grasptask.records.reference import read_paper_synthesis
 from grasptask.records.solutions import grasp_columns
 from grasptask.stages import SynthesisOptions, summarise
-from grasptask.synthesis.config import IPOPT_DEFAULTS, SolverConfig, load_solver_config
+from grasptask.synthesis.solver_config import IPOPT_DEFAULTS, SolverConfig, load_solver_config
 from grasptask.task.ellipsoid import Ellipsoid
-from grasptask.task.model import TaskModel
+from grasptask.task.task_model import TaskModel
 from grasptask.verifier.verify import Grasp, verify
 
 BALL_RADIUS = 0.03
@@ -100,7 +100,7 @@ def gripper_grasp(directions: np.ndarray, effort_nm: float, bend_deg: float = 30
     (each finger's base 8 cm out along its direction, its two links bent by ``bend_deg`` so that the pad
     can press along the ball's normal), motors of ``effort_nm`` on every joint; the ball at the origin, the
     palm frame there too. Returns ``(hand, grasp, ball)``."""
-    from grasptask.hand.model import Capability, Finger, Hand, Joint, Pad, Palm, Sphere
+    from grasptask.hand.hand_model import Capability, Finger, Hand, Joint, Pad, Palm, Sphere
 
     theta = np.radians(bend_deg)
     base = 0.08

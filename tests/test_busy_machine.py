@@ -14,7 +14,7 @@ import pytest
 
 from grasptask.errors import BadInputError
 from grasptask.stages import SynthesisOptions, run_synthesize
-from grasptask.synthesis.config import load_solver_config
+from grasptask.synthesis.solver_config import load_solver_config
 
 #: a few iterations a start: rows stopped mid-way are the likeliest to show a difference of load, if there were one
 TINY = Path("tests/data/solver_tiny.yaml")

@@ -10,14 +10,14 @@ import pytest
 import yaml
 
 from grasptask.errors import BadInputError
-from grasptask.grasp.settings import GraspSettings, load_grasp_settings
-from grasptask.hand.config import ModelHandConfig
-from grasptask.hand.loading import load_hand
-from grasptask.objects.config import SCHEMAS
-from grasptask.objects.loading import load_object
-from grasptask.physics.settings import PhysicsSettings, load_physics_settings
+from grasptask.grasp.grasp_settings import GraspSettings, load_grasp_settings
+from grasptask.hand.hand_config import ModelHandConfig
+from grasptask.hand.hand_files import load_hand
+from grasptask.objects.object_config import SCHEMAS
+from grasptask.objects.object_files import load_object
+from grasptask.physics.physics_settings import PhysicsSettings, load_physics_settings
 from grasptask.pipeline.runner import load_pipeline
-from grasptask.synthesis.config import IPOPT_DEFAULTS, SolverConfig, load_solver_config
+from grasptask.synthesis.solver_config import IPOPT_DEFAULTS, SolverConfig, load_solver_config
 from grasptask.task.tool import ToolFile, load_tool
 
 LOADERS = {

@@ -14,11 +14,11 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from grasptask.errors import BadInputError
-from grasptask.grasp.grasp import Grasp
-from grasptask.grasp.settings import GraspSettings
+from grasptask.grasp.grasp_pose import Grasp
+from grasptask.grasp.grasp_settings import GraspSettings
 from grasptask.hand import forward, load_hand
 from grasptask.objects.superquadric import Superquadric
-from grasptask.synthesis.model import build_model
+from grasptask.synthesis.nlp import build_model
 from grasptask.verifier.verify import verify
 from tests.grasp_fixtures import BALL_RADIUS, ball_grasp, drawing_like_task
 from tests.hand_files import write_mesh_gripper

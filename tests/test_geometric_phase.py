@@ -6,9 +6,9 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from grasptask.grasp.settings import GraspSettings
+from grasptask.grasp.grasp_settings import GraspSettings
 from grasptask.paths import DEFAULT_HAND
-from grasptask.synthesis.config import load_solver_config
+from grasptask.synthesis.solver_config import load_solver_config
 from grasptask.synthesis.starts import make_starts, subset
 from tests.grasp_fixtures import unhurried_solver
 
@@ -80,7 +80,7 @@ def test_a_start_goes_on_from_the_capped_warm_up_and_counts_its_iterations(conte
 
 def test_a_failed_warm_up_leaves_the_placed_point(context, monkeypatch):
     from grasptask.synthesis.backends import SolveResult
-    from grasptask.synthesis.models import values as _values
+    from grasptask.synthesis.solvers import values as _values
 
     placed: dict = {}
     first = context.models.first.solve

@@ -10,12 +10,12 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
-from grasptask.grasp.settings import GraspSettings
+from grasptask.grasp.grasp_settings import GraspSettings
 from grasptask.objects import load_object
 from grasptask.objects.superquadric import Superquadric
 from grasptask.objects.surface import ImplicitObject
 from grasptask.synthesis.backends import Bounds
-from grasptask.synthesis.models import Solver, held_axis
+from grasptask.synthesis.solvers import Solver, held_axis
 from grasptask.task.frames import wrench_transform
 from grasptask.task.symmetry import axis_asymmetry
 from tests.grasp_fixtures import unhurried_solver
@@ -84,7 +84,7 @@ def test_which_objects_have_an_axis_of_revolution():
 
 
 def test_the_turn_is_held_for_nearly_symmetric_tasks_only(tasks):
-    from grasptask.task.model import load_task_models
+    from grasptask.task.task_model import load_task_models
 
     models, tool = load_task_models(tasks), load_object("configs/objects/tool.yaml")
     assert held_axis(tool, models["drawing"], 0.1) is not None

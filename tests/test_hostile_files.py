@@ -15,7 +15,7 @@ import yaml
 
 from grasptask.errors import BadInputError
 from grasptask.hand import load_hand
-from grasptask.io.config import load_yaml
+from grasptask.io.config_schema import load_yaml
 from grasptask.objects import load_object
 from tests.test_robot_hands import TWO_FINGERS
 

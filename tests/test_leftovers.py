@@ -201,7 +201,7 @@ def test_pool_workers_die_with_a_parent_killed_outright(tmp_path):
         [sys.executable, "-c", textwrap.dedent("""
             import time
             from concurrent.futures import ProcessPoolExecutor
-            from grasptask.stages.physics import _start_worker
+            from grasptask.stages.physics_check import _start_worker
             with ProcessPoolExecutor(2, initializer=_start_worker, initargs=(None,)) as pool:
                 list(pool.map(abs, range(4)))
                 print("ready", flush=True)

@@ -13,8 +13,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from grasptask.grasp.settings import GraspSettings, load_grasp_settings
-from grasptask.hand.model import Capability, Finger, Hand, Joint, Pad, Palm
+from grasptask.grasp.grasp_settings import GraspSettings, load_grasp_settings
+from grasptask.hand.hand_model import Capability, Finger, Hand, Joint, Pad, Palm
 from grasptask.verifier.checks import torque_effort
 from grasptask.verifier.loads_lp import load_block
 from grasptask.verifier.margins import FRICTION_STEPS, friction_margin, strength_margin
@@ -101,8 +101,8 @@ def test_a_fixed_pad_point_is_not_held_off_a_face_by_its_tip_s_cover():
     """In the paper's model the contact is the pad point itself: a capsule cover's sphere beside it, 0.29 mm proud
     of the capsule, is clipped at the pad's tangent plane; one inside it, or proud by more than the tip gives, is
     left whole."""
-    from grasptask.hand.model import Pad, Sphere
-    from grasptask.synthesis.model import _under_a_fixed_pad
+    from grasptask.hand.hand_model import Pad, Sphere
+    from grasptask.synthesis.nlp import _under_a_fixed_pad
 
     pad = Pad(np.array([0.012, 0.0, 0.043]), np.array([1.0, 0.0, 0.0]), np.array([0.0, 0.0, 1.0]), 0.012)
     proud = Sphere(3, np.array([0.0, 0.0, 0.0403]), 0.01229)

@@ -8,7 +8,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
-from grasptask.grasp.settings import GraspSettings
+from grasptask.grasp.grasp_settings import GraspSettings
 from grasptask.hand import load_hand
 from grasptask.verifier.epsilon import ferrari_canny
 from grasptask.verifier.mechanics import (

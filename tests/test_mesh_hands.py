@@ -10,7 +10,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from grasptask.errors import BadInputError
-from grasptask.hand.loading import load_hand
+from grasptask.hand.hand_files import load_hand
 from grasptask.hand.mesh_cover import BOUND_M, mesh_spheres
 from grasptask.hand.pad_fit import fit_pad
 from grasptask.report.browser import check_page, find_chromium

@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
 from grasptask.errors import BadInputError
-from grasptask.grasp.settings import GraspSettings, load_grasp_settings
+from grasptask.grasp.grasp_settings import GraspSettings, load_grasp_settings
 from grasptask.objects import load_object
 from grasptask.objects.mesh_object import MeshObject, PointCloudObject
 from tests.test_bad_input import assert_rejected
@@ -200,8 +200,8 @@ def test_the_surrogate_zero_set_lies_within_a_millimetre_of_the_mesh(name):
 def test_a_mesh_gives_verified_grasps_end_to_end(cli, simulated, tmp_path):
     """A sweep on the mug's mesh: the NLP constrains its B-spline surrogate, the verifier judges against the
     triangles, and the table records the surrogate's error at each contact."""
-    from grasptask.synthesis.config import load_solver_config
     from grasptask.synthesis.context import Job, SolverContext
+    from grasptask.synthesis.solver_config import load_solver_config
     from grasptask.synthesis.starts import make_starts, subset
 
     tasks = simulated[0] / "tasks" / "task_models.json"
@@ -234,9 +234,9 @@ def test_the_verifiers_feedback_turns_a_narrow_miss_into_a_verified_grasp(simula
     without the feedback the same start is rejected on the torque check or the pad angle alone."""
     from dataclasses import replace
 
-    from grasptask.synthesis.config import load_solver_config
     from grasptask.synthesis.context import Job, SolverContext
     from grasptask.synthesis.feedback import NARROW
+    from grasptask.synthesis.solver_config import load_solver_config
     from grasptask.synthesis.starts import make_starts
 
     tasks = str(simulated[0] / "tasks" / "task_models.json")
@@ -372,8 +372,8 @@ def test_a_workers_models_share_one_distance_grid(tasks, tmp_path):
     """The grid is made once per object: a worker's two or three models of a mesh are built on the same one, so
     its distances and its spline's coefficients are computed once."""
     from grasptask.hand import load_hand
-    from grasptask.synthesis.model import build_model
-    from grasptask.task.model import load_task_models
+    from grasptask.synthesis.nlp import build_model
+    from grasptask.task.task_model import load_task_models
 
     path = tmp_path / "handle.stl"
     handle().export(path)

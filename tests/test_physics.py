@@ -17,16 +17,16 @@ from hand_files import GRIPPER_BALL_RADIUS_M, ball_centre, write_mesh_gripper
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from grasptask.grasp.grasp import Grasp
+from grasptask.grasp.grasp_pose import Grasp
 from grasptask.hand import forward, load_hand
 from grasptask.objects import Superquadric, load_object
 from grasptask.physics.actuation import ActuatorMap, BoundedLeastSquares, IndependentMotors
 from grasptask.physics.grip import GripController
 from grasptask.physics.loads import task_tests
+from grasptask.physics.physics_settings import PhysicsSettings, load_physics_settings
 from grasptask.physics.protocol import _Run, check_grasp
 from grasptask.physics.scene import build_scene, object_body
 from grasptask.physics.sensing import hand_contacts, point_jacobian
-from grasptask.physics.settings import PhysicsSettings, load_physics_settings
 from grasptask.records.solutions import grasp_columns
 
 SETTINGS = load_physics_settings()

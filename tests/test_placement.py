@@ -12,15 +12,21 @@ from hypothesis import strategies as st
 from pyomo.core.expr.calculus.derivatives import Modes, differentiate
 
 from grasptask.errors import BadInputError
-from grasptask.grasp.settings import GraspSettings
+from grasptask.grasp.grasp_settings import GraspSettings
 from grasptask.hand import load_hand
 from grasptask.objects import load_object
-from grasptask.synthesis.config import IPOPT_DEFAULTS, Regularisation, SearchBounds, SolverConfig, load_solver_config
-from grasptask.synthesis.model import build_model
+from grasptask.synthesis.nlp import build_model
 from grasptask.synthesis.placement import ANCHOR_DEPTH_CELLS, Anchors, anchor_point, place
+from grasptask.synthesis.solver_config import (
+    IPOPT_DEFAULTS,
+    Regularisation,
+    SearchBounds,
+    SolverConfig,
+    load_solver_config,
+)
 from grasptask.synthesis.starts import make_starts
 from grasptask.synthesis.surfaces import surface_for
-from grasptask.task.model import load_task_models
+from grasptask.task.task_model import load_task_models
 
 TOOL = "configs/objects/tool.yaml"
 

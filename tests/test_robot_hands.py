@@ -10,7 +10,7 @@ from hypothesis import strategies as st
 from pyomo.repn import generate_standard_repn
 
 from grasptask.errors import BadInputError
-from grasptask.grasp.settings import GraspSettings, load_grasp_settings
+from grasptask.grasp.grasp_settings import GraspSettings, load_grasp_settings
 from grasptask.hand import forward, load_hand
 from grasptask.hand.tendons import activation_for
 from tests.test_hand import assert_contact_jacobians_match_finite_differences
@@ -126,7 +126,7 @@ def test_mimic_joints_are_coupled_and_share_their_motor():
 
 def test_effort_limits_reach_the_nlp_and_the_verifier(tmp_path):
     from grasptask.objects import load_object
-    from grasptask.synthesis.model import build_model
+    from grasptask.synthesis.nlp import build_model
     from tests.grasp_fixtures import drawing_like_task
 
     text = BARRETT.read_text()
@@ -313,8 +313,8 @@ def test_each_hand_holds_each_task_within_a_few_starts(simulated, hand_name, tas
     """Every shipped robot hand, and the human hand with four and five fingers, reaches a grasp the independent
     verifier accepts for every task on the tool cylinder, within the first few of the spread-out starts: with the
     margin and rolling contacts, but where the margin is out of the hand's reach."""
-    from grasptask.synthesis.config import load_solver_config
     from grasptask.synthesis.context import Job, SolverContext
+    from grasptask.synthesis.solver_config import load_solver_config
     from grasptask.synthesis.starts import make_starts, subset
 
     path, fingers = HOLDING_HANDS[hand_name]
@@ -343,8 +343,8 @@ def test_a_start_the_verifier_rejects_is_solved_again_from_an_opened_hand(simula
     same start is solved once."""
     from dataclasses import replace
 
-    from grasptask.synthesis.config import load_solver_config
     from grasptask.synthesis.context import Job, SolverContext
+    from grasptask.synthesis.solver_config import load_solver_config
     from grasptask.synthesis.starts import make_starts
 
     tasks = str(simulated[0] / "tasks" / "task_models.json")

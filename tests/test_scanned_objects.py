@@ -17,11 +17,11 @@ from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
 from grasptask.errors import BadInputError
-from grasptask.grasp.settings import GraspSettings
+from grasptask.grasp.grasp_settings import GraspSettings
 from grasptask.objects import load_object
-from grasptask.objects.loading import FRAME_DEPTH_M, file_object_name
 from grasptask.objects.mesh_file import holes, non_manifold_edges, open_edges
 from grasptask.objects.mesh_object import MeshObject
+from grasptask.objects.object_files import FRAME_DEPTH_M, file_object_name
 from tests.scan_files import bottle, box, cup, rod, with_fin, with_hole, write_scene_glb, write_textured_obj
 from tests.test_bad_input import assert_rejected
 
@@ -288,8 +288,8 @@ def test_a_scan_as_published_gives_a_verified_grasp_in_its_default_frame(simulat
     """A marker (a rod 18 mm across, as YCB's large marker), a thin rod (6 mm), a mug with a handle (its centre
     in the cavity) and a box with sharp edges, each a bare textured OBJ split at its seams: each loads in its
     default frame and gives a verified grasp."""
-    from grasptask.synthesis.config import load_solver_config
     from grasptask.synthesis.context import Job, SolverContext
+    from grasptask.synthesis.solver_config import load_solver_config
     from grasptask.synthesis.starts import make_starts, subset
 
     (tmp_path / shape).mkdir()

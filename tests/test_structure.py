@@ -9,11 +9,11 @@ from pathlib import Path
 import numpy as np
 import pyomo.environ as pyo
 
-from grasptask.grasp.settings import GraspSettings
+from grasptask.grasp.grasp_settings import GraspSettings
 from grasptask.hand import load_hand
 from grasptask.objects import load_object
-from grasptask.synthesis.model import EQUATIONS, build_model
-from grasptask.task.model import load_task_models
+from grasptask.synthesis.nlp import EQUATIONS, build_model
+from grasptask.task.task_model import load_task_models
 
 
 def test_the_cli_imports_only_the_stages_package():
@@ -30,7 +30,7 @@ def test_the_report_does_not_load_the_solver_stack():
         "import sys, pkgutil, importlib, grasptask.report\n"
         "for m in pkgutil.iter_modules(grasptask.report.__path__):\n"
         "    importlib.import_module('grasptask.report.' + m.name)\n"
-        "import grasptask.stages.report\n"
+        "import grasptask.stages.html_report\n"
         "print(sorted(m for m in ('casadi', 'pyomo', 'grasptask.synthesis.backends') if m in sys.modules))"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
@@ -139,3 +139,10 @@ def test_no_function_in_the_package_is_over_60_lines_and_no_cli_module_over_400(
                 long.append(f"{module}:{node.lineno} {node.name} ({node.end_lineno - node.lineno + 1} lines)")
     assert not long, long
     assert all(len(m.read_text().splitlines()) <= 400 for m in Path("grasptask/cli").glob("*.py"))
+
+
+def test_no_two_modules_share_a_name_and_none_is_named_as_a_package():
+    names = [m.stem for m in Path("grasptask").rglob("*.py") if m.stem not in ("__init__", "__main__")]
+    packages = {p.name for p in Path("grasptask").iterdir() if (p / "__init__.py").is_file()}
+    assert sorted({n for n in names if names.count(n) > 1}) == []
+    assert sorted(set(names) & packages) == []

@@ -18,15 +18,15 @@ import pandas as pd
 import pyomo.environ as pyo
 import pytest
 
-from grasptask.grasp.settings import GraspSettings
+from grasptask.grasp.grasp_settings import GraspSettings
 from grasptask.hand import load_hand
 from grasptask.objects import load_object
 from grasptask.paths import DEFAULT_HAND
 from grasptask.records.solutions import STATUSES
-from grasptask.synthesis.model import build_model
+from grasptask.synthesis.nlp import build_model
 from grasptask.synthesis.starts import make_starts, palm_directions, subset
 from grasptask.synthesis.sweep import _next_start
-from grasptask.task.model import load_task_models
+from grasptask.task.task_model import load_task_models
 
 FAST = Path("tests/data/solver_fast.yaml")
 
@@ -187,7 +187,7 @@ def test_sweep_on_a_gp_object(cli, tasks, tmp_path):
 CRASHING_WORKER = """
 import os
 from grasptask.synthesis import context
-from grasptask.grasp.settings import GraspSettings
+from grasptask.grasp.grasp_settings import GraspSettings
 
 _solve = context.SolverContext.solve
 
@@ -373,9 +373,9 @@ def test_a_grasp_the_left_out_axes_reject_is_solved_again_with_all_of_them(tasks
     starts from the first model's point, and every verified row holds every axis within the tendons' capability."""
     from dataclasses import replace
 
-    from grasptask.synthesis.config import load_solver_config
     from grasptask.synthesis.context import Job, SolverContext
-    from grasptask.synthesis.models import values as _values
+    from grasptask.synthesis.solver_config import load_solver_config
+    from grasptask.synthesis.solvers import values as _values
 
     solver = replace(load_solver_config(FAST), torque_axes=1, retry_postures=(), feedback_rounds=0)
     context = SolverContext(
@@ -405,8 +405,8 @@ def test_attempts_start_from_the_first_posture_then_each_retry_posture(tasks, mo
     the next retry posture (one equal to the first is not repeated), and a verified one ends the start."""
     from dataclasses import replace
 
-    from grasptask.synthesis.config import load_solver_config
     from grasptask.synthesis.context import Job, SolverContext
+    from grasptask.synthesis.solver_config import load_solver_config
 
     solver = replace(load_solver_config(FAST), first_posture=0.25, retry_postures=(0.25, 0.5, 0.1))
     assert solver.postures == (0.25, 0.5, 0.1)

@@ -25,16 +25,16 @@ from pathlib import Path
 
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
-from grasptask.grasp.settings import load_grasp_settings  # noqa: E402
+from grasptask.grasp.grasp_settings import load_grasp_settings  # noqa: E402
 from grasptask.hand import load_hand  # noqa: E402
 from grasptask.objects import load_object  # noqa: E402
 from grasptask.paths import DEFAULT_GRASP_CONFIG, DEFAULT_HAND, DEFAULT_OBJECT, DEFAULT_SOLVER_CONFIG  # noqa: E402
 from grasptask.synthesis.backends import write_nl  # noqa: E402
-from grasptask.synthesis.config import load_solver_config  # noqa: E402
 from grasptask.synthesis.context import Job, SolverContext  # noqa: E402
-from grasptask.synthesis.model import build_model  # noqa: E402
+from grasptask.synthesis.nlp import build_model  # noqa: E402
+from grasptask.synthesis.solver_config import load_solver_config  # noqa: E402
 from grasptask.synthesis.starts import make_starts, subset  # noqa: E402
-from grasptask.task.model import load_task_models  # noqa: E402
+from grasptask.task.task_model import load_task_models  # noqa: E402
 
 TASKS = ("drawing", "cutting", "screwdriving")
 Q_TOLERANCE = 1e-9

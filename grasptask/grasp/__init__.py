@@ -1,1 +1,1 @@
-"""The grasp as a value (:class:`~grasptask.grasp.grasp.Grasp`) and the settings every judge of it reads."""
+"""The grasp as a value (:class:`~grasptask.grasp.grasp_pose.Grasp`) and the settings every judge of it reads."""

@@ -11,9 +11,9 @@ import numpy as np
 
 from grasptask.errors import BadInputError
 from grasptask.hand import skin
-from grasptask.hand.config import FingerConfig, HandConfig, JointConfig, PalmConfig
-from grasptask.hand.model import Capability, Finger, Hand, Joint, Pad, Palm, Skin, Sphere
-from grasptask.io.config import validated
+from grasptask.hand.hand_config import FingerConfig, HandConfig, JointConfig, PalmConfig
+from grasptask.hand.hand_model import Capability, Finger, Hand, Joint, Pad, Palm, Skin, Sphere
+from grasptask.io.config_schema import validated
 
 
 def _unit(vector: tuple[float, float, float], source: Path, name: str) -> np.ndarray:

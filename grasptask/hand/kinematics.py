@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from grasptask.hand.model import Finger, Hand, Skin
+from grasptask.hand.hand_model import Finger, Hand, Skin
 
 
 def axis_rotations(axis: np.ndarray, angles: np.ndarray) -> np.ndarray:

@@ -1,5 +1,5 @@
 """Finger force capabilities (paper eq. 1 and 10): joint torques ``tau`` with ``T tau = A a`` and activations
-``0 <= a <= 1``, for tendons (``A = M P``) and motors alike (:class:`grasptask.hand.model.Capability`)."""
+``0 <= a <= 1``, for tendons (``A = M P``) and motors alike (:class:`grasptask.hand.hand_model.Capability`)."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import linprog
 
-from grasptask.hand.model import Capability
+from grasptask.hand.hand_model import Capability
 
 
 @dataclass(frozen=True)

@@ -2,7 +2,7 @@
 
 The URDF and MJCF loaders only parse: each gives a :class:`Tree` of links (with their collision spheres) and
 joints (with their origins, axes, limits, efforts and mimic relations). :func:`hand_from_tree` then makes the
-project's :class:`~grasptask.hand.model.Hand` from it, the same way for both formats:
+project's :class:`~grasptask.hand.hand_model.Hand` from it, the same way for both formats:
 
 - the palm is the root link (or ``palm_link``); links fixed to it are the palm's collision geometry;
 - fingertips are the last link of each chain from the palm that carries collision geometry, behind at least
@@ -30,8 +30,8 @@ from pathlib import Path
 import numpy as np
 
 from grasptask.errors import BadInputError
+from grasptask.hand.hand_model import DEFAULT_COMPLIANCE_M, Capability, Finger, Hand, Joint, Pad, Palm, Skin, Sphere
 from grasptask.hand.kinematics import forward
-from grasptask.hand.model import DEFAULT_COMPLIANCE_M, Capability, Finger, Hand, Joint, Pad, Palm, Skin, Sphere
 from grasptask.hand.pad_fit import NoPadError, fit_pad, roll_limit_deg
 from grasptask.hand.palm import REVOLUTE, branching_link, fixed_links, fixed_to_palm, held_joints
 

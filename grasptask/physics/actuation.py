@@ -34,7 +34,7 @@ class Mapped:
 @dataclass(frozen=True)
 class IndependentMotors:
     """The exact map for motors in pairs ``[C, -C]`` (each motor's push and pull, as
-    :meth:`~grasptask.hand.model.Capability.motors` makes them) whose columns ``C`` are orthogonal, each motor
+    :meth:`~grasptask.hand.hand_model.Capability.motors` makes them) whose columns ``C`` are orthogonal, each motor
     driving joints no other drives: per motor, ``m = clip(c . tau / |c|^2, -1, 1)``, its push ``max(m, 0)`` and
     its pull ``max(-m, 0)``."""
 

@@ -32,9 +32,9 @@ import numpy as np
 import quadprog
 
 from grasptask.physics.loads import Test
+from grasptask.physics.physics_settings import PhysicsSettings
 from grasptask.physics.scene import Scene
 from grasptask.physics.sensing import Contacts, pad_positions, point_jacobian
-from grasptask.physics.settings import PhysicsSettings
 
 #: the friction pyramid's faces: an octagon inscribed in the cone
 _ANGLES = np.arange(8) * np.pi / 4

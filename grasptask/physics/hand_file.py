@@ -18,11 +18,11 @@ import mujoco
 import numpy as np
 
 from grasptask.errors import BadInputError
-from grasptask.grasp.grasp import Grasp
+from grasptask.grasp.grasp_pose import Grasp
 from grasptask.hand.from_mjcf import visual_free_spec
 from grasptask.hand.from_urdf import resolve_mesh
-from grasptask.hand.model import Hand
-from grasptask.physics.settings import PhysicsSettings
+from grasptask.hand.hand_model import Hand
+from grasptask.physics.physics_settings import PhysicsSettings
 
 #: the smallest mass and inertia of a moving body: a URDF link may declare none
 BOUND_MASS_KG, BOUND_INERTIA_KG_M2 = 1e-3, 1e-7

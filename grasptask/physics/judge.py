@@ -12,18 +12,18 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pandas as pd
 
-from grasptask.grasp.grasp import Grasp
+from grasptask.grasp.grasp_pose import Grasp
 from grasptask.io.artifacts import StagedOutput
 from grasptask.objects import load_object
-from grasptask.physics.settings import PhysicsSettings
+from grasptask.physics.physics_settings import PhysicsSettings
 
 if TYPE_CHECKING:
-    from grasptask.hand.model import Hand
+    from grasptask.hand.hand_model import Hand
     from grasptask.objects.surface import ImplicitObject
     from grasptask.physics.protocol import PhysicsResult
     from grasptask.physics.scene import ObjectBody
     from grasptask.records.sweeps import SolvedGrasps
-    from grasptask.task.model import TaskModel
+    from grasptask.task.task_model import TaskModel
 
 
 @dataclass(frozen=True)

@@ -9,8 +9,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from grasptask.physics.settings import PhysicsSettings
-from grasptask.task.model import TaskModel
+from grasptask.physics.physics_settings import PhysicsSettings
+from grasptask.task.task_model import TaskModel
 
 
 @dataclass(frozen=True)

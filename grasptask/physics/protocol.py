@@ -11,18 +11,18 @@ from dataclasses import dataclass, field, replace
 import mujoco
 import numpy as np
 
-from grasptask.grasp.grasp import Grasp
-from grasptask.hand.model import Hand
+from grasptask.grasp.grasp_pose import Grasp
+from grasptask.hand.hand_model import Hand
 from grasptask.objects.surface import ImplicitObject
 from grasptask.physics.actuation import ActuatorMap
 from grasptask.physics.grip import GripController
 from grasptask.physics.loads import Test, benchmark_tests, task_tests
+from grasptask.physics.physics_settings import PhysicsSettings
 from grasptask.physics.scene import ObjectBody, Scene, build_scene
 from grasptask.physics.seating import Seating, seat
 from grasptask.physics.sensing import friction_use, hand_contacts, penetration_m
-from grasptask.physics.settings import PhysicsSettings
 from grasptask.physics.spring import SpringController
-from grasptask.task.model import TaskModel
+from grasptask.task.task_model import TaskModel
 
 
 @dataclass(frozen=True)

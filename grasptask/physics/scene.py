@@ -16,13 +16,13 @@ import mujoco
 import numpy as np
 import trimesh
 
-from grasptask.grasp.grasp import Grasp
+from grasptask.grasp.grasp_pose import Grasp
+from grasptask.hand.hand_model import Hand
 from grasptask.hand.kinematics import forward
-from grasptask.hand.model import Hand
 from grasptask.objects.mesh_object import MeshObject
 from grasptask.objects.surface import ImplicitObject
 from grasptask.physics.hand_file import compile_spec, file_hand_spec, quaternion
-from grasptask.physics.settings import PhysicsSettings
+from grasptask.physics.physics_settings import PhysicsSettings
 
 #: contype / conaffinity bits: hand geoms touch the object only, never each other
 HAND_BIT, OBJECT_BIT = 2, 1

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from grasptask.hand.model import Hand
+from grasptask.hand.hand_model import Hand
 from grasptask.physics.scene import Scene
 from grasptask.physics.sensing import hand_contacts, point_jacobian
 

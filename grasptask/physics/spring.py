@@ -16,9 +16,9 @@ import mujoco
 import numpy as np
 
 from grasptask.physics.loads import Test
+from grasptask.physics.physics_settings import PhysicsSettings
 from grasptask.physics.scene import Scene
 from grasptask.physics.sensing import Contacts, pad_jacobians, pad_positions
-from grasptask.physics.settings import PhysicsSettings
 
 
 @dataclass

@@ -34,7 +34,7 @@ from pydantic.dataclasses import dataclass as pydantic_dataclass
 
 from grasptask.errors import BadInputError
 from grasptask.io.artifacts import config_hash, path_hash, write_json_atomic
-from grasptask.io.config import SCHEMA, Text, load_yaml, validated
+from grasptask.io.config_schema import SCHEMA, Text, load_yaml, validated
 from grasptask.io.locking import folder_lock
 
 

@@ -17,7 +17,7 @@ from typing import Any
 
 import numpy as np
 
-from grasptask.grasp.grasp import Grasp
+from grasptask.grasp.grasp_pose import Grasp
 
 #: how a start ends: IPOPT's outcomes, then the sweep's own (a solver error, a worker that died or hung)
 STATUSES = ("optimal", "acceptable", "infeasible", "max-iter", "time-limit", "error", "crashed", "hung")

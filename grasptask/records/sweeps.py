@@ -11,10 +11,10 @@ from pathlib import Path
 import pandas as pd
 
 from grasptask.errors import BadInputError
-from grasptask.grasp.grasp import Grasp
+from grasptask.grasp.grasp_pose import Grasp
 from grasptask.hand import load_hand
-from grasptask.hand.model import Hand
-from grasptask.io.config import read_json
+from grasptask.hand.hand_model import Hand
+from grasptask.io.config_schema import read_json
 from grasptask.io.tables import read_table
 from grasptask.paths import DEFAULT_GRASP_CONFIG, DEFAULT_HAND, DEFAULT_OBJECT, ROOT
 from grasptask.records.solutions import fingers_in, grasp_from_row, implausible_column, joint_columns

@@ -21,7 +21,7 @@ import numpy as np
 import pandas as pd
 
 from grasptask.errors import BadInputError
-from grasptask.io.config import read_json
+from grasptask.io.config_schema import read_json
 from grasptask.io.sweep_log import read_log
 from grasptask.io.tables import read_table
 from grasptask.paths import DEFAULT_HAND, DEFAULT_OBJECT

@@ -11,17 +11,17 @@ import numpy as np
 import pandas as pd
 
 from grasptask.errors import BadInputError
-from grasptask.grasp.settings import GraspSettings, load_grasp_settings
+from grasptask.grasp.grasp_settings import GraspSettings, load_grasp_settings
 from grasptask.hand import load_hand
-from grasptask.hand.model import Hand
+from grasptask.hand.hand_model import Hand
 from grasptask.io.artifacts import StagedOutput, file_stem
-from grasptask.io.config import read_json
+from grasptask.io.config_schema import read_json
 from grasptask.objects import load_object
 from grasptask.objects.surface import ImplicitObject
 from grasptask.paths import DEFAULT_GRASP_CONFIG, DEFAULT_HAND, DEFAULT_OBJECT, PAPER_ELLIPSOID_TABLES
 from grasptask.progress import progress
 from grasptask.records.reference import PaperSynthesis
-from grasptask.records.scene import grasp_scene
+from grasptask.records.scene_meshes import grasp_scene
 from grasptask.records.solutions import contacts_from_row, fingers_in, grasp_from_row, joint_columns, normals_from_row
 from grasptask.records.sweeps import recorded_path
 from grasptask.report import paper_tables
@@ -37,8 +37,8 @@ from grasptask.report.sweep_plots import plot_sweeps
 from grasptask.task.distances import read_distances
 from grasptask.task.ellipsoid import ellipsoid_matrices
 from grasptask.task.fit import read_ellipsoids
-from grasptask.task.model import TaskModel, load_task_models
 from grasptask.task.stats import read_reference
+from grasptask.task.task_model import TaskModel, load_task_models
 from grasptask.verifier.verify import verify
 
 

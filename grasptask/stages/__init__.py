@@ -24,40 +24,40 @@ from grasptask.task.units import FORCE_UNITS, TIME_UNITS, TORQUE_UNITS
 
 if TYPE_CHECKING:
     from grasptask.report.browser import check_page, check_screenshot_path, find_chromium
-    from grasptask.stages.distances import run_distances
-    from grasptask.stages.export import run_export
     from grasptask.stages.fit_task import FitOptions, Preprocess, entries_from_inputs, run_fit_task
-    from grasptask.stages.hand import HandDescription, describe_hand
-    from grasptask.stages.physics import PhysicsInputs, run_physics
-    from grasptask.stages.pipeline import run_pipeline_file
-    from grasptask.stages.report import ReportSummary, build_report
-    from grasptask.stages.simulate import run_simulate
+    from grasptask.stages.grasp_export import run_export
+    from grasptask.stages.hand_description import HandDescription, describe_hand
+    from grasptask.stages.html_report import ReportSummary, build_report
+    from grasptask.stages.physics_check import PhysicsInputs, run_physics
+    from grasptask.stages.pipeline_file import run_pipeline_file
+    from grasptask.stages.reverify import run_verify
+    from grasptask.stages.simulated_recordings import run_simulate
     from grasptask.stages.synthesize import SweepInterrupted, SynthesisOptions, run_synthesize, summarise
-    from grasptask.stages.verify import run_verify
+    from grasptask.stages.task_distances import run_distances
 
 _LAZY = {
-    "run_simulate": "grasptask.stages.simulate",
+    "run_simulate": "grasptask.stages.simulated_recordings",
     "run_fit_task": "grasptask.stages.fit_task",
     "entries_from_inputs": "grasptask.stages.fit_task",
     "FitOptions": "grasptask.stages.fit_task",
     "Preprocess": "grasptask.stages.fit_task",
-    "run_distances": "grasptask.stages.distances",
-    "describe_hand": "grasptask.stages.hand",
-    "HandDescription": "grasptask.stages.hand",
+    "run_distances": "grasptask.stages.task_distances",
+    "describe_hand": "grasptask.stages.hand_description",
+    "HandDescription": "grasptask.stages.hand_description",
     "SynthesisOptions": "grasptask.stages.synthesize",
     "SweepInterrupted": "grasptask.stages.synthesize",
     "run_synthesize": "grasptask.stages.synthesize",
     "summarise": "grasptask.stages.synthesize",
-    "run_verify": "grasptask.stages.verify",
-    "build_report": "grasptask.stages.report",
-    "ReportSummary": "grasptask.stages.report",
+    "run_verify": "grasptask.stages.reverify",
+    "build_report": "grasptask.stages.html_report",
+    "ReportSummary": "grasptask.stages.html_report",
     "check_page": "grasptask.report.browser",
     "check_screenshot_path": "grasptask.report.browser",
     "find_chromium": "grasptask.report.browser",
-    "run_pipeline_file": "grasptask.stages.pipeline",
-    "PhysicsInputs": "grasptask.stages.physics",
-    "run_physics": "grasptask.stages.physics",
-    "run_export": "grasptask.stages.export",
+    "run_pipeline_file": "grasptask.stages.pipeline_file",
+    "PhysicsInputs": "grasptask.stages.physics_check",
+    "run_physics": "grasptask.stages.physics_check",
+    "run_export": "grasptask.stages.grasp_export",
 }
 
 __all__ = [

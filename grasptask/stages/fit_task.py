@@ -16,10 +16,10 @@ from grasptask.io.locking import check_writable, folder_lock
 from grasptask.progress import progress
 from grasptask.task.fit import FitOptions, FitResult, fit_recordings
 from grasptask.task.manifest import RecordingEntry, default_id, is_manifest, read_manifest
-from grasptask.task.model import task_models_payload
 from grasptask.task.preprocess import Preprocess
 from grasptask.task.rosbag import is_bag
 from grasptask.task.stats import statistics_table
+from grasptask.task.task_model import task_models_payload
 
 __all__ = ["FitOptions", "Preprocess", "entries_from_inputs", "run_fit_task"]
 

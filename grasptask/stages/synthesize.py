@@ -21,7 +21,7 @@ import pandas as pd
 import yaml
 
 from grasptask.errors import BadInputError
-from grasptask.grasp.settings import load_grasp_settings
+from grasptask.grasp.grasp_settings import load_grasp_settings
 from grasptask.hand import load_hand
 from grasptask.io.artifacts import (
     Provenance,
@@ -32,24 +32,24 @@ from grasptask.io.artifacts import (
     plain_name,
     write_text_atomic,
 )
-from grasptask.io.config import MAX_WORKERS, read_json
+from grasptask.io.config_schema import MAX_WORKERS, read_json
 from grasptask.io.locking import folder_lock
 from grasptask.io.sweep_log import LogContents, LogWriter, read_log, rewrite_log
 from grasptask.objects import load_object
-from grasptask.objects.loading import object_config, object_facts, object_files, object_from_config
+from grasptask.objects.object_files import object_config, object_facts, object_files, object_from_config
 from grasptask.objects.surface import Symmetry
 from grasptask.paths import DEFAULT_GRASP_CONFIG, DEFAULT_HAND, DEFAULT_OBJECT, DEFAULT_SOLVER_CONFIG
-from grasptask.physics.settings import load_physics_settings
+from grasptask.physics.physics_settings import load_physics_settings
 from grasptask.progress import Progress
 from grasptask.records.reference import PaperSynthesis, read_paper_synthesis
 from grasptask.records.solutions import STATUSES, grasp_from_row, retried, solved_with_all_axes, why_few_verified
 from grasptask.records.sweeps import SolvedGrasps
 from grasptask.synthesis.clustering import cluster
-from grasptask.synthesis.config import load_solver_config
 from grasptask.synthesis.context import Job
+from grasptask.synthesis.solver_config import load_solver_config
 from grasptask.synthesis.starts import make_starts, subset
 from grasptask.synthesis.sweep import graceful_stop, make_executor
-from grasptask.task.model import load_task_model
+from grasptask.task.task_model import load_task_model
 
 EXECUTORS = ("pool", "serial", "dask")
 BACKENDS = ("casadi", "cyipopt")

@@ -1,6 +1,6 @@
 """A worker's solver context: the models built once from a :class:`Job`, and the route of one start from each
 of its postures: placement, the geometric phase, IPOPT, the whole model for a torque rejection and the
-verifier's feedback rounds, until a grasp is verified. What is built is in :mod:`grasptask.synthesis.models`,
+verifier's feedback rounds, until a grasp is verified. What is built is in :mod:`grasptask.synthesis.solvers`,
 what is recorded of each point in :mod:`grasptask.synthesis.judging`."""
 
 from __future__ import annotations
@@ -12,17 +12,17 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from grasptask.grasp.settings import GraspSettings
+from grasptask.grasp.grasp_settings import GraspSettings
 from grasptask.hand import load_hand
 from grasptask.objects import load_object
-from grasptask.physics.settings import PhysicsSettings
+from grasptask.physics.physics_settings import PhysicsSettings
 from grasptask.records import solutions as schema
-from grasptask.synthesis.config import SolverConfig
 from grasptask.synthesis.feedback import Limits, tightened
 from grasptask.synthesis.judging import Judges
-from grasptask.synthesis.models import assign, build_models, values
+from grasptask.synthesis.solver_config import SolverConfig
+from grasptask.synthesis.solvers import assign, build_models, values
 from grasptask.synthesis.starts import Start
-from grasptask.task.model import load_task_models
+from grasptask.task.task_model import load_task_models
 
 if TYPE_CHECKING:  # the solver stack loads in the workers, not where a Job is made
     from grasptask.synthesis.backends import SolveResult

@@ -8,21 +8,21 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from grasptask.grasp.grasp import Grasp
+from grasptask.grasp.grasp_pose import Grasp
 from grasptask.physics.judge import Holding
 from grasptask.records.solutions import grasp_columns
-from grasptask.synthesis.models import Solver, assign
+from grasptask.synthesis.solvers import Solver, assign
 from grasptask.verifier.verification import Verification
 from grasptask.verifier.verify import verify
 
 if TYPE_CHECKING:
-    from grasptask.grasp.settings import GraspSettings
-    from grasptask.hand.model import Hand
+    from grasptask.grasp.grasp_settings import GraspSettings
+    from grasptask.hand.hand_model import Hand
     from grasptask.objects.surface import ImplicitObject
-    from grasptask.physics.settings import PhysicsSettings
+    from grasptask.physics.physics_settings import PhysicsSettings
     from grasptask.synthesis.backends import SolveResult
-    from grasptask.synthesis.model import GraspNLP
-    from grasptask.task.model import TaskModel
+    from grasptask.synthesis.nlp import GraspNLP
+    from grasptask.task.task_model import TaskModel
 
 
 class Judges:

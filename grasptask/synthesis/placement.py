@@ -15,7 +15,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from grasptask.objects.distance_grid import DistanceGrid
-from grasptask.synthesis.model import GraspNLP
+from grasptask.synthesis.nlp import GraspNLP
 from grasptask.synthesis.starts import Start
 
 #: how deep inside a mesh's surrogate an anchor lies, in grid cells. The grid does not resolve a part thinner than

@@ -34,7 +34,7 @@ from scipy import signal, stats
 from scipy.spatial.transform import Rotation
 
 from grasptask.errors import BadInputError
-from grasptask.io.config import SCHEMA, load_yaml, validated
+from grasptask.io.config_schema import SCHEMA, load_yaml, validated
 from grasptask.task.frames import transform_wrenches, wrench_transform
 from grasptask.task.tool import ToolConfig
 

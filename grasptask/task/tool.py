@@ -21,7 +21,7 @@ import numpy as np
 from pydantic.dataclasses import dataclass as schema
 from scipy.spatial.transform import Rotation
 
-from grasptask.io.config import SCHEMA, Text, Vector, load_yaml, validated
+from grasptask.io.config_schema import SCHEMA, Text, Vector, load_yaml, validated
 from grasptask.task.units import UNIT_TABLES
 
 CANONICAL_COLUMNS = ("t", "fx", "fy", "fz", "tx", "ty", "tz")

@@ -11,11 +11,11 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from grasptask.grasp.settings import GraspSettings
+from grasptask.grasp.grasp_settings import GraspSettings
+from grasptask.hand.hand_model import Hand
 from grasptask.hand.kinematics import HandPose
-from grasptask.hand.model import Hand
 from grasptask.objects.surface import ImplicitObject
-from grasptask.task.model import TaskModel
+from grasptask.task.task_model import TaskModel
 from grasptask.verifier.epsilon import ferrari_canny
 from grasptask.verifier.fingertip import outside_distance
 from grasptask.verifier.loads_lp import load_block, normal_rows, solve_loads
@@ -277,7 +277,7 @@ def torque_effort(
 ) -> tuple[float, list[WrenchLoad]]:
     """Smallest ``t`` such that, for every task axis and both signs, contact forces inside the friction cones
     apply ``+-gamma_i u_i`` to the object with joint torques ``T J^T f = A a``, ``0 <= a <= t`` (eq. 1, 10;
-    ``T`` and ``A`` are the hand's :class:`~grasptask.hand.model.Capability`: tendons or motors), and each
+    ``T`` and ``A`` are the hand's :class:`~grasptask.hand.hand_model.Capability`: tendons or motors), and each
     contact at least ``minimum_normal`` of normal force.
 
     One LP over all twelve wrenches (each with its own forces and activations, sharing ``t``); infinite, with

@@ -14,7 +14,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.optimize import linprog
 
-from grasptask.hand.model import Hand
+from grasptask.hand.hand_model import Hand
 from grasptask.verifier.mechanics import primitive_wrenches
 
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from grasptask.hand.model import Hand
+from grasptask.hand.hand_model import Hand
 from grasptask.verifier.loads_lp import MARGIN_CAP, LoadBlock, load_block, solve_loads
 from grasptask.verifier.mechanics import friction_cone_edges
 

@@ -12,12 +12,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from grasptask.grasp.grasp import Grasp
-from grasptask.grasp.settings import GraspSettings
+from grasptask.grasp.grasp_pose import Grasp
+from grasptask.grasp.grasp_settings import GraspSettings
+from grasptask.hand.hand_model import Hand
 from grasptask.hand.kinematics import forward
-from grasptask.hand.model import Hand
 from grasptask.objects.surface import ImplicitObject
-from grasptask.task.model import TaskModel
+from grasptask.task.task_model import TaskModel
 from grasptask.verifier.checks import CHECKS, Inspection, task_targets
 from grasptask.verifier.loads_lp import load_block
 from grasptask.verifier.margins import friction_margin, strength_margin

@@ -7,7 +7,7 @@ from typing import Literal, get_args
 
 from pydantic.dataclasses import dataclass
 
-from grasptask.io.config import SCHEMA, Positive, Share, load_yaml, validated
+from grasptask.io.config_schema import SCHEMA, Positive, Share, load_yaml, validated
 from grasptask.paths import DEFAULT_PHYSICS_CONFIG
 
 Controller = Literal["grip", "spring"]

@@ -7,11 +7,11 @@ from typing import Any
 
 import pandas as pd
 
-from grasptask.grasp.settings import load_grasp_settings
+from grasptask.grasp.grasp_settings import load_grasp_settings
 from grasptask.io.artifacts import Provenance, StagedOutput
 from grasptask.objects import load_object
 from grasptask.records.sweeps import SweepFiles, read_grasps
-from grasptask.task.model import load_task_model
+from grasptask.task.task_model import load_task_model
 from grasptask.verifier.verify import verify
 
 

@@ -20,13 +20,13 @@ from typing import Any
 import numpy as np
 
 from grasptask.errors import BadInputError, existing_file
-from grasptask.hand.config import ApproachConfig, ModelHandConfig, PadConfig
 from grasptask.hand.from_mjcf import read_mjcf
 from grasptask.hand.from_urdf import read_urdf
 from grasptask.hand.from_yaml import hand_from_yaml
-from grasptask.hand.model import Hand, Pad
+from grasptask.hand.hand_config import ApproachConfig, ModelHandConfig, PadConfig
+from grasptask.hand.hand_model import Hand, Pad
 from grasptask.hand.tree import HandOptions, hand_from_tree
-from grasptask.io.config import load_yaml, validated
+from grasptask.io.config_schema import load_yaml, validated
 from grasptask.paths import DEFAULT_HAND
 
 URDF_SUFFIXES = (".urdf",)

@@ -36,15 +36,15 @@ from typing import Any
 import numpy as np
 import pyomo.environ as pyo
 
-from grasptask.grasp.settings import GraspSettings
-from grasptask.hand.model import Finger, Hand, Pad, Sphere
+from grasptask.grasp.grasp_settings import GraspSettings
+from grasptask.hand.hand_model import Finger, Hand, Pad, Sphere
 from grasptask.objects.surface import ImplicitObject
 from grasptask.synthesis.algebra import XYZ, axis_rotation, constant_times, cross, cross_matrix, dot
 from grasptask.synthesis.compiled import CompiledExpressions
-from grasptask.synthesis.config import Regularisation, SearchBounds
+from grasptask.synthesis.solver_config import Regularisation, SearchBounds
 from grasptask.synthesis.spline import SurrogateSpec
 from grasptask.synthesis.surfaces import GridSurface, NLPSurface, surface_for
-from grasptask.task.model import TaskModel
+from grasptask.task.task_model import TaskModel
 
 Vector = list[Any]
 Matrix = list[list[Any]]

@@ -51,11 +51,11 @@ import numpy as np
 import trimesh
 
 from grasptask.errors import BadInputError, existing_file
-from grasptask.io.config import load_yaml
-from grasptask.objects.config import GPConfig, MeshConfig, SuperquadricConfig, SymmetryConfig, object_schema
+from grasptask.io.config_schema import load_yaml
 from grasptask.objects.gp import GPImplicitSurface
 from grasptask.objects.mesh_file import CLOUD_SUFFIXES, MESH_SUFFIXES, read_cloud, read_mesh
 from grasptask.objects.mesh_object import MeshObject, PointCloudObject
+from grasptask.objects.object_config import GPConfig, MeshConfig, SuperquadricConfig, SymmetryConfig, object_schema
 from grasptask.objects.superquadric import Superquadric
 from grasptask.objects.surface import ImplicitObject, Symmetry
 from grasptask.paths import DEFAULT_OBJECT

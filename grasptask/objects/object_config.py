@@ -12,7 +12,7 @@ from pydantic.dataclasses import dataclass
 from scipy.spatial.transform import Rotation
 
 from grasptask.errors import BadInputError
-from grasptask.io.config import SCHEMA, Count, Flag, Positive, Text, Vector, validated
+from grasptask.io.config_schema import SCHEMA, Count, Flag, Positive, Text, Vector, validated
 from grasptask.objects.mesh_file import UNITS
 from grasptask.objects.mesh_object import GRID_SPACING_M
 

@@ -9,9 +9,9 @@ from dataclasses import dataclass
 import numpy as np
 import trimesh
 
-from grasptask.grasp.grasp import Grasp
+from grasptask.grasp.grasp_pose import Grasp
+from grasptask.hand.hand_model import Hand
 from grasptask.hand.kinematics import forward
-from grasptask.hand.model import Hand
 
 FINGER_COLOURS = {"thumb": "#d95f02", "index": "#1b9e77", "middle": "#7570b3", "ring": "#e7298a", "little": "#66a61e"}
 #: for fingers by other names (a robot hand's), in order

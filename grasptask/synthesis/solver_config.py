@@ -13,7 +13,7 @@ from typing import Annotated, Any
 from pydantic import AfterValidator, Field, Strict, field_validator
 from pydantic.dataclasses import dataclass
 
-from grasptask.io.config import SCHEMA, Flag, Fraction, NonNegative, Positive, load_yaml, validated
+from grasptask.io.config_schema import SCHEMA, Flag, Fraction, NonNegative, Positive, load_yaml, validated
 
 #: IPOPT's options (passed as ipopt.<name> through CasADi, or straight to cyipopt); a config's own are set over
 #: these. Why each is set so: docs/design/synthesis.md

@@ -9,7 +9,7 @@ from pathlib import Path
 
 from grasptask import __version__
 from grasptask.errors import BadInputError
-from grasptask.hand.model import Hand
+from grasptask.hand.hand_model import Hand
 from grasptask.io.artifacts import Provenance, StagedOutput
 from grasptask.records.reference import PaperSynthesis, read_paper_synthesis
 from grasptask.report.inputs import ResultsFolder, SweepResult, find_results, read_sweep, verifier_q

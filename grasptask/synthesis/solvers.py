@@ -9,17 +9,17 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from grasptask.synthesis.config import SolverConfig
 from grasptask.synthesis.feedback import Limits
+from grasptask.synthesis.solver_config import SolverConfig
 from grasptask.task.symmetry import axis_asymmetry
 
 if TYPE_CHECKING:  # the solver stack loads in the workers, not where a Job is made
-    from grasptask.grasp.settings import GraspSettings
-    from grasptask.hand.model import Hand
+    from grasptask.grasp.grasp_settings import GraspSettings
+    from grasptask.hand.hand_model import Hand
     from grasptask.objects.surface import ImplicitObject
     from grasptask.synthesis.backends import Backend, Bounds, SolveResult
-    from grasptask.synthesis.model import GraspNLP
-    from grasptask.task.model import TaskModel
+    from grasptask.synthesis.nlp import GraspNLP
+    from grasptask.task.task_model import TaskModel
 
 
 @dataclass
@@ -69,7 +69,7 @@ def build_solver(
     """The NLP written, imported into the ``backend`` and compiled for initialisation; ``max_iter`` caps IPOPT's
     iterations below the solver config's."""
     from grasptask.synthesis.backends import BACKENDS, write_nl_rows  # the solver stack: CasADi, Pyomo
-    from grasptask.synthesis.model import build_model  # deferred: Pyomo, in the workers
+    from grasptask.synthesis.nlp import build_model  # deferred: Pyomo, in the workers
 
     held = held_axis(obj, task, config.hold_axis_rotation)
     nlp = build_model(hand, obj, task, settings, config.search_bounds, config.regularisation, torque_axes, held)

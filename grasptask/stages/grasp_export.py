@@ -8,17 +8,17 @@ from pathlib import Path
 from typing import Any
 
 from grasptask.errors import BadInputError
-from grasptask.grasp.grasp import Grasp
-from grasptask.grasp.settings import load_grasp_settings
+from grasptask.grasp.grasp_pose import Grasp
+from grasptask.grasp.grasp_settings import load_grasp_settings
 from grasptask.io.artifacts import Provenance, StagedOutput
 from grasptask.io.tables import read_table
 from grasptask.objects import load_object
-from grasptask.objects.loading import object_files
+from grasptask.objects.object_files import object_files
 from grasptask.progress import progress
 from grasptask.records.export import glb_bytes, grasp_record
-from grasptask.records.scene import grasp_scene
+from grasptask.records.scene_meshes import grasp_scene
 from grasptask.records.sweeps import SolvedGrasps, SweepFiles, read_grasps
-from grasptask.task.model import load_task_model
+from grasptask.task.task_model import load_task_model
 from grasptask.verifier.verify import verify
 
 #: the object's picture in the GLB, in triangles: smooth to the eye, a few hundred kB

@@ -9,7 +9,7 @@ from typing import Annotated
 from pydantic import Field, Strict
 from pydantic.dataclasses import dataclass
 
-from grasptask.io.config import SCHEMA, Flag, NonNegative, Positive, Share, load_yaml, validated
+from grasptask.io.config_schema import SCHEMA, Flag, NonNegative, Positive, Share, load_yaml, validated
 from grasptask.paths import DEFAULT_GRASP_CONFIG
 
 

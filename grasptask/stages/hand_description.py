@@ -6,7 +6,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-from grasptask.hand.loading import load_hand
+from grasptask.hand.hand_files import load_hand
 from grasptask.io.artifacts import write_text_atomic
 from grasptask.report.hand_view import hand_lines, hand_page
 

@@ -10,8 +10,8 @@ from typing import Annotated
 from pydantic import Field, Strict
 from pydantic.dataclasses import dataclass
 
-from grasptask.hand.model import DEFAULT_COMPLIANCE_M
-from grasptask.io.config import SCHEMA, NonNegative, Positive, Real, Text, Vector
+from grasptask.hand.hand_model import DEFAULT_COMPLIANCE_M
+from grasptask.io.config_schema import SCHEMA, NonNegative, Positive, Real, Text, Vector
 
 Names = Annotated[list[Text], Field(min_length=1)]
 #: a sample's place along a link, as a fraction of its length

@@ -15,17 +15,17 @@ from typing import Any
 import pandas as pd
 
 from grasptask.errors import BadInputError
-from grasptask.grasp.settings import load_grasp_settings
+from grasptask.grasp.grasp_settings import load_grasp_settings
 from grasptask.io.artifacts import Provenance, StagedOutput
-from grasptask.io.config import MAX_WORKERS
+from grasptask.io.config_schema import MAX_WORKERS
 from grasptask.io.locking import check_writable, folder_lock
 from grasptask.io.orphans import die_with_parent
 from grasptask.paths import DEFAULT_PHYSICS_CONFIG
 from grasptask.physics.judge import Judge, best_grasp_trace, write_physics_results
-from grasptask.physics.settings import Controller, load_physics_settings
+from grasptask.physics.physics_settings import Controller, load_physics_settings
 from grasptask.progress import Progress
 from grasptask.records.sweeps import SweepFiles, read_grasps
-from grasptask.task.model import load_task_model
+from grasptask.task.task_model import load_task_model
 
 
 @dataclass(frozen=True)

@@ -9,7 +9,7 @@ import numpy as np
 import pandas as pd
 
 from grasptask.errors import BadInputError
-from grasptask.io.config import read_json
+from grasptask.io.config_schema import read_json
 from grasptask.task.ellipsoid import Ellipsoid, ellipsoid_matrices
 from grasptask.task.spd import log_euclidean_mean, spd_problem
 from grasptask.task.stats import group_order
