@@ -48,7 +48,7 @@ def main() -> dict:
     grasp, ball = ball_grasp()
     task = drawing_like_task()
     start = time.perf_counter()
-    verify(grasp, hand, ball, task, GraspSettings())  # the first call builds the object's surface index
+    verify(grasp, hand.grasping_hand(), ball, task, GraspSettings())  # the first call builds the object's surface index
     results["surface_index_ball_s"] = time.perf_counter() - start
     perturbed = [
         dataclasses.replace(grasp, palm_position=grasp.palm_position + rng.normal(size=3) * 0.0005) for _ in range(100)
@@ -56,7 +56,7 @@ def main() -> dict:
     times, accepted = [], 0
     for g in perturbed:
         start = time.perf_counter()
-        accepted += verify(g, hand, ball, task, GraspSettings()).ok
+        accepted += verify(g, hand.grasping_hand(), ball, task, GraspSettings()).ok
         times.append(time.perf_counter() - start)
     results["verify_per_grasp_s"] = {
         "median": float(np.median(times)),

@@ -100,7 +100,7 @@ def gripper_grasp(directions: np.ndarray, effort_nm: float, bend_deg: float = 30
     (each finger's base 8 cm out along its direction, its two links bent by ``bend_deg`` so that the pad
     can press along the ball's normal), motors of ``effort_nm`` on every joint; the ball at the origin, the
     palm frame there too. Returns ``(hand, grasp, ball)``."""
-    from grasptask.hand.hand_model import Capability, Finger, Hand, Joint, Pad, Palm, Sphere
+    from grasptask.hand.hand_model import Capability, Finger, GraspingHand, Joint, Pad, Palm, Sphere
 
     theta = np.radians(bend_deg)
     base = 0.08
@@ -123,7 +123,7 @@ def gripper_grasp(directions: np.ndarray, effort_nm: float, bend_deg: float = 30
         fingers[f"f{k}"] = Finger(f"f{k}", (first, second), spheres, pad, np.array([link, 0.0, 0.0]), 0.008)
     names = tuple(j.name for f in fingers.values() for j in f.joints)
     capability = Capability.motors(names, np.full(len(names), effort_nm), np.eye(len(names)))
-    hand = Hand("gripper", fingers, Palm(np.zeros((0, 3)), np.zeros(0)), tuple(fingers), capability)
+    hand = GraspingHand("gripper", fingers, Palm(np.zeros((0, 3)), np.zeros(0)), tuple(fingers), capability)
     grasp = Grasp(np.eye(3), np.zeros(3), np.zeros(len(names)))
     return hand, grasp, Superquadric(np.full(3, GRIPPER_BALL_RADIUS), 1.0, 1.0, name="ball")
 

@@ -61,7 +61,7 @@ def test_penetration_is_measured_on_the_true_geometry_a_box_edge(tmp_path):
     """A ball 2 mm into the edge of a gripper's box link, from the diagonal: the true surface sinks 2 mm, and the
     spheres covering the box for eq. 14 hold the edge too (spheres of its half-width on its spine, the old cover,
     stayed 0.5 mm clear of the ball)."""
-    hand = load_hand(write_mesh_gripper(tmp_path))
+    hand = load_hand(write_mesh_gripper(tmp_path)).grasping_hand()
     radius, depth, half = 0.02, 0.002, 0.006
     edge = np.array([0.03 + half, half, 0.035])  # finger 0's first link: a 12 mm box from z = 0 to 7 cm
     centre = edge + (radius - depth) * np.array([1.0, 1.0, 0.0]) / np.sqrt(2)

@@ -24,6 +24,7 @@ from tests.grasp_fixtures import ball_grasp, drawing_like_task
 
 seeds = st.integers(0, 2**32 - 1)
 HAND = load_hand()
+GRASPING = HAND.grasping_hand()
 
 
 def sphere_contacts(directions):
@@ -121,7 +122,7 @@ def test_q_with_a_weight_matrix_equals_the_identity_case_when_it_is_the_identity
 @pytest.fixture(scope="module")
 def accepted():
     grasp, ball = ball_grasp()
-    return grasp, ball, verify(grasp, HAND, ball, drawing_like_task(), GraspSettings())
+    return grasp, ball, verify(grasp, GRASPING, ball, drawing_like_task(), GraspSettings())
 
 
 def test_verifier_accepts_a_real_precision_grasp(accepted):
@@ -136,14 +137,14 @@ def test_verifier_accepts_a_real_precision_grasp(accepted):
 
 def test_verifier_rejects_a_task_too_strong_for_the_tendons(accepted):
     grasp, ball, _ = accepted
-    result = verify(grasp, HAND, ball, drawing_like_task(scale=2.0), GraspSettings())
+    result = verify(grasp, GRASPING, ball, drawing_like_task(scale=2.0), GraspSettings())
     assert result.failures == ["torque_feasibility"] and result.torque_effort > 1
 
 
 def test_verifier_rejects_a_finger_inside_the_object(accepted):
     grasp, ball, _ = accepted
     sunk = dataclasses.replace(grasp, palm_position=grasp.palm_position + np.array([0.0, 0.0, 0.012]))
-    result = verify(sunk, HAND, ball, drawing_like_task(), GraspSettings())
+    result = verify(sunk, GRASPING, ball, drawing_like_task(), GraspSettings())
     assert "clearance" in result.failures or "contact_distance" in result.failures
     assert result.min_clearance_m < -1e-3 or np.abs(result.contact_distance_m).max() > 1e-3
 
@@ -152,7 +153,7 @@ def test_verifier_rejects_a_joint_beyond_its_limit(accepted):
     grasp, ball, _ = accepted
     q = grasp.joint_angles.copy()
     q[HAND.grasping_hand().joint_names.index("index_mcp_abd")] = np.radians(25.0)
-    result = verify(dataclasses.replace(grasp, joint_angles=q), HAND, ball, drawing_like_task(), GraspSettings())
+    result = verify(dataclasses.replace(grasp, joint_angles=q), GRASPING, ball, drawing_like_task(), GraspSettings())
     assert "joint_limits" in result.failures and result.joint_limit_margin_deg < -9
 
 
@@ -162,10 +163,12 @@ def test_verifier_rejects_broken_coupling_and_a_non_rotation(accepted):
     q[HAND.grasping_hand().joint_names.index("index_dip")] += 0.2
     assert (
         "coupling"
-        in verify(dataclasses.replace(grasp, joint_angles=q), HAND, ball, drawing_like_task(), GraspSettings()).failures
+        in verify(
+            dataclasses.replace(grasp, joint_angles=q), GRASPING, ball, drawing_like_task(), GraspSettings()
+        ).failures
     )
     skewed = dataclasses.replace(grasp, palm_rotation=grasp.palm_rotation * 1.01)
-    assert "palm_rotation" in verify(skewed, HAND, ball, drawing_like_task(), GraspSettings()).failures
+    assert "palm_rotation" in verify(skewed, GRASPING, ball, drawing_like_task(), GraspSettings()).failures
 
 
 def test_verifier_rejects_all_contacts_on_one_side(accepted):
@@ -179,7 +182,7 @@ def test_verifier_rejects_all_contacts_on_one_side(accepted):
     # a big ball touched near one pole: every pad on the same cap
     centre = pads.mean(axis=0) + normals.mean(axis=0) / np.linalg.norm(normals.mean(axis=0)) * 0.5
     ball = Superquadric(np.full(3, np.linalg.norm(pads - centre, axis=1).mean()), 1.0, 1.0, position=centre)
-    result = verify(grasp, HAND, ball, drawing_like_task(), GraspSettings())
+    result = verify(grasp, GRASPING, ball, drawing_like_task(), GraspSettings())
     assert "force_closure" in result.failures and result.epsilon == 0.0
 
 

@@ -4,7 +4,7 @@ spheres, its fingertip pad and its force capability, whatever file it came from 
 from __future__ import annotations
 
 from collections.abc import Iterable
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 
 import numpy as np
@@ -265,8 +265,10 @@ class Hand:
                 raise KeyError(name)
         return replace(self, grasping=names)
 
-    def grasping_hand(self) -> Hand:
-        return self.subset(self.grasping)
+    def grasping_hand(self) -> GraspingHand:
+        """The hand of its grasping fingers only, the one the NLP and the verifier work on."""
+        part = self.subset(self.grasping)
+        return GraspingHand(**{f.name: getattr(part, f.name) for f in fields(part)})
 
     @property
     def lower(self) -> np.ndarray:
@@ -301,3 +303,16 @@ class Hand:
         for dependent, independent, ratio, offset in self.couplings():
             q[..., dependent] = ratio * q[..., independent] + offset
         return q
+
+
+@dataclass(frozen=True)
+class GraspingHand(Hand):
+    """A hand of its grasping fingers only (:meth:`Hand.grasping_hand`): the one type the NLP's model and the
+    verifier take, so that neither has to guess which fingers grasp."""
+
+    def __post_init__(self) -> None:
+        if list(self.grasping) != list(self.fingers):
+            raise ValueError(f"a grasping hand grasps with all its fingers ({', '.join(self.fingers)})")
+
+    def grasping_hand(self) -> GraspingHand:
+        return self

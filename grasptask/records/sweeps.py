@@ -13,7 +13,7 @@ import pandas as pd
 from grasptask.errors import BadInputError
 from grasptask.grasp.grasp_pose import Grasp
 from grasptask.hand import load_hand
-from grasptask.hand.hand_model import Hand
+from grasptask.hand.hand_model import GraspingHand
 from grasptask.io.config_schema import read_json
 from grasptask.io.tables import read_table
 from grasptask.paths import DEFAULT_GRASP_CONFIG, DEFAULT_HAND, DEFAULT_OBJECT, ROOT
@@ -100,7 +100,7 @@ class SolvedGrasps:
     """A solutions table read for re-judging: the grasping hand it was made with, and each start's row and
     grasp (None where the start has no solution)."""
 
-    hand: Hand
+    hand: GraspingHand
     rows: list[tuple[dict, Grasp | None]]
 
 

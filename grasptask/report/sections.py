@@ -13,7 +13,7 @@ import pandas as pd
 from grasptask.errors import BadInputError
 from grasptask.grasp.grasp_settings import GraspSettings, load_grasp_settings
 from grasptask.hand import load_hand
-from grasptask.hand.hand_model import Hand
+from grasptask.hand.hand_model import GraspingHand, Hand
 from grasptask.io.artifacts import StagedOutput, file_stem
 from grasptask.io.config_schema import read_json
 from grasptask.objects import load_object
@@ -212,7 +212,7 @@ Q_MEANING = (
 )
 
 
-def sweep_hand(sweep: SweepResult, hands: dict[Path, Hand]) -> tuple[Hand, list[str]]:
+def sweep_hand(sweep: SweepResult, hands: dict[Path, Hand]) -> tuple[GraspingHand, list[str]]:
     """The grasping hand of ``sweep`` (its ``run.json``'s hand and fingers) and its fingers; a table that is
     not that hand's (a BarrettHand's optima under a human ``run.json``) is one line. ``hands`` caches loads."""
     hand_path = _reference_path(sweep, "hand", DEFAULT_HAND)
@@ -334,7 +334,7 @@ class _Shown:
     """What a task's optima are drawn with: the sweep's hand, its object (as loaded, and as the two meshes the
     figures and the views draw), its grasp settings and task model (None: no task model found)."""
 
-    hand: Hand
+    hand: GraspingHand
     fingers: list[str]
     obj: ImplicitObject
     mesh: Any  # trimesh meshes

@@ -57,7 +57,7 @@ class Judges:
         assign(solver.order, result.x)
         solution = solver.nlp.read()
         grasp = Grasp(solution["palm_rotation"], solution["palm_position"], solution["joint_angles"])
-        return solution, verify(grasp, self.hand, self.obj, self.task, self.settings), result.x
+        return solution, verify(grasp, self.grasping, self.obj, self.task, self.settings), result.x
 
     def record(self, solution: dict, check: Verification) -> dict:
         """The columns of a solved start: Q, the grasp, the verifier's figures, and (where configured) the

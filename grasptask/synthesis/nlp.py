@@ -37,7 +37,7 @@ import numpy as np
 import pyomo.environ as pyo
 
 from grasptask.grasp.grasp_settings import GraspSettings
-from grasptask.hand.hand_model import Finger, Hand, Pad, Sphere
+from grasptask.hand.hand_model import Finger, GraspingHand, Hand, Pad, Sphere
 from grasptask.objects.surface import ImplicitObject
 from grasptask.synthesis.algebra import XYZ, axis_rotation, constant_times, cross, cross_matrix, dot
 from grasptask.synthesis.compiled import CompiledExpressions
@@ -56,7 +56,7 @@ class NLPBuilder:
     the next (link geometry, contact points, cone edges, wrenches). Filled in :data:`EQUATIONS` order."""
 
     model: pyo.ConcreteModel
-    hand: Hand
+    hand: GraspingHand
     surface: NLPSurface
     task: TaskModel
     settings: GraspSettings
@@ -466,7 +466,7 @@ class GraspNLP:
     """The Pyomo model and what is needed to start it from a palm pose and read a solution back."""
 
     model: pyo.ConcreteModel
-    hand: Hand
+    hand: GraspingHand
     definitions: list[tuple[Any, Any]] = field(default_factory=list)  # (variable, expression), dependency order
     #: a mesh's or point cloud's surface, whose placeholder rows the backend fills (None: all Pyomo)
     surrogate: GridSurface | None = None

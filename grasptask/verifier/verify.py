@@ -14,7 +14,7 @@ import numpy as np
 
 from grasptask.grasp.grasp_pose import Grasp
 from grasptask.grasp.grasp_settings import GraspSettings
-from grasptask.hand.hand_model import Hand
+from grasptask.hand.hand_model import GraspingHand
 from grasptask.hand.kinematics import forward
 from grasptask.objects.surface import ImplicitObject
 from grasptask.task.task_model import TaskModel
@@ -25,10 +25,16 @@ from grasptask.verifier.verification import Tolerances, Verification
 
 
 def inspect(
-    grasp: Grasp, hand: Hand, obj: ImplicitObject, task: TaskModel, settings: GraspSettings, tolerances: Tolerances
+    grasp: Grasp,
+    hand: GraspingHand,
+    obj: ImplicitObject,
+    task: TaskModel,
+    settings: GraspSettings,
+    tolerances: Tolerances,
 ) -> Inspection:
     """``grasp`` measured once for the checks: the hand's pose, and where each contact meets the object."""
-    hand = hand.grasping_hand() if set(hand.fingers) != set(hand.grasping) else hand
+    if not isinstance(hand, GraspingHand):
+        raise TypeError(f"the verifier takes a grasping hand ({hand.name}.grasping_hand()), not the whole hand")
     q = np.asarray(grasp.joint_angles, dtype=float)
     rotation, position = np.asarray(grasp.palm_rotation, float), np.asarray(grasp.palm_position, float)
     pose = forward(hand, q, rotation, position)
@@ -40,13 +46,13 @@ def inspect(
 
 def verify(
     grasp: Grasp,
-    hand: Hand,
+    hand: GraspingHand,
     obj: ImplicitObject,
     task: TaskModel,
     settings: GraspSettings,
     tolerances: Tolerances = Tolerances(),
 ) -> Verification:
-    """Check a grasp of ``obj`` by ``hand``'s grasping fingers for ``task``: every check, then, for a grasp that
+    """Check a grasp of ``obj`` by ``hand`` (its grasping fingers) for ``task``: every check, then, for a grasp that
     passes them all, its strength and friction margins (each costs LPs, so of those only)."""
     s = inspect(grasp, hand, obj, task, settings, tolerances)
     figures: dict = {}
