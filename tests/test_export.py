@@ -13,11 +13,11 @@ import pytest
 import trimesh
 from grasp_fixtures import ball_grasp, ball_sweep, drawing_like_task, results_with_tasks
 
+from grasptask.exports.grasp_files import glb_bytes, grasp_record
+from grasptask.exports.scene_meshes import grasp_scene
 from grasptask.grasp.grasp_pose import Grasp
 from grasptask.grasp.grasp_settings import GraspSettings
 from grasptask.hand import forward, load_hand
-from grasptask.records.export import glb_bytes, grasp_record
-from grasptask.records.scene_meshes import grasp_scene
 from grasptask.verifier.verify import verify
 
 SCHEMA = json.loads(Path("docs/grasp_record.schema.json").read_text())

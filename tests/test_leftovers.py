@@ -232,7 +232,7 @@ def test_a_killed_browser_check_leaves_no_browser_and_no_profile(tmp_path):
     # short: Chromium's profile holds a Unix socket, whose path may not pass 108 bytes (pytest's tmp_path is long)
     scratch = Path(tempfile.mkdtemp(prefix="gt-", dir="/tmp"))
     check = subprocess.Popen(
-        [sys.executable, "-c", f"from grasptask.report.browser import check_page; check_page({str(page)!r})"],
+        [sys.executable, "-c", f"from grasptask.report.browser_check import check_page; check_page({str(page)!r})"],
         env={**os.environ, "TMPDIR": str(scratch)},
     )
     wait_for(lambda: any(scratch.glob("grasptask-chromium-*")) and len(_descendants(check.pid)) >= 3, 60, "a browser")

@@ -13,7 +13,7 @@ from grasptask.errors import BadInputError
 from grasptask.hand.hand_files import load_hand
 from grasptask.hand.mesh_cover import BOUND_M, mesh_spheres
 from grasptask.hand.pad_fit import fit_pad
-from grasptask.report.browser import check_page, find_chromium
+from grasptask.report.browser_check import check_page, find_chromium
 from grasptask.report.hand_view import hand_lines
 
 

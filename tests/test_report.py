@@ -10,7 +10,7 @@ import pandas as pd
 import pytest
 from grasp_fixtures import ball_sweep, results_with_tasks
 
-from grasptask.report.browser import check_page, find_chromium
+from grasptask.report.browser_check import check_page, find_chromium
 from grasptask.report.paper_tables import PAPER_TABLES
 from grasptask.stages import build_report
 
@@ -200,14 +200,14 @@ def test_screenshots_are_checked_before_the_report_is_built(cli, simulated, tmp_
 
 
 def test_a_browser_check_says_why_an_empty_page_fails():
-    from grasptask.report.browser import BrowserCheck
+    from grasptask.report.browser_check import BrowserCheck
 
     empty = BrowserCheck(images=0)
     assert not empty.ok and any("no image" in line for line in empty.problems())
 
 
 def test_a_missing_chromium_is_said_before_the_report_is_built(cli, simulated, tmp_path, monkeypatch):
-    import grasptask.report.browser as browser
+    import grasptask.report.browser_check as browser
 
     monkeypatch.setattr(browser, "find_chromium", lambda: None)
     results = results_with_tasks(simulated, tmp_path / "results")
@@ -288,7 +288,7 @@ def test_the_browser_check_finds_a_scene_the_camera_crops():
     import matplotlib.pyplot as plt
     import numpy as np
 
-    from grasptask.report.browser import MAX_EDGE_PIXELS, _edge_pixels
+    from grasptask.report.browser_check import MAX_EDGE_PIXELS, _edge_pixels
 
     def png(top: int) -> bytes:
         image = np.ones((200, 300, 3))

@@ -1,1 +1,2 @@
-"""Grasp records: a sweep's solutions table, its grasps read back, the exported scene, the paper's figures."""
+"""Grasp records: what a sweep stores and how it is read back: the solutions table's schema, a finished sweep's
+grasps, and the paper's own figures to compare with."""

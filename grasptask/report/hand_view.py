@@ -10,10 +10,10 @@ import numpy as np
 import pandas as pd
 import plotly.graph_objects as go
 
+from grasptask.exports.scene_meshes import PALM_COLOUR, finger_colour, spheres_mesh
 from grasptask.hand.hand_model import Hand, Joint
 from grasptask.hand.kinematics import forward
 from grasptask.hand.mesh_cover import BOUND_M, MAX_SPHERES
-from grasptask.records.scene_meshes import PALM_COLOUR, finger_colour, spheres_mesh
 from grasptask.report.interactive import _line, _mesh_trace, figure_json
 from grasptask.report.page import Section, Table, View, render_html
 

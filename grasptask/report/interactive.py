@@ -14,7 +14,7 @@ import trimesh
 from plotly.io.json import to_json_plotly
 from plotly.subplots import make_subplots
 
-from grasptask.records.scene_meshes import CONTACT_COLOUR, OBJECT_COLOUR, PALM_COLOUR, GraspScene, icosphere_copies
+from grasptask.exports.scene_meshes import CONTACT_COLOUR, OBJECT_COLOUR, PALM_COLOUR, GraspScene, icosphere_copies
 from grasptask.task.ellipsoid import FORCE, TORQUE
 from grasptask.task.units import PAPER_TORQUE_UNIT, TORQUE_UNITS
 from grasptask.verifier.mechanics import friction_cone_edges

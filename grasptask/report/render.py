@@ -12,10 +12,10 @@ import numpy as np
 import trimesh
 from mpl_toolkits.mplot3d.art3d import Poly3DCollection
 
+from grasptask.exports.scene_meshes import PALM_COLOUR, finger_colour
 from grasptask.hand.hand_model import Hand
 from grasptask.hand.kinematics import forward
 from grasptask.objects.surface import ImplicitObject
-from grasptask.records.scene_meshes import PALM_COLOUR, finger_colour
 from grasptask.report.style import apply_style, save_figure
 from grasptask.verifier.mechanics import friction_cone_edges
 

@@ -11,6 +11,7 @@ import numpy as np
 import pandas as pd
 
 from grasptask.errors import BadInputError
+from grasptask.exports.scene_meshes import grasp_scene
 from grasptask.grasp.grasp_settings import GraspSettings, load_grasp_settings
 from grasptask.hand import load_hand
 from grasptask.hand.hand_model import GraspingHand, Hand
@@ -21,7 +22,6 @@ from grasptask.objects.surface import ImplicitObject
 from grasptask.paths import DEFAULT_GRASP_CONFIG, DEFAULT_HAND, DEFAULT_OBJECT, PAPER_ELLIPSOID_TABLES
 from grasptask.progress import progress
 from grasptask.records.reference import PaperSynthesis
-from grasptask.records.scene_meshes import grasp_scene
 from grasptask.records.solutions import contacts_from_row, fingers_in, grasp_from_row, joint_columns, normals_from_row
 from grasptask.records.sweeps import recorded_path
 from grasptask.report import paper_tables

@@ -23,7 +23,7 @@ from grasptask.paths import (
 from grasptask.task.units import FORCE_UNITS, TIME_UNITS, TORQUE_UNITS
 
 if TYPE_CHECKING:
-    from grasptask.report.browser import check_page, check_screenshot_path, find_chromium
+    from grasptask.report.browser_check import check_page, check_screenshot_path, find_chromium
     from grasptask.stages.fit_task import FitOptions, Preprocess, entries_from_inputs, run_fit_task
     from grasptask.stages.grasp_export import run_export
     from grasptask.stages.hand_description import HandDescription, describe_hand
@@ -51,9 +51,9 @@ _LAZY = {
     "run_verify": "grasptask.stages.reverify",
     "build_report": "grasptask.stages.html_report",
     "ReportSummary": "grasptask.stages.html_report",
-    "check_page": "grasptask.report.browser",
-    "check_screenshot_path": "grasptask.report.browser",
-    "find_chromium": "grasptask.report.browser",
+    "check_page": "grasptask.report.browser_check",
+    "check_screenshot_path": "grasptask.report.browser_check",
+    "find_chromium": "grasptask.report.browser_check",
     "run_pipeline_file": "grasptask.stages.pipeline_file",
     "PhysicsInputs": "grasptask.stages.physics_check",
     "run_physics": "grasptask.stages.physics_check",

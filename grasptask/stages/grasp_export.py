@@ -1,5 +1,5 @@
 """``grasptask export``: the distinct optima of a sweep (or every verified start) as GLB scenes and JSON records
-that other tools load (:mod:`grasptask.records.export`)."""
+that other tools load (:mod:`grasptask.exports.grasp_files`)."""
 
 from __future__ import annotations
 
@@ -8,6 +8,8 @@ from pathlib import Path
 from typing import Any
 
 from grasptask.errors import BadInputError
+from grasptask.exports.grasp_files import glb_bytes, grasp_record
+from grasptask.exports.scene_meshes import grasp_scene
 from grasptask.grasp.grasp_pose import Grasp
 from grasptask.grasp.grasp_settings import load_grasp_settings
 from grasptask.io.artifacts import Provenance, StagedOutput
@@ -15,8 +17,6 @@ from grasptask.io.tables import read_table
 from grasptask.objects import load_object
 from grasptask.objects.object_files import object_files
 from grasptask.progress import progress
-from grasptask.records.export import glb_bytes, grasp_record
-from grasptask.records.scene_meshes import grasp_scene
 from grasptask.records.sweeps import SolvedGrasps, SweepFiles, read_grasps
 from grasptask.task.task_model import load_task_model
 from grasptask.verifier.verify import verify

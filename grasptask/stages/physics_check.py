@@ -17,9 +17,9 @@ import pandas as pd
 from grasptask.errors import BadInputError
 from grasptask.grasp.grasp_settings import load_grasp_settings
 from grasptask.io.artifacts import Provenance, StagedOutput
+from grasptask.io.child_processes import die_with_parent
 from grasptask.io.config_schema import MAX_WORKERS
 from grasptask.io.locking import check_writable, folder_lock
-from grasptask.io.orphans import die_with_parent
 from grasptask.paths import DEFAULT_PHYSICS_CONFIG
 from grasptask.physics.judge import Judge, best_grasp_trace, write_physics_results
 from grasptask.physics.physics_settings import Controller, load_physics_settings

@@ -26,7 +26,7 @@ from contextlib import contextmanager
 from typing import Any, Protocol
 
 from grasptask.errors import BadInputError
-from grasptask.io.orphans import die_with_parent
+from grasptask.io.child_processes import die_with_parent
 from grasptask.synthesis.context import Job, SolverContext, build_failure, failed_row, solve_guarded
 from grasptask.synthesis.starts import Start
 

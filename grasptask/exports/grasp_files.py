@@ -10,9 +10,9 @@ from typing import Any
 import numpy as np
 import trimesh
 
+from grasptask.exports.scene_meshes import CONTACT_COLOUR, OBJECT_COLOUR, PALM_COLOUR, GraspScene, spheres_mesh
 from grasptask.grasp.grasp_pose import Grasp
 from grasptask.hand.hand_model import Hand
-from grasptask.records.scene_meshes import CONTACT_COLOUR, OBJECT_COLOUR, PALM_COLOUR, GraspScene, spheres_mesh
 from grasptask.verifier.verification import Verification
 
 RECORD_FORMAT = "grasptask.grasp/1"

@@ -18,8 +18,8 @@ from typing import Any
 import numpy as np
 
 from grasptask.errors import BadInputError
+from grasptask.io.child_processes import Reaper
 from grasptask.io.locking import make_owned_folder, probe_writable, remove_stale_folders
-from grasptask.io.orphans import Reaper
 
 #: without the background-networking flags Chromium keeps trying to reach Google's hosts on a closed network;
 #: WebGL runs on SwiftShader, Chromium's software GL, which it no longer falls back to unasked
