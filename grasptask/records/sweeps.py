@@ -1,23 +1,30 @@
 """A sweep read back: the files a solutions table was made from, and its rows as grasps of a hand.
 
-The grasp-record layer, above the hand, the objects and the task: ``verify``, ``physics``, ``export`` and the
-report all read a sweep through it, so that none of those stages imports another."""
+The grasp-record layer, above the hand, the objects and the task: ``verify``, ``physics`` and ``export`` open a
+finished sweep through :meth:`Sweep.open`, so that each input is read once, the same way, and none of those
+stages imports another."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Callable
+from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import pandas as pd
 
 from grasptask.errors import BadInputError
 from grasptask.grasp.grasp_pose import Grasp
+from grasptask.grasp.grasp_settings import GraspSettings, load_grasp_settings
 from grasptask.hand import load_hand
 from grasptask.hand.hand_model import GraspingHand
 from grasptask.io.config_schema import read_json
 from grasptask.io.tables import read_table
+from grasptask.objects import load_object
+from grasptask.objects.surface import ImplicitObject
 from grasptask.paths import DEFAULT_GRASP_CONFIG, DEFAULT_HAND, DEFAULT_OBJECT, ROOT
 from grasptask.records.solutions import fingers_in, grasp_from_row, implausible_column, joint_columns
+from grasptask.task.task_model import TaskModel, load_task_model
 
 
 @dataclass(frozen=True)
@@ -150,3 +157,61 @@ def read_grasps(
             raise BadInputError(solutions_path, f"not a plausible value: {row[wrong]!r}", row=number, column=wrong)
         rows.append((row, grasp_from_row(row, hand.joint_names)))
     return SolvedGrasps(hand, rows)
+
+
+@dataclass(frozen=True)
+class Sweep:
+    """A finished sweep, opened once: the files it was made from, its task model, the grasp settings, and every
+    start's row and grasp of the grasping hand. The object is loaded when asked for (a mesh's repair or a GP's
+    fit takes seconds, and not every reader needs it)."""
+
+    solutions: Path
+    files: SweepFiles
+    tasks: Path
+    task: str
+    task_model: TaskModel
+    settings: GraspSettings
+    solved: SolvedGrasps
+    #: --unit, --mass, --task-frame and --task-frame-outside for the object, where given
+    object_overrides: dict[str, Any] = field(default_factory=dict)
+
+    @classmethod
+    def open(
+        cls,
+        solutions: str | Path,
+        *,
+        tasks: str | Path | None = None,
+        task: str | None = None,
+        hand: str | Path | None = None,
+        object: str | Path | None = None,
+        grasp_config: str | Path | None = None,
+        fingers: tuple[str, ...] | None = None,
+        object_overrides: dict[str, Any] | None = None,
+    ) -> Sweep:
+        """The sweep of ``solutions``: every input left None is the one its ``run.json`` records, else the
+        package's default; ``fingers`` defaults to those the table holds contacts of. A missing or malformed
+        input is one line naming the file and the field."""
+        files = SweepFiles.of(solutions, hand, object, grasp_config, fingers, tasks, task)
+        tasks_file, task_name = files.named_task(solutions)
+        return cls(
+            Path(solutions),
+            files,
+            tasks_file,
+            task_name,
+            load_task_model(tasks_file, task_name),
+            load_grasp_settings(files.grasp_config),
+            read_grasps(solutions, files.hand, files.fingers),
+            dict(object_overrides or {}),
+        )
+
+    @property
+    def hand(self) -> GraspingHand:
+        return self.solved.hand
+
+    @property
+    def rows(self) -> list[tuple[dict, Grasp | None]]:
+        return self.solved.rows
+
+    def load_object(self, say: Callable[[str], Any] = lambda _: None) -> ImplicitObject:
+        """The sweep's object; ``say`` hears what was repaired in a mesh (synthesize said it once already)."""
+        return load_object(self.files.object, say=say, **self.object_overrides)

@@ -11,14 +11,11 @@ from grasptask.errors import BadInputError
 from grasptask.exports.grasp_files import glb_bytes, grasp_record
 from grasptask.exports.scene_meshes import grasp_scene
 from grasptask.grasp.grasp_pose import Grasp
-from grasptask.grasp.grasp_settings import load_grasp_settings
 from grasptask.io.artifacts import Provenance, StagedOutput
 from grasptask.io.tables import read_table
-from grasptask.objects import load_object
 from grasptask.objects.object_files import object_files
 from grasptask.progress import progress
-from grasptask.records.sweeps import SolvedGrasps, SweepFiles, read_grasps
-from grasptask.task.task_model import load_task_model
+from grasptask.records.sweeps import SolvedGrasps, Sweep
 from grasptask.verifier.verify import verify
 
 #: the object's picture in the GLB, in triangles: smooth to the eye, a few hundred kB
@@ -70,15 +67,14 @@ def run_export(
     given are those the sweep's ``run.json`` records. Each grasp is verified again, for the contact forces and
     activations per task wrench that the verifier's LP finds; the record says whether it still passes."""
     solutions = Path(solutions)
-    files = SweepFiles.of(solutions, hand, object_path, grasp_config, fingers, tasks, task)
-    tasks_file, task_name = files.named_task(solutions)
-    model = load_task_model(tasks_file, task_name)
-    solved = read_grasps(solutions, files.hand, files.fingers)
-    chosen, kind = _chosen(solved, solutions, every_start)
+    sweep = Sweep.open(
+        solutions, tasks=tasks, task=task, hand=hand, object=object_path, grasp_config=grasp_config, fingers=fingers
+    )
+    files, tasks_file, task_name, settings = sweep.files, sweep.tasks, sweep.task, sweep.settings
+    chosen, kind = _chosen(sweep.solved, solutions, every_start)
     if not chosen:  # "wrote 0 grasps", exit 0, told the user nothing
-        raise BadInputError(solutions, f"no verified start among its {len(solved.rows)}: nothing to export")
-    obj = load_object(files.object, say=lambda _: None)
-    settings = load_grasp_settings(files.grasp_config)
+        raise BadInputError(solutions, f"no verified start among its {len(sweep.rows)}: nothing to export")
+    obj = sweep.load_object()
     mesh = obj.picture(GLB_OBJECT_FACES)
     sources = {"hand": str(files.hand), "object": str(files.object), "tasks": str(tasks_file)}
     config = {"task": task_name, "all": every_start, **sources, "grasp_config": str(files.grasp_config)}
@@ -87,12 +83,12 @@ def run_export(
     verified = 0
     with StagedOutput(out, Provenance.of("export", config, inputs)) as staged:
         for row, grasp in progress(chosen, desc=f"export: {task_name}", unit="grasps"):
-            check = verify(grasp, solved.hand, obj, model, settings)
-            scene = grasp_scene(solved.hand, mesh, grasp, check.contacts, check.normals, settings.friction_coefficient)
+            check = verify(grasp, sweep.hand, obj, sweep.task_model, settings)
+            scene = grasp_scene(sweep.hand, mesh, grasp, check.contacts, check.normals, settings.friction_coefficient)
             record = grasp_record(
                 task=task_name,
                 row=row,
-                hand=solved.hand,
+                hand=sweep.hand,
                 grasp=grasp,
                 scene=scene,
                 verification=check,

@@ -15,7 +15,6 @@ from typing import Any
 import pandas as pd
 
 from grasptask.errors import BadInputError
-from grasptask.grasp.grasp_settings import load_grasp_settings
 from grasptask.io.artifacts import Provenance, StagedOutput
 from grasptask.io.child_processes import die_with_parent
 from grasptask.io.config_schema import MAX_WORKERS
@@ -24,8 +23,7 @@ from grasptask.paths import DEFAULT_PHYSICS_CONFIG
 from grasptask.physics.judge import Judge, best_grasp_trace, write_physics_results
 from grasptask.physics.physics_settings import Controller, load_physics_settings
 from grasptask.progress import Progress
-from grasptask.records.sweeps import SweepFiles, read_grasps
-from grasptask.task.task_model import load_task_model
+from grasptask.records.sweeps import Sweep, SweepFiles
 
 
 @dataclass(frozen=True)
@@ -71,12 +69,14 @@ def _judge_for(inputs: PhysicsInputs) -> Judge:
     first grasp's scene built, so that a hand file MuJoCo cannot compile is one line before any worker starts."""
     assert inputs.hand is not None and inputs.object is not None and inputs.grasp_config is not None
     assert inputs.tasks is not None and inputs.task is not None, "resolved() first"
-    model = load_task_model(inputs.tasks, inputs.task)
-    solved = read_grasps(inputs.solutions, inputs.hand, inputs.fingers)
+    sweep = Sweep.open(
+        inputs.solutions, tasks=inputs.tasks, task=inputs.task, hand=inputs.hand, object=inputs.object,
+        grasp_config=inputs.grasp_config, fingers=inputs.fingers,
+    )  # fmt: skip
     settings = load_physics_settings(inputs.physics_config)
     settings = replace(settings, controller=inputs.controller or settings.controller)
-    friction = load_grasp_settings(inputs.grasp_config).friction_coefficient * inputs.friction_scale
-    judge = Judge.of(solved, model, inputs.object, friction, settings, inputs.strength)
+    friction = sweep.settings.friction_coefficient * inputs.friction_scale
+    judge = Judge.of(sweep.solved, sweep.task_model, inputs.object, friction, settings, inputs.strength)
     judge.check_scene()
     return judge
 

@@ -7,11 +7,8 @@ from typing import Any
 
 import pandas as pd
 
-from grasptask.grasp.grasp_settings import load_grasp_settings
 from grasptask.io.artifacts import Provenance, StagedOutput
-from grasptask.objects import load_object
-from grasptask.records.sweeps import SweepFiles, read_grasps
-from grasptask.task.task_model import load_task_model
+from grasptask.records.sweeps import Sweep
 from grasptask.verifier.verify import verify
 
 
@@ -30,24 +27,24 @@ def run_verify(
     start: ``verified``, ``verify_failures`` and the verifier's figures) and returns it. Every file left None is
     the sweep's (its ``run.json``), else the package's default; ``fingers`` defaults to those the table holds
     contacts of; ``object_overrides`` are --unit, --mass and --task-frame."""
-    files = SweepFiles.of(solutions_path, hand_path, object_path, grasp_config, fingers, tasks_path, task)
-    tasks_file, task = files.named_task(solutions_path)
-    model = load_task_model(tasks_file, task)
-    solved = read_grasps(solutions_path, files.hand, files.fingers)
-    obj = load_object(files.object, **(object_overrides or {}))
-    settings = load_grasp_settings(files.grasp_config)
+    sweep = Sweep.open(
+        solutions_path, tasks=tasks_path, task=task, hand=hand_path, object=object_path, grasp_config=grasp_config,
+        fingers=fingers, object_overrides=object_overrides,
+    )  # fmt: skip
+    obj = sweep.load_object(say=print)
     rows = []
-    for row, grasp in solved.rows:
+    for row, grasp in sweep.rows:
         record: dict[str, object] = {"start_id": int(row["start_id"])}
         if grasp is None:
             record.update({"verified": False, "verify_failures": "no solution"})
         else:
-            check = verify(grasp, solved.hand, obj, model, settings)
-            record.update(check.record(list(solved.hand.fingers)))
+            check = verify(grasp, sweep.hand, obj, sweep.task_model, sweep.settings)
+            record.update(check.record(list(sweep.hand.fingers)))
         rows.append(record)
     table = pd.DataFrame(rows)
+    files = sweep.files
     provenance = Provenance.of(
-        "verify", {"task": task}, [solutions_path, tasks_file, files.hand, files.object, files.grasp_config]
+        "verify", {"task": sweep.task}, [solutions_path, sweep.tasks, files.hand, files.object, files.grasp_config]
     )
     with StagedOutput(out, provenance) as staged:
         staged.write_parquet("verification.parquet", table)
