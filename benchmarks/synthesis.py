@@ -37,7 +37,7 @@ from scipy.stats import bootstrap
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT / "benchmarks"), str(ROOT)]
-from common import check_solver, save, solver_option  # noqa: E402
+from common import check_solver, save, solver_option, time_shares  # noqa: E402
 
 from grasptask.io.config_schema import load_yaml  # noqa: E402
 from grasptask.records.reference import read_paper_synthesis  # noqa: E402
@@ -186,6 +186,9 @@ def main(
                 "status_counts": run["status_counts"],
                 "sweep_wall_s": run["sweep_wall_seconds_this_run"],
                 "best_optimum": grasp_shape(optima),
+                # what a user waits for, and where the sweep's time went by kind of start (issue: five times sooner)
+                "throughput": run.get("throughput"),
+                "time_shares": time_shares(tmp / "grasps" / task),
             }
             print(task_line(task, results["tasks"][task]))
             if reference is not None:  # right after the sweep, so that both see the machine as it is now
@@ -287,10 +290,12 @@ def met(medians: list, verified: list, wall_s: float, median_s: float, fraction:
 
 def task_line(task: str, t: dict) -> str:
     low, high = t["median_95pct_bootstrap_s"]
+    kinds = (t.get("time_shares") or {"kinds": {}})["kinds"].items()  # absent from results saved before it
+    shares = ", ".join(f"{kind} {v['share']:.0%}" for kind, v in kinds if v["share"] is not None)
     return (
         f"{task}: {t['starts']} starts, median {t['median_s_per_start']:.2f} s (95% bootstrap {low:.2f}-{high:.2f}, "
         f"p90 {t['p90_s_per_start']:.2f}), {t['verified_fraction']:.0%} verified, {t['distinct_optima']} distinct "
-        f"optima, best Q {t['best_Q']:.5f}, {t['sweep_wall_s']:.0f} s"
+        f"optima, best Q {t['best_Q']:.5f}, {t['sweep_wall_s']:.0f} s; time: {shares}"
     )
 
 
