@@ -181,10 +181,11 @@ def time_shares(folder: Path) -> dict:
 
 def held(sweep: Path, tasks: Path, task: str, out: Path) -> dict:
     """The physics judge on one sweep's grasps: the share of the verified ones it holds."""
-    from grasptask.stages import PhysicsInputs, run_physics
+    from grasptask.stages import PhysicsOptions, run_physics
 
     began = time.perf_counter()
-    table = run_physics(PhysicsInputs(sweep / "solutions.parquet", tasks, task), out, 2, echo=lambda _: None)
+    options = PhysicsOptions(solutions=sweep / "solutions.parquet", out=out, workers=2, tasks=tasks, task=task)
+    table = run_physics(options, echo=lambda _: None)
     solved = table[table["physics_passed"].notna()]
     verified = solved[solved["verified"].astype(bool)]
     return {

@@ -141,7 +141,7 @@ def main(
     n_starts: int | None, neighbour_starts: int, hands: list[str], name: str, only: list[str] | None, keep: bool
 ) -> dict:
     from grasptask.hand import load_hand
-    from grasptask.stages import PhysicsInputs, SynthesisOptions, run_physics, run_synthesize
+    from grasptask.stages import PhysicsOptions, SynthesisOptions, run_physics, run_synthesize
 
     results: dict = {"starts_per_task": n_starts or 126, "neighbour_starts": neighbour_starts, "routes": {}}
     saved = RESULTS / f"{name}.json"
@@ -165,8 +165,11 @@ def main(
                         starts=neighbour_starts if neighbour else n_starts,
                     )  # fmt: skip
                     run_synthesize(options, echo=lambda _: None)
-                    inputs = PhysicsInputs(out / task / "solutions.parquet", tasks, task)
-                    physics = run_physics(inputs, tmp / "physics" / route / hand / task, 2, echo=lambda _: None)
+                    inputs = PhysicsOptions(
+                        solutions=out / task / "solutions.parquet", out=tmp / "physics" / route / hand / task,
+                        workers=2, tasks=tasks, task=task,
+                    )  # fmt: skip
+                    physics = run_physics(inputs, echo=lambda _: None)
                     shown = entry[task] = figures(out / task, physics, compliance)
                     held = "-" if shown["held_of_verified"] is None else f"{shown['held_of_verified']:.0%}"
                     print(

@@ -118,7 +118,7 @@ def figures(table: pd.DataFrame, hand: str, protocol: str, wall_s: float) -> dic
 
 
 def main(folder: Path, found: list[tuple[str, str, Path]], workers: int, name: str) -> dict:
-    from grasptask.stages import PhysicsInputs, run_physics
+    from grasptask.stages import PhysicsOptions, run_physics
 
     results: dict = {"sweeps": str(folder), "workers": workers, "protocols": PROTOCOLS, "hands": {}}
     saved = RESULTS / f"{name}.json"
@@ -134,11 +134,11 @@ def main(folder: Path, found: list[tuple[str, str, Path]], workers: int, name: s
             for protocol, (controller, strength, friction) in PROTOCOLS.items():
                 began = time.perf_counter()
                 out = Path(scratch) / hand / task / protocol
-                inputs = PhysicsInputs(
-                    sweep / "solutions.parquet", tasks_file, task, controller=controller, strength=strength,
-                    friction_scale=friction,
+                inputs = PhysicsOptions(
+                    solutions=sweep / "solutions.parquet", out=out, workers=workers, tasks=tasks_file, task=task,
+                    controller=controller, strength=strength, friction_scale=friction,
                 )  # fmt: skip
-                table = run_physics(inputs, out, workers, echo=lambda _: None)
+                table = run_physics(inputs, echo=lambda _: None)
                 entry[protocol] = figures(table, hand, protocol, time.perf_counter() - began)
                 shown = entry[protocol]
                 held = "-" if shown["held_of_verified"] is None else f"{shown['held_of_verified']:.0%}"

@@ -3,7 +3,6 @@ it wrote. No command reads an artifact itself."""
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import click
@@ -193,7 +192,6 @@ def synthesize(
     """Synthesize task-oriented grasps: the NLP of the paper's Sections 5-6 solved from many starts, every
     solution checked by the independent verifier. Writes OUT/TASK/solutions.parquet (one row per start),
     optima.parquet (distinct verified optima) and run.json."""
-    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     options = stages.SynthesisOptions(
         tasks=tasks_path,
         task=task,
@@ -234,10 +232,12 @@ def synthesize(
 def verify_command(solutions, tasks_path, task, out, hand, object_path, grasp_config, fingers, **object_options):
     """Check every grasp in SOLUTIONS (solutions.parquet) again with the independent verifier; writes
     OUT/verification.parquet with one row per start and its verification figures."""
-    table = stages.run_verify(
-        solutions, tasks_path, task, out, hand, object_path, grasp_config, fingers, object_options
-    )
-    click.echo(f"{int(table['verified'].sum())}/{len(table)} grasps verified; wrote {out}/verification.parquet")
+    options = stages.VerifyOptions(
+        solutions=solutions, out=out, tasks=tasks_path, task=task, hand=hand, object=object_path,
+        grasp_config=grasp_config, fingers=fingers, **object_options,
+    )  # fmt: skip
+    done = stages.run_verify(options)
+    click.echo(f"{done.verified}/{len(done.table)} grasps verified; wrote {done.path}")
 
 
 @main.command()
@@ -277,12 +277,12 @@ def physics(
     OUT/physics.parquet (one row per start: pass flags, the object's worst translation and rotation, the wrench
     that failed, the peak activation, the friction used and the hand's penetration) and
     OUT/physics_summary.json (pass rates and the 2x2 agreement with the analytic verifier)."""
-    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-    inputs = stages.PhysicsInputs(
-        solutions, tasks_path, task, hand, object_path, grasp_config, physics_config, fingers, controller, strength,
-        friction_scale,
+    options = stages.PhysicsOptions(
+        solutions=solutions, out=out, workers=workers, tasks=tasks_path, task=task, hand=hand, object=object_path,
+        grasp_config=grasp_config, physics_config=physics_config, fingers=fingers, controller=controller,
+        strength=strength, friction_scale=friction_scale,
     )  # fmt: skip
-    stages.run_physics(inputs, out, workers, echo=click.echo)
+    stages.run_physics(options, echo=click.echo)
     click.echo(f"wrote {out}/physics.parquet, physics_summary.json")
 
 
@@ -301,8 +301,11 @@ def export(solutions, out, tasks_path, task, every_start, hand, object_path, gra
     Blender, MeshLab and three.js open it) and OUT/optimum_NN.json (joint angles by the hand file's joint names,
     the palm pose as a 4x4 matrix, contacts and normals, the contact forces and activations or joint torques per
     task wrench, Q and the verifier's figures; schema in docs/grasp_record.schema.json)."""
-    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-    done = stages.run_export(solutions, out, tasks_path, task, hand, object_path, grasp_config, fingers, every_start)
+    options = stages.ExportOptions(
+        solutions=solutions, out=out, tasks=tasks_path, task=task, hand=hand, object=object_path,
+        grasp_config=grasp_config, fingers=fingers, every_start=every_start,
+    )  # fmt: skip
+    done = stages.run_export(options)
     click.echo(f"wrote {done.grasps} grasps to {out} (.glb and .json each, grasps.json), {done.verified_now} verified")
 
 

@@ -25,12 +25,12 @@ from grasptask.task.units import FORCE_UNITS, TIME_UNITS, TORQUE_UNITS
 if TYPE_CHECKING:
     from grasptask.report.browser_check import check_page, check_screenshot_path, find_chromium
     from grasptask.stages.fit_task import FitOptions, Preprocess, entries_from_inputs, run_fit_task
-    from grasptask.stages.grasp_export import run_export
+    from grasptask.stages.grasp_export import ExportOptions, ExportSummary, run_export
     from grasptask.stages.hand_description import HandDescription, describe_hand
     from grasptask.stages.html_report import ReportSummary, build_report
-    from grasptask.stages.physics_check import PhysicsInputs, run_physics
+    from grasptask.stages.physics_check import PhysicsOptions, run_physics
     from grasptask.stages.pipeline_file import run_pipeline_file
-    from grasptask.stages.reverify import run_verify
+    from grasptask.stages.reverify import VerifyOptions, VerifySummary, run_verify
     from grasptask.stages.simulated_recordings import run_simulate
     from grasptask.stages.synthesize import SweepInterrupted, SynthesisOptions, run_synthesize, summarise
     from grasptask.stages.task_distances import run_distances
@@ -49,15 +49,19 @@ _LAZY = {
     "run_synthesize": "grasptask.stages.synthesize",
     "summarise": "grasptask.stages.synthesize",
     "run_verify": "grasptask.stages.reverify",
+    "VerifyOptions": "grasptask.stages.reverify",
+    "VerifySummary": "grasptask.stages.reverify",
     "build_report": "grasptask.stages.html_report",
     "ReportSummary": "grasptask.stages.html_report",
     "check_page": "grasptask.report.browser_check",
     "check_screenshot_path": "grasptask.report.browser_check",
     "find_chromium": "grasptask.report.browser_check",
     "run_pipeline_file": "grasptask.stages.pipeline_file",
-    "PhysicsInputs": "grasptask.stages.physics_check",
+    "PhysicsOptions": "grasptask.stages.physics_check",
     "run_physics": "grasptask.stages.physics_check",
     "run_export": "grasptask.stages.grasp_export",
+    "ExportOptions": "grasptask.stages.grasp_export",
+    "ExportSummary": "grasptask.stages.grasp_export",
 }
 
 __all__ = [
@@ -72,11 +76,15 @@ __all__ = [
     "TIME_UNITS",
     "TORQUE_UNITS",
     "FitOptions",
-    "PhysicsInputs",
+    "ExportOptions",
+    "ExportSummary",
+    "PhysicsOptions",
     "Preprocess",
     "ReportSummary",
     "SweepInterrupted",
     "SynthesisOptions",
+    "VerifyOptions",
+    "VerifySummary",
     "build_report",
     "check_page",
     "check_screenshot_path",

@@ -51,25 +51,36 @@ def _chosen(solved: SolvedGrasps, solutions_path: Path, every_start: bool) -> tu
     return chosen, "optimum"
 
 
-def run_export(
-    solutions: str | Path,
-    out: str | Path,
-    tasks: str | Path | None = None,
-    task: str | None = None,
-    hand: str | Path | None = None,
-    object_path: str | Path | None = None,
-    grasp_config: str | Path | None = None,
-    fingers: tuple[str, ...] | None = None,
-    every_start: bool = False,
-) -> ExportSummary:
+@dataclass(frozen=True, kw_only=True)
+class ExportOptions:
+    """What to export: the distinct optima of ``solutions`` (or, with ``every_start``, each verified start);
+    every input left None is the one the sweep's ``run.json`` records, else the package's default."""
+
+    solutions: Path
+    out: Path
+    tasks: Path | None = None
+    task: str | None = None
+    hand: Path | None = None
+    object: Path | None = None
+    grasp_config: Path | None = None
+    fingers: tuple[str, ...] | None = None
+    every_start: bool = False
+
+    def __post_init__(self) -> None:
+        for name in ("solutions", "out"):
+            object.__setattr__(self, name, Path(getattr(self, name)))  # strings from a notebook are welcome
+
+
+def run_export(options: ExportOptions) -> ExportSummary:
     """Write ``out/<name>.glb`` and ``out/<name>.json`` for each distinct optimum (``optimum_07``) or, with
-    ``every_start``, each verified start (``start_017``), and ``out/grasps.json`` listing them. Inputs not
-    given are those the sweep's ``run.json`` records. Each grasp is verified again, for the contact forces and
-    activations per task wrench that the verifier's LP finds; the record says whether it still passes."""
-    solutions = Path(solutions)
+    ``every_start``, each verified start (``start_017``), and ``out/grasps.json`` listing them. Each grasp is
+    verified again, for the contact forces and activations per task wrench that the verifier's LP finds; the
+    record says whether it still passes."""
+    solutions, out, every_start = options.solutions, options.out, options.every_start
     sweep = Sweep.open(
-        solutions, tasks=tasks, task=task, hand=hand, object=object_path, grasp_config=grasp_config, fingers=fingers
-    )
+        solutions, tasks=options.tasks, task=options.task, hand=options.hand, object=options.object,
+        grasp_config=options.grasp_config, fingers=options.fingers,
+    )  # fmt: skip
     files, tasks_file, task_name, settings = sweep.files, sweep.tasks, sweep.task, sweep.settings
     chosen, kind = _chosen(sweep.solved, solutions, every_start)
     if not chosen:  # "wrote 0 grasps", exit 0, told the user nothing

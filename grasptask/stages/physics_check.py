@@ -26,12 +26,15 @@ from grasptask.progress import Progress
 from grasptask.records.sweeps import Sweep, SweepFiles
 
 
-@dataclass(frozen=True)
-class PhysicsInputs:
-    """The files one check is made from; ``None`` takes what the sweep of the solutions used (its
+@dataclass(frozen=True, kw_only=True)
+class PhysicsOptions:
+    """What one check is made from and where it goes; ``None`` takes what the sweep of the solutions used (its
     ``run.json``), else the package defaults."""
 
     solutions: Path
+    out: Path
+    #: simulation processes
+    workers: int = 1
     #: None: what the sweep's run.json names
     tasks: Path | None = None
     task: str | None = None
@@ -46,7 +49,7 @@ class PhysicsInputs:
     strength: float = 1.0
     friction_scale: float = 1.0
 
-    def resolved(self) -> PhysicsInputs:
+    def resolved(self) -> PhysicsOptions:
         used = SweepFiles.of(
             self.solutions, self.hand, self.object, self.grasp_config, self.fingers, self.tasks, self.task
         )
@@ -54,6 +57,7 @@ class PhysicsInputs:
         return replace(
             self,
             solutions=Path(self.solutions),
+            out=Path(self.out),
             tasks=tasks,
             task=task,
             hand=used.hand,
@@ -64,7 +68,7 @@ class PhysicsInputs:
         )
 
 
-def _judge_for(inputs: PhysicsInputs) -> Judge:
+def _judge_for(inputs: PhysicsOptions) -> Judge:
     """The judge of ``inputs`` (resolved): its grasps, task model, object, settings, strength and friction; the
     first grasp's scene built, so that a hand file MuJoCo cannot compile is one line before any worker starts."""
     assert inputs.hand is not None and inputs.object is not None and inputs.grasp_config is not None
@@ -97,13 +101,13 @@ def _check_in_worker(index: int) -> dict[str, Any]:
     return _worker.check(index)
 
 
-def run_physics(
-    inputs: PhysicsInputs, out: str | Path, workers: int = 1, echo: Callable[[str], Any] = print
-) -> pd.DataFrame:
-    """Check every solved grasp of ``inputs.solutions``; writes ``out/physics.parquet`` (one row per start),
+def run_physics(options: PhysicsOptions, echo: Callable[[str], Any] = print) -> pd.DataFrame:
+    """Check every solved grasp of ``options.solutions``; writes ``out/physics.parquet`` (one row per start),
     ``out/physics_summary.json`` and ``out/physics_trace.parquet`` (the best verified grasp's motion over the
     protocol), and returns the table."""
-    inputs = inputs.resolved()
+    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # inherited by the simulation processes
+    inputs = options.resolved()
+    out, workers = inputs.out, inputs.workers
     if not 1 <= workers <= MAX_WORKERS:
         raise BadInputError("physics", f"--workers must be from 1 to {MAX_WORKERS}, got {workers}")
     if inputs.strength <= 0 or inputs.friction_scale <= 0:
@@ -116,7 +120,7 @@ def run_physics(
 
 
 def _judge_all(
-    judge: Judge, inputs: PhysicsInputs, out: str | Path, workers: int, echo: Callable[[str], Any]
+    judge: Judge, inputs: PhysicsOptions, out: str | Path, workers: int, echo: Callable[[str], Any]
 ) -> pd.DataFrame:
     indices = list(range(len(judge.solved.rows)))
     counts = {"held": 0, "dropped": 0}

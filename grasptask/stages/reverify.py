@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -12,24 +13,54 @@ from grasptask.records.sweeps import Sweep
 from grasptask.verifier.verify import verify
 
 
-def run_verify(
-    solutions_path: str | Path,
-    tasks_path: str | Path | None,
-    task: str | None,
-    out: str | Path,
-    hand_path: str | Path | None = None,
-    object_path: str | Path | None = None,
-    grasp_config: str | Path | None = None,
-    fingers: tuple[str, ...] | None = None,
-    object_overrides: dict[str, Any] | None = None,
-) -> pd.DataFrame:
-    """Verify every row of ``solutions_path`` for ``task``; writes ``out/verification.parquet`` (one row per
-    start: ``verified``, ``verify_failures`` and the verifier's figures) and returns it. Every file left None is
-    the sweep's (its ``run.json``), else the package's default; ``fingers`` defaults to those the table holds
-    contacts of; ``object_overrides`` are --unit, --mass and --task-frame."""
+@dataclass(frozen=True, kw_only=True)
+class VerifyOptions:
+    """What to verify again, and against what: every input left None is the one the sweep's ``run.json``
+    records, else the package's default; ``fingers`` defaults to those the table holds contacts of."""
+
+    solutions: Path
+    out: Path
+    tasks: Path | None = None
+    task: str | None = None
+    hand: Path | None = None
+    object: Path | None = None
+    grasp_config: Path | None = None
+    fingers: tuple[str, ...] | None = None
+    #: what a bare mesh cannot say (--unit, --mass, --task-frame, --task-frame-outside); None: the object's own
+    unit: str | None = None
+    mass_kg: float | None = None
+    task_frame: str | None = None
+    task_frame_outside: bool | None = None
+
+    def __post_init__(self) -> None:
+        for name in ("solutions", "out"):
+            object.__setattr__(self, name, Path(getattr(self, name)))  # strings from a notebook are welcome
+
+    @property
+    def object_overrides(self) -> dict[str, Any]:
+        given = {"unit": self.unit, "mass_kg": self.mass_kg, "task_frame": self.task_frame,
+                 "task_frame_outside": self.task_frame_outside}  # fmt: skip
+        return {k: v for k, v in given.items() if v is not None}
+
+
+@dataclass(frozen=True)
+class VerifySummary:
+    """The verification table (one row per start: ``verified``, ``verify_failures``, the verifier's figures)
+    and where it was written."""
+
+    table: pd.DataFrame
+    path: Path
+
+    @property
+    def verified(self) -> int:
+        return int(self.table["verified"].sum())
+
+
+def run_verify(options: VerifyOptions) -> VerifySummary:
+    """Verify every row of ``options.solutions`` for its task; writes ``out/verification.parquet``."""
     sweep = Sweep.open(
-        solutions_path, tasks=tasks_path, task=task, hand=hand_path, object=object_path, grasp_config=grasp_config,
-        fingers=fingers, object_overrides=object_overrides,
+        options.solutions, tasks=options.tasks, task=options.task, hand=options.hand, object=options.object,
+        grasp_config=options.grasp_config, fingers=options.fingers, object_overrides=options.object_overrides,
     )  # fmt: skip
     obj = sweep.load_object(say=print)
     rows = []
@@ -43,9 +74,7 @@ def run_verify(
         rows.append(record)
     table = pd.DataFrame(rows)
     files = sweep.files
-    provenance = Provenance.of(
-        "verify", {"task": sweep.task}, [solutions_path, sweep.tasks, files.hand, files.object, files.grasp_config]
-    )
-    with StagedOutput(out, provenance) as staged:
+    inputs = [options.solutions, sweep.tasks, files.hand, files.object, files.grasp_config]
+    with StagedOutput(options.out, Provenance.of("verify", {"task": sweep.task}, inputs)) as staged:
         staged.write_parquet("verification.parquet", table)
-    return table
+    return VerifySummary(table, options.out / "verification.parquet")

@@ -284,6 +284,7 @@ def run_synthesize(options: SynthesisOptions, echo: Callable[[str], Any] = print
 
     Every input is checked, and a worker has built the model, before anything of an earlier sweep in the
     folder is touched; the folder is locked for the run."""
+    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # inherited by the solver processes
     prepared = _prepare(options)
     with folder_lock(options.folder, f"synthesize {options.task}"):
         log = options.folder / LOG_FILE
