@@ -215,3 +215,24 @@ class Sweep:
     def load_object(self, say: Callable[[str], Any] = lambda _: None) -> ImplicitObject:
         """The sweep's object; ``say`` hears what was repaired in a mesh (synthesize said it once already)."""
         return load_object(self.files.object, say=say, **self.object_overrides)
+
+
+@dataclass(frozen=True, kw_only=True)
+class SweepInputs:
+    """Which finished sweep a stage reads, and which of its inputs to replace: each left None is the one its
+    ``run.json`` records, else the package's default; ``fingers`` defaults to those the table holds contacts of.
+    The options of ``verify``, ``physics`` and ``export`` start from these."""
+
+    solutions: Path
+    tasks: Path | None = None
+    task: str | None = None
+    hand: Path | None = None
+    object: Path | None = None
+    grasp_config: Path | None = None
+    fingers: tuple[str, ...] | None = None
+
+    def open_sweep(self, object_overrides: dict[str, Any] | None = None) -> Sweep:
+        return Sweep.open(
+            self.solutions, tasks=self.tasks, task=self.task, hand=self.hand, object=self.object,
+            grasp_config=self.grasp_config, fingers=self.fingers, object_overrides=object_overrides,
+        )  # fmt: skip

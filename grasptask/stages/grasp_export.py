@@ -15,7 +15,7 @@ from grasptask.io.artifacts import Provenance, StagedOutput
 from grasptask.io.tables import read_table
 from grasptask.objects.object_files import object_files
 from grasptask.progress import progress
-from grasptask.records.sweeps import SolvedGrasps, Sweep
+from grasptask.records.sweeps import SolvedGrasps, SweepInputs
 from grasptask.verifier.verify import verify
 
 #: the object's picture in the GLB, in triangles: smooth to the eye, a few hundred kB
@@ -52,18 +52,11 @@ def _chosen(solved: SolvedGrasps, solutions_path: Path, every_start: bool) -> tu
 
 
 @dataclass(frozen=True, kw_only=True)
-class ExportOptions:
-    """What to export: the distinct optima of ``solutions`` (or, with ``every_start``, each verified start);
-    every input left None is the one the sweep's ``run.json`` records, else the package's default."""
+class ExportOptions(SweepInputs):
+    """What to export: the distinct optima of a sweep (:class:`SweepInputs`) or, with ``every_start``, each
+    verified start; and where to."""
 
-    solutions: Path
     out: Path
-    tasks: Path | None = None
-    task: str | None = None
-    hand: Path | None = None
-    object: Path | None = None
-    grasp_config: Path | None = None
-    fingers: tuple[str, ...] | None = None
     every_start: bool = False
 
     def __post_init__(self) -> None:
@@ -77,10 +70,7 @@ def run_export(options: ExportOptions) -> ExportSummary:
     verified again, for the contact forces and activations per task wrench that the verifier's LP finds; the
     record says whether it still passes."""
     solutions, out, every_start = options.solutions, options.out, options.every_start
-    sweep = Sweep.open(
-        solutions, tasks=options.tasks, task=options.task, hand=options.hand, object=options.object,
-        grasp_config=options.grasp_config, fingers=options.fingers,
-    )  # fmt: skip
+    sweep = options.open_sweep()
     files, tasks_file, task_name, settings = sweep.files, sweep.tasks, sweep.task, sweep.settings
     chosen, kind = _chosen(sweep.solved, solutions, every_start)
     if not chosen:  # "wrote 0 grasps", exit 0, told the user nothing

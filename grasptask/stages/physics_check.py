@@ -23,26 +23,17 @@ from grasptask.paths import DEFAULT_PHYSICS_CONFIG
 from grasptask.physics.judge import Judge, best_grasp_trace, write_physics_results
 from grasptask.physics.physics_settings import Controller, load_physics_settings
 from grasptask.progress import Progress
-from grasptask.records.sweeps import Sweep, SweepFiles
+from grasptask.records.sweeps import SweepFiles, SweepInputs
 
 
 @dataclass(frozen=True, kw_only=True)
-class PhysicsOptions:
-    """What one check is made from and where it goes; ``None`` takes what the sweep of the solutions used (its
-    ``run.json``), else the package defaults."""
+class PhysicsOptions(SweepInputs):
+    """What one check is made from (the sweep, :class:`SweepInputs`; its physics settings) and where it goes."""
 
-    solutions: Path
     out: Path
     #: simulation processes
     workers: int = 1
-    #: None: what the sweep's run.json names
-    tasks: Path | None = None
-    task: str | None = None
-    hand: Path | None = None
-    object: Path | None = None
-    grasp_config: Path | None = None
     physics_config: Path = DEFAULT_PHYSICS_CONFIG
-    fingers: tuple[str, ...] | None = None
     #: None: the physics config's controller
     controller: Controller | None = None
     #: the hand's actuators and the friction coefficient this many times the models' (the judge's own checks)
@@ -73,10 +64,7 @@ def _judge_for(inputs: PhysicsOptions) -> Judge:
     first grasp's scene built, so that a hand file MuJoCo cannot compile is one line before any worker starts."""
     assert inputs.hand is not None and inputs.object is not None and inputs.grasp_config is not None
     assert inputs.tasks is not None and inputs.task is not None, "resolved() first"
-    sweep = Sweep.open(
-        inputs.solutions, tasks=inputs.tasks, task=inputs.task, hand=inputs.hand, object=inputs.object,
-        grasp_config=inputs.grasp_config, fingers=inputs.fingers,
-    )  # fmt: skip
+    sweep = inputs.open_sweep()
     settings = load_physics_settings(inputs.physics_config)
     settings = replace(settings, controller=inputs.controller or settings.controller)
     friction = sweep.settings.friction_coefficient * inputs.friction_scale

@@ -9,23 +9,15 @@ from typing import Any
 import pandas as pd
 
 from grasptask.io.artifacts import Provenance, StagedOutput
-from grasptask.records.sweeps import Sweep
+from grasptask.records.sweeps import SweepInputs
 from grasptask.verifier.verify import verify
 
 
 @dataclass(frozen=True, kw_only=True)
-class VerifyOptions:
-    """What to verify again, and against what: every input left None is the one the sweep's ``run.json``
-    records, else the package's default; ``fingers`` defaults to those the table holds contacts of."""
+class VerifyOptions(SweepInputs):
+    """What to verify again (:class:`SweepInputs`), and where the table goes."""
 
-    solutions: Path
     out: Path
-    tasks: Path | None = None
-    task: str | None = None
-    hand: Path | None = None
-    object: Path | None = None
-    grasp_config: Path | None = None
-    fingers: tuple[str, ...] | None = None
     #: what a bare mesh cannot say (--unit, --mass, --task-frame, --task-frame-outside); None: the object's own
     unit: str | None = None
     mass_kg: float | None = None
@@ -58,10 +50,7 @@ class VerifySummary:
 
 def run_verify(options: VerifyOptions) -> VerifySummary:
     """Verify every row of ``options.solutions`` for its task; writes ``out/verification.parquet``."""
-    sweep = Sweep.open(
-        options.solutions, tasks=options.tasks, task=options.task, hand=options.hand, object=options.object,
-        grasp_config=options.grasp_config, fingers=options.fingers, object_overrides=options.object_overrides,
-    )  # fmt: skip
+    sweep = options.open_sweep(options.object_overrides)
     obj = sweep.load_object(say=print)
     rows = []
     for row, grasp in sweep.rows:
