@@ -74,7 +74,7 @@ class Inspection:
     def hand_jacobian(self) -> np.ndarray:
         return hand_jacobian(self.jacobians)
 
-    @property
+    @cached_property
     def tangents(self) -> np.ndarray:
         """Each pad's own tangent (the distal phalanx's axis for a human finger), which orients its friction cone
         as eq. 24 attaches it to the finger frame."""
