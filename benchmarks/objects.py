@@ -108,14 +108,15 @@ def check_prerequisites(objects: list[str]) -> None:
 
 
 def build_seconds(path: Path, tasks: Path, task: str, solver: Path) -> float:
-    """One worker's models, built in this process with the sweep's solver config, as a pool worker builds them."""
+    """The object loaded and one worker's models built, in this process with the sweep's solver config: what a
+    sweep does before its first start."""
     from grasptask.grasp.grasp_settings import load_grasp_settings
     from grasptask.synthesis.context import Job, SolverContext
     from grasptask.synthesis.solver_config import load_solver_config
 
-    job = Job(str(ROOT / "configs/hands/human.yaml"), str(path), str(tasks), task, solver=load_solver_config(solver),
-              settings=load_grasp_settings())  # fmt: skip
     began = time.perf_counter()
+    job = Job.from_files(str(ROOT / "configs/hands/human.yaml"), str(path), str(tasks), task,
+                         solver=load_solver_config(solver), settings=load_grasp_settings())  # fmt: skip
     SolverContext(job)
     return time.perf_counter() - began
 

@@ -20,7 +20,7 @@ def context(tasks):
     # the shipped seconds per solve: the start below must converge, also on a machine half as fast
     solver = replace(unhurried_solver(), geometric_iterations=5, torque_axes=4)
     return SolverContext(
-        Job(
+        Job.from_files(
             str(DEFAULT_HAND),
             "configs/objects/tool.yaml",
             str(tasks),
@@ -108,7 +108,7 @@ def test_the_phase_runs_longer_where_the_turn_is_held(tasks):
     solver = replace(fast, geometric_iterations=5, held_geometric_iterations=7, hold_axis_rotation=0.1)
     caps = {}
     for task in ("drawing", "cutting"):
-        job = Job(
+        job = Job.from_files(
             str(DEFAULT_HAND), "configs/objects/tool.yaml", str(tasks), task, solver=solver, settings=GraspSettings()
         )
         context = SolverContext(job)

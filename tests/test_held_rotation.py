@@ -125,7 +125,7 @@ def test_a_held_start_solves_verifies_and_keeps_its_turn(tasks):
 
     solver = replace(unhurried_solver(), hold_axis_rotation=0.1)
     context = SolverContext(
-        Job(
+        Job.from_files(
             str(DEFAULT_HAND),
             "configs/objects/tool.yaml",
             str(tasks),

@@ -207,7 +207,7 @@ def test_a_mesh_gives_verified_grasps_end_to_end(cli, simulated, tmp_path):
     tasks = simulated[0] / "tasks" / "task_models.json"
     solver = load_solver_config("configs/solver.yaml")
     context = SolverContext(
-        Job(
+        Job.from_files(
             "configs/hands/human.yaml",
             "configs/objects/mug.yaml",
             str(tasks),
@@ -257,7 +257,7 @@ def test_the_verifiers_feedback_turns_a_narrow_miss_into_a_verified_grasp(simula
     settings.write_text("cone_edges: 4\n")
     contexts = {
         rounds: SolverContext(
-            Job(
+            Job.from_files(
                 hand,
                 bottle,
                 tasks,

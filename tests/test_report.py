@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import re
+from dataclasses import replace
 from pathlib import Path
 
 import pandas as pd
@@ -246,18 +247,18 @@ def test_a_folder_with_nothing_to_report_is_one_line(cli, tmp_path):
 
 def test_the_paper_is_compared_only_on_its_own_setup(full_report):
     """A ball's Q beside the paper's tool's said nothing: no paper column for another object."""
-    from grasptask.paths import DEFAULT_HAND, DEFAULT_OBJECT
-    from grasptask.report.inputs import SweepResult
+    from grasptask.paths import DEFAULT_GRASP_CONFIG, DEFAULT_HAND, DEFAULT_OBJECT
+    from grasptask.records.sweeps import SweepFiles
+    from grasptask.report.inputs import paper_setup
 
     results, summary = full_report
     tables = results / "report" / "tables"
     header = [(tables / f"{name}.md").read_text().splitlines()[2] for name in ("grasp_quality", "synthesis_sweeps")]
     assert all("|" in line and "paper" not in line for line in header)
-    run = {"hand": str(DEFAULT_HAND), "object": str(DEFAULT_OBJECT)}
-    empty = pd.DataFrame()
-    assert SweepResult("drawing", results, run, empty, empty).paper_setup
-    assert not SweepResult("juggling", results, run, empty, empty).paper_setup
-    assert not SweepResult("drawing", results, {**run, "object": "ball.yaml"}, empty, empty).paper_setup
+    files = SweepFiles(DEFAULT_HAND, DEFAULT_OBJECT, DEFAULT_GRASP_CONFIG, None, None, "drawing")
+    assert paper_setup(files)
+    assert not paper_setup(replace(files, task="juggling"))
+    assert not paper_setup(replace(files, object=Path("ball.yaml")))
 
 
 def test_a_grasp_has_one_q_in_its_view_and_its_table(full_report):

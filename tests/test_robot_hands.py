@@ -323,7 +323,7 @@ def test_each_hand_holds_each_task_within_a_few_starts(simulated, hand_name, tas
     paper = (hand_name, task) in WITHOUT_MARGIN
     settings = load_grasp_settings("configs/grasp_paper.yaml") if paper else GraspSettings()
     context = SolverContext(
-        Job(str(path), "configs/objects/tool.yaml", str(tasks), task, solver=solver, fingers=fingers,
+        Job.from_files(str(path), "configs/objects/tool.yaml", str(tasks), task, solver=solver, fingers=fingers,
             settings=settings)
     )  # fmt: skip
     tried = []
@@ -356,7 +356,7 @@ def test_a_start_the_verifier_rejects_is_solved_again_from_an_opened_hand(simula
     # (docs/design/margins.md)
     paper = load_grasp_settings("configs/grasp_paper.yaml")
     context = SolverContext(
-        Job(str(BARRETT), "configs/objects/tool.yaml", tasks, "screwdriving", solver=solver, settings=paper)
+        Job.from_files(str(BARRETT), "configs/objects/tool.yaml", tasks, "screwdriving", solver=solver, settings=paper)
     )
     starts = make_starts(context.bounds)
     # end-on starts (palm normal within 37 degrees of the handle), in order: which of them fail from mid-range
@@ -373,7 +373,7 @@ def test_a_start_the_verifier_rejects_is_solved_again_from_an_opened_hand(simula
     start_id, row = rescued
     assert row["seconds"] > row["first_attempt_seconds"] > 0 and row["iterations"] > 0
     once = SolverContext(
-        Job(
+        Job.from_files(
             str(BARRETT),
             "configs/objects/tool.yaml",
             tasks,

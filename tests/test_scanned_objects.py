@@ -296,7 +296,7 @@ def test_a_scan_as_published_gives_a_verified_grasp_in_its_default_frame(simulat
     shapes = {"marker": lambda: rod(radius=0.009), "rod": rod, "cup": cup, "box": box}
     path = write_textured_obj(shapes[shape](), tmp_path / shape / "textured.obj")
     tasks = str(simulated[0] / "tasks" / "task_models.json")
-    job = Job(
+    job = Job.from_files(
         "configs/hands/human.yaml",
         str(path),
         tasks,

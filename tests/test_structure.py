@@ -146,3 +146,15 @@ def test_no_two_modules_share_a_name_and_none_is_named_as_a_package():
     packages = {p.name for p in Path("grasptask").iterdir() if (p / "__init__.py").is_file()}
     assert sorted({n for n in names if names.count(n) > 1}) == []
     assert sorted(set(names) & packages) == []
+
+
+def test_only_the_run_record_module_names_the_run_record_file():
+    """A sweep's run.json is read in one place (records.run_record, imported by the sweep reader and written by
+    synthesize: an import-linter contract); a path built from the bare name anywhere else would be a second
+    reader."""
+    naming = []
+    for module in Path("grasptask").rglob("*.py"):
+        for node in ast.walk(ast.parse(module.read_text())):
+            if isinstance(node, ast.Constant) and node.value == "run.json":
+                naming.append(str(module))
+    assert naming == ["grasptask/records/run_record.py"]

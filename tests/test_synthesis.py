@@ -379,7 +379,7 @@ def test_a_grasp_the_left_out_axes_reject_is_solved_again_with_all_of_them(tasks
 
     solver = replace(load_solver_config(FAST), torque_axes=1, retry_postures=(), feedback_rounds=0)
     context = SolverContext(
-        Job(
+        Job.from_files(
             str(DEFAULT_HAND),
             "configs/objects/tool.yaml",
             str(tasks),
@@ -411,7 +411,7 @@ def test_attempts_start_from_the_first_posture_then_each_retry_posture(tasks, mo
     solver = replace(load_solver_config(FAST), first_posture=0.25, retry_postures=(0.25, 0.5, 0.1))
     assert solver.postures == (0.25, 0.5, 0.1)
     context = SolverContext(
-        Job(
+        Job.from_files(
             str(DEFAULT_HAND),
             "configs/objects/tool.yaml",
             str(tasks),
@@ -433,3 +433,23 @@ def test_attempts_start_from_the_first_posture_then_each_retry_posture(tasks, mo
     assert row["attempts"] == 2 and row["seconds"] == 2 and not row["first_attempt_verified"]
     np.testing.assert_allclose(tried[0], hand.posture(0.25))
     np.testing.assert_allclose(tried[1], hand.mid_range())
+
+
+def test_a_worker_loads_nothing_the_sweep_loaded_already(tasks, monkeypatch):
+    """The hand (a published one's sphere cover takes 8.6 s to fit), the object and the task model come to a
+    worker by value, as the sweep loaded them: building a worker's context reads no file."""
+    import pickle
+
+    from grasptask.synthesis import context as worker
+    from grasptask.synthesis.context import Job, SolverContext
+
+    job = Job.from_files(DEFAULT_HAND, "configs/objects/tool.yaml", tasks, "drawing", settings=GraspSettings())
+    job = pickle.loads(pickle.dumps(job))  # as a spawned worker or a Dask worker receives it
+
+    def refused(*_, **__):
+        raise AssertionError("a worker loaded an input again")
+
+    for name in ("load_hand", "load_object", "load_task_models"):
+        monkeypatch.setattr(worker, name, refused)
+    built = SolverContext(job)
+    assert built.hand is not None and built.task.name == "drawing" and built.size["variables"] > 0

@@ -54,7 +54,7 @@ def fingerprint(tasks_path: Path, n_starts: int = 12, seed: int = 0, nl_dir: Pat
             nl_dir.mkdir(parents=True, exist_ok=True)
             (nl_dir / f"{task}.nl").write_text(text)
         print(f"{task}: NL sha256 {nl[task][:16]}", flush=True)
-    job = Job(
+    job = Job.from_files(
         hand_path=str(DEFAULT_HAND),
         object_path=str(DEFAULT_OBJECT),
         tasks_path=str(tasks_path),

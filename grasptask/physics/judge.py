@@ -6,7 +6,6 @@ into its summary, its 2x2 agreement with the analytic verifier and the best gras
 from __future__ import annotations
 
 from dataclasses import dataclass
-from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -14,7 +13,6 @@ import pandas as pd
 
 from grasptask.grasp.grasp_pose import Grasp
 from grasptask.io.artifacts import StagedOutput
-from grasptask.objects import load_object
 from grasptask.physics.physics_settings import PhysicsSettings
 
 if TYPE_CHECKING:
@@ -65,12 +63,11 @@ class Judge:
         cls,
         solved: SolvedGrasps,
         task: TaskModel,
-        object_path: Path,
+        obj: ImplicitObject,
         friction: float,
         settings: PhysicsSettings,
         strength: float = 1.0,
     ) -> Judge:
-        obj = load_object(object_path, say=lambda _: None)
         return cls(solved, task, Holding.of(obj, friction, settings, strength))
 
     def check_scene(self) -> None:

@@ -1,13 +1,14 @@
 """A sweep read back: the files a solutions table was made from, and its rows as grasps of a hand.
 
-The grasp-record layer, above the hand, the objects and the task: ``verify``, ``physics`` and ``export`` open a
-finished sweep through :meth:`Sweep.open`, so that each input is read once, the same way, and none of those
-stages imports another."""
+The grasp-record layer, above the hand, the objects and the task: ``verify``, ``physics``, ``export`` and the
+report open a finished sweep through :meth:`Sweep.open`, so that each input is read once, the same way, and
+none of those stages imports another."""
 
 from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from functools import cached_property
 from pathlib import Path
 from typing import Any
 
@@ -17,34 +18,38 @@ from grasptask.errors import BadInputError
 from grasptask.grasp.grasp_pose import Grasp
 from grasptask.grasp.grasp_settings import GraspSettings, load_grasp_settings
 from grasptask.hand import load_hand
-from grasptask.hand.hand_model import GraspingHand
-from grasptask.io.config_schema import read_json
+from grasptask.hand.hand_model import GraspingHand, Hand
+from grasptask.io.sweep_log import read_log
 from grasptask.io.tables import read_table
 from grasptask.objects import load_object
 from grasptask.objects.surface import ImplicitObject
 from grasptask.paths import DEFAULT_GRASP_CONFIG, DEFAULT_HAND, DEFAULT_OBJECT, ROOT
+from grasptask.records.run_record import RUN_FILE, read_run, run_file, summarised_rows
 from grasptask.records.solutions import fingers_in, grasp_from_row, implausible_column, joint_columns
 from grasptask.task.task_model import TaskModel, load_task_model
+
+#: the tables a sweep's folder holds beside its run record
+SOLUTIONS, OPTIMA, LOG = "solutions.parquet", "optima.parquet", "solutions.jsonl"
 
 
 @dataclass(frozen=True)
 class SweepFiles:
     """The inputs a solutions table was made from: as given, else as its sweep's ``run.json`` records them,
-    else the package defaults (no default for the task models and the task)."""
+    else the package defaults (no default for the task models; the task defaults to the sweep's folder's name,
+    as ``synthesize --out X`` writes ``X/<task>/``)."""
 
     hand: Path
     object: Path
     grasp_config: Path
     fingers: tuple[str, ...] | None
     tasks: Path | None
-    task: str | None
+    task: str
 
-    def named_task(self, solutions: str | Path) -> tuple[Path, str]:
-        """The task models and the task, given or from run.json; one line when neither names them."""
-        if self.tasks is None or self.task is None:
-            message = "no run.json beside it names the task models and the task: give --tasks, --task"
-            raise BadInputError(solutions, message)
-        return self.tasks, self.task
+    def task_models(self, solutions: str | Path) -> Path:
+        """The task models, given or from run.json; one line when neither names them."""
+        if self.tasks is None:
+            raise BadInputError(solutions, "no run.json beside it names the task models: give --tasks")
+        return self.tasks
 
     @classmethod
     def of(
@@ -57,36 +62,26 @@ class SweepFiles:
         tasks: str | Path | None = None,
         task: str | None = None,
     ) -> SweepFiles:
-        run_file = Path(solutions).parent / "run.json"
-        used = read_json(run_file) if run_file.is_file() else {}
+        folder = Path(solutions).parent
+        used = read_run(folder)
+        swept = used.get("task")
+        if task is not None and swept is not None and swept != task:  # judged under another task's wrenches
+            raise BadInputError(run_file(folder), f"the sweep is of task '{swept}', not '{task}' (--task)")
 
         def pick(given: str | Path | None, key: str, default: Path | None) -> Path | None:
             if given is not None:
                 return Path(given)
-            chosen = used.get(key, default)
-            if chosen is not None and not isinstance(chosen, (str, Path)):
-                raise BadInputError(run_file, f"field '{key}' must be a path, got {chosen!r}")
-            return None if chosen is None else recorded_path(Path(chosen), run_file.parent)
+            chosen = used.get(key)
+            return default if chosen is None else recorded_path(Path(chosen), folder)
 
         recorded = used.get("fingers")
-        if recorded is not None and not (isinstance(recorded, list) and all(isinstance(f, str) for f in recorded)):
-            raise BadInputError(run_file, f"field 'fingers' must be a list of finger names, got {recorded!r}")
-        if task is None and not isinstance(used.get("task", ""), str):
-            raise BadInputError(run_file, f"field 'task' must be a name, got {used['task']!r}")
-        swept = used.get("task")
-        if task is not None and isinstance(swept, str) and swept != task:  # judged under another task's wrenches
-            raise BadInputError(run_file, f"the sweep is of task '{swept}', not '{task}' (--task)")
-
-        hand_path, object_path = pick(hand, "hand", DEFAULT_HAND), pick(object, "object", DEFAULT_OBJECT)
-        config = pick(grasp_config, "grasp_config", DEFAULT_GRASP_CONFIG)
-        assert hand_path is not None and object_path is not None and config is not None
         return cls(
-            hand=hand_path,
-            object=object_path,
-            grasp_config=config,
+            hand=pick(hand, "hand", DEFAULT_HAND) or DEFAULT_HAND,
+            object=pick(object, "object", DEFAULT_OBJECT) or DEFAULT_OBJECT,
+            grasp_config=pick(grasp_config, "grasp_config", DEFAULT_GRASP_CONFIG) or DEFAULT_GRASP_CONFIG,
             fingers=fingers or (tuple(recorded) if recorded else None),
             tasks=pick(tasks, "tasks", None),
-            task=task if task is not None else used.get("task"),
+            task=task or swept or folder.resolve().name,
         )
 
 
@@ -110,16 +105,28 @@ class SolvedGrasps:
     hand: GraspingHand
     rows: list[tuple[dict, Grasp | None]]
 
+    @classmethod
+    def of(cls, solutions: pd.DataFrame, hand: GraspingHand, path: str | Path = "solutions") -> SolvedGrasps:
+        """Each row of ``solutions`` as a grasp of ``hand``; an implausible value is one line naming the row
+        and column of ``path``."""
+        rows: list[tuple[dict, Grasp | None]] = []
+        for number, row in enumerate(solutions.to_dict("records"), start=1):
+            if pd.isna(row.get("palm_x")):
+                rows.append((row, None))
+                continue
+            wrong = implausible_column(row, hand.joint_names)
+            if wrong is not None:
+                raise BadInputError(path, f"not a plausible value: {row[wrong]!r}", row=number, column=wrong)
+            rows.append((row, grasp_from_row(row, hand.joint_names)))
+        return cls(hand, rows)
 
-def read_grasps(
-    solutions_path: str | Path, hand_path: str | Path, fingers: tuple[str, ...] | None = None
-) -> SolvedGrasps:
-    """Every start of ``solutions_path`` as a grasp of ``hand_path``'s ``fingers`` (default: those the table
-    holds contacts of); a table from another hand, or with an implausible value, is one line naming the
+
+def read_grasps(solutions_path: str | Path, whole: Hand, fingers: tuple[str, ...] | None = None) -> SolvedGrasps:
+    """Every start of ``solutions_path`` as a grasp of the hand ``whole``'s ``fingers`` (default: those the
+    table holds contacts of); a table from another hand, or with an implausible value, is one line naming the
     column (and row)."""
     solutions_path = Path(solutions_path)
     solutions = read_table(solutions_path, ("start_id", "palm_x", "palm_r00"))
-    whole = load_hand(hand_path)
     chosen = list(fingers) if fingers else fingers_in(list(solutions.columns), list(whole.fingers))
     if len(chosen) < 2:
         raise BadInputError(solutions_path, f"holds contacts of fewer than two of hand '{whole.name}''s fingers")
@@ -147,29 +154,36 @@ def read_grasps(
         raise BadInputError(
             solutions_path, f"must hold true or false, not {solutions['verified'].dtype} values", column="verified"
         )
-    rows: list[tuple[dict, Grasp | None]] = []
-    for number, row in enumerate(solutions.to_dict("records"), start=1):
-        if pd.isna(row["palm_x"]):
-            rows.append((row, None))
-            continue
-        wrong = implausible_column(row, hand.joint_names)
-        if wrong is not None:
-            raise BadInputError(solutions_path, f"not a plausible value: {row[wrong]!r}", row=number, column=wrong)
-        rows.append((row, grasp_from_row(row, hand.joint_names)))
-    return SolvedGrasps(hand, rows)
+    if "seconds" in solutions.columns:  # a failed start has no time
+        check_numbers(solutions_path, solutions, ["seconds"], missing_ok=True)
+    return SolvedGrasps.of(solutions, hand, solutions_path)
+
+
+def check_numbers(path: str | Path, table: pd.DataFrame, columns: list[str], missing_ok: bool) -> None:
+    """One line naming the row and column of the first value in ``columns`` that is not a finite number (a
+    missing one allowed where ``missing_ok``)."""
+    for column in columns:
+        if not pd.api.types.is_numeric_dtype(table[column]) or pd.api.types.is_bool_dtype(table[column]):
+            raise BadInputError(path, f"must hold numbers, not {table[column].dtype} values", column=column)
+        values = table[column].astype(float)
+        bad = values.isin([float("inf"), float("-inf")])
+        if not missing_ok:
+            bad |= values.isna()
+        if bad.any():
+            row = int(bad.to_numpy().argmax())
+            raise BadInputError(path, f"not a finite number: {table[column].iloc[row]!r}", row=row + 1, column=column)
 
 
 @dataclass(frozen=True)
 class Sweep:
-    """A finished sweep, opened once: the files it was made from, its task model, the grasp settings, and every
-    start's row and grasp of the grasping hand. The object is loaded when asked for (a mesh's repair or a GP's
-    fit takes seconds, and not every reader needs it)."""
+    """A finished sweep, opened once: the files it was made from, its run record, the grasp settings, and every
+    start's row and grasp of the grasping hand. The task model, the optima table and the object are read when
+    asked for (a mesh's repair or a GP's fit takes seconds, and not every reader needs each)."""
 
     solutions: Path
     files: SweepFiles
-    tasks: Path
-    task: str
-    task_model: TaskModel
+    #: what run.json records ({} for a table with none beside it)
+    run: dict[str, Any]
     settings: GraspSettings
     solved: SolvedGrasps
     #: --unit, --mass, --task-frame and --task-frame-outside for the object, where given
@@ -187,22 +201,43 @@ class Sweep:
         grasp_config: str | Path | None = None,
         fingers: tuple[str, ...] | None = None,
         object_overrides: dict[str, Any] | None = None,
+        hands: dict[Path, Hand] | None = None,
     ) -> Sweep:
         """The sweep of ``solutions``: every input left None is the one its ``run.json`` records, else the
-        package's default; ``fingers`` defaults to those the table holds contacts of. A missing or malformed
-        input is one line naming the file and the field."""
+        package's default; ``fingers`` defaults to those the table holds contacts of. ``hands``: hands already
+        loaded, by path (a mesh hand's cover takes seconds). A missing or malformed input is one line naming the
+        file and the field."""
         files = SweepFiles.of(solutions, hand, object, grasp_config, fingers, tasks, task)
-        tasks_file, task_name = files.named_task(solutions)
+        hands = {} if hands is None else hands
+        whole = hands.get(files.hand) or hands.setdefault(files.hand, load_hand(files.hand))
         return cls(
             Path(solutions),
             files,
-            tasks_file,
-            task_name,
-            load_task_model(tasks_file, task_name),
+            read_run(Path(solutions).parent),
             load_grasp_settings(files.grasp_config),
-            read_grasps(solutions, files.hand, files.fingers),
+            read_grasps(solutions, whole, files.fingers),
             dict(object_overrides or {}),
         )
+
+    @property
+    def folder(self) -> Path:
+        return self.solutions.parent
+
+    @property
+    def run_file(self) -> Path:
+        return run_file(self.folder)
+
+    @property
+    def task(self) -> str:
+        return self.files.task
+
+    @property
+    def tasks(self) -> Path:
+        return self.files.task_models(self.solutions)
+
+    @cached_property
+    def task_model(self) -> TaskModel:
+        return load_task_model(self.tasks, self.task)
 
     @property
     def hand(self) -> GraspingHand:
@@ -212,9 +247,55 @@ class Sweep:
     def rows(self) -> list[tuple[dict, Grasp | None]]:
         return self.solved.rows
 
+    @cached_property
+    def table(self) -> pd.DataFrame:
+        """The solutions table, every start a row, as a frame."""
+        return pd.DataFrame([row for row, _ in self.rows])
+
+    @cached_property
+    def optima(self) -> pd.DataFrame:
+        """The sweep's distinct verified optima (``optima.parquet`` beside it), best first; a table of another
+        hand, or with a value that is not a finite number, is one line naming the column."""
+        path = self.folder / OPTIMA
+        optima = read_table(path)
+        hand = self.hand
+        wanted = [*joint_columns(hand.joint_names), *(f"contact_{f}_x" for f in hand.fingers)]
+        absent = next((c for c in wanted if c not in optima.columns), None)
+        if not optima.empty and absent is not None:
+            raise BadInputError(
+                path, f"not a table of hand '{hand.name}' ({self.files.hand}): fingers {list(hand.fingers)}, no "
+                f"column '{absent}'",
+            )  # fmt: skip
+        numeric = [c for c in optima.columns if c.startswith(("palm_", "q_", "contact_", "normal_")) or c == "Q"]
+        check_numbers(path, optima, numeric + (["verify_Q"] if "verify_Q" in optima.columns else []), False)
+        return optima
+
     def load_object(self, say: Callable[[str], Any] = lambda _: None) -> ImplicitObject:
         """The sweep's object; ``say`` hears what was repaired in a mesh (synthesize said it once already)."""
         return load_object(self.files.object, say=say, **self.object_overrides)
+
+
+def finished_sweeps(root: str | Path) -> list[Path]:
+    """The folders under ``root`` that hold a finished sweep (a run record beside its solutions), at any depth,
+    not in hidden folders (a stage's staging folder)."""
+    return _beside_a_sweep(Path(root), RUN_FILE)
+
+
+def unfinished_sweeps(root: str | Path) -> list[Path]:
+    """The folders under ``root`` whose per-start log holds rows that no run record summarises: a sweep
+    interrupted or still running (with or without the run record of an earlier, finished sweep)."""
+    return [f for f in _beside_a_sweep(Path(root), LOG) if summarised_rows(f) != len(read_log(f / LOG).rows)]
+
+
+def _beside_a_sweep(root: Path, name: str) -> list[Path]:
+    found = []
+    for path in root.rglob(name):
+        inside = path.parent.relative_to(root).parts
+        if any(part.startswith(".") for part in inside):
+            continue
+        if any((path.parent / kept).is_file() for kept in (SOLUTIONS, LOG)):
+            found.append(path.parent)
+    return sorted(found)
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -22,30 +22,19 @@ import pandas as pd
 
 from grasptask.errors import BadInputError
 from grasptask.io.config_schema import read_json
-from grasptask.io.sweep_log import read_log
 from grasptask.io.tables import read_table
 from grasptask.paths import DEFAULT_HAND, DEFAULT_OBJECT
 from grasptask.physics.judge import TRACE_COLUMNS
+from grasptask.records.sweeps import SOLUTIONS, Sweep, SweepFiles, finished_sweeps, unfinished_sweeps
 
 
-@dataclass(frozen=True)
-class SweepResult:
-    """One task's synthesis output: ``run.json`` and its solutions and optima tables."""
-
-    task: str
-    folder: Path
-    run: dict
-    solutions: pd.DataFrame
-    optima: pd.DataFrame
-
-    @property
-    def paper_setup(self) -> bool:
-        """Whether the paper's figures apply: one of its tasks, by the human hand, on its tool. A sugar box's Q
-        beside the paper's tool's says nothing."""
-        hand, obj = Path(str(self.run.get("hand", ""))), Path(str(self.run.get("object", "")))
-        human = hand.parent.resolve() == DEFAULT_HAND.parent.resolve() and hand.name.startswith("human")
-        tool = obj.is_file() and obj.resolve() == DEFAULT_OBJECT.resolve()
-        return self.task in ("drawing", "cutting", "screwdriving") and human and tool
+def paper_setup(files: SweepFiles) -> bool:
+    """Whether the paper's figures apply to a sweep of ``files``: one of its tasks, by the human hand, on its
+    tool. A sugar box's Q beside the paper's tool's says nothing."""
+    hand, obj = files.hand, files.object
+    human = hand.parent.resolve() == DEFAULT_HAND.parent.resolve() and hand.name.startswith("human")
+    tool = obj.is_file() and obj.resolve() == DEFAULT_OBJECT.resolve()
+    return files.task in ("drawing", "cutting", "screwdriving") and human and tool
 
 
 @dataclass(frozen=True)
@@ -101,26 +90,15 @@ class ResultsFolder:
     def physics(self) -> Path:
         return self.root / "physics"
 
-    def _task_folders_with(self, name: str) -> list[Path]:
-        """The folders under the root holding ``name`` beside a sweep's log or table, at any depth (not in hidden
-        folders: a stage's staging folder)."""
-        found = []
-        for path in self.root.rglob(name):
-            inside = path.parent.relative_to(self.root).parts
-            if any(part.startswith(".") for part in inside):
-                continue
-            if any((path.parent / kept).is_file() for kept in ("solutions.parquet", "solutions.jsonl")):
-                found.append(path.parent)
-        return sorted(found)
-
     def sweep_folders(self) -> list[Path]:
-        """The folders that a sweep has finished (``run.json`` beside its solutions), at any depth."""
-        return self._task_folders_with("run.json")
+        """The folders that a sweep has finished, at any depth."""
+        return finished_sweeps(self.root)
 
     def physics_folders(self) -> list[Path]:
         """Folders of ``grasptask physics`` under the root (``physics_summary.json`` not beside a sweep)."""
         found = [p.parent for p in self.root.rglob("physics_summary.json")]
-        return sorted(f for f in found if not (f / "run.json").is_file() and not _hidden(f, self.root))
+        sweeps = set(self.sweep_folders())
+        return sorted(f for f in found if f not in sweeps and not _hidden(f, self.root))
 
     def export_folders(self) -> list[Path]:
         """Folders of ``grasptask export`` under the root (``grasps.json``)."""
@@ -132,17 +110,8 @@ class ResultsFolder:
         return bool(found or any(p.is_file() for p in laid_out))
 
     def unfinished_sweeps(self) -> list[Path]:
-        """Task folders whose per-start log holds rows that no summary includes: a sweep interrupted or still
-        running (with or without the run.json of an earlier, finished sweep)."""
-        unfinished = []
-        for folder in self._task_folders_with("solutions.jsonl"):
-            try:
-                summarised = json.loads((folder / "run.json").read_text()).get("log_rows")
-            except (OSError, ValueError, AttributeError):
-                summarised = None
-            if summarised != len(read_log(folder / "solutions.jsonl").rows):
-                unfinished.append(folder)
-        return unfinished
+        """Sweeps interrupted or still running, at any depth."""
+        return unfinished_sweeps(self.root)
 
 
 def _hidden(folder: Path, root: Path) -> bool:
@@ -157,9 +126,9 @@ def find_results(root: str | Path) -> ResultsFolder:
     results = ResultsFolder(root)
     if not results.task_models.is_file():  # a synthesize --out folder: the models its sweeps were made for
         for folder in results.sweep_folders():
-            named = read_json(folder / "run.json").get("tasks")
-            if isinstance(named, str) and Path(named).is_file():
-                results = ResultsFolder(root, Path(named))
+            named = SweepFiles.of(folder / SOLUTIONS).tasks
+            if named is not None and named.is_file():
+                results = ResultsFolder(root, named)
                 break
     if not results.holds_anything():
         raise BadInputError(
@@ -170,54 +139,12 @@ def find_results(root: str | Path) -> ResultsFolder:
     return results
 
 
-#: what the report reads of run.json, and the types it must have
-RUN_FIELDS: dict[str, type | tuple[type, ...]] = {
-    "task": str,
-    "hand": str,
-    "object": str,
-    "grasp_config": str,
-    "model_size": (dict, type(None)),
-}
-
-
-def read_sweep(folder: Path) -> SweepResult:
-    run = read_json(folder / "run.json")
-    for name, kind in RUN_FIELDS.items():
-        if name in run and not isinstance(run[name], kind):
-            raise BadInputError(folder / "run.json", f"field '{name}' has the wrong type: {run[name]!r}")
-    size = run.get("model_size") or {}
-    if not all(isinstance(size.get(k), int) for k in ("variables", "constraints")) and size:
-        raise BadInputError(folder / "run.json", f"field 'model_size' must hold two counts, got {size!r}")
-    solutions = read_table(folder / "solutions.parquet", ("start_id", "status", "seconds", "verified"))
-    _check_numbers(folder / "solutions.parquet", solutions, ["seconds"], missing_ok=True)
-    optima = read_table(folder / "optima.parquet")
-    numeric = [c for c in optima.columns if c.startswith(("palm_", "q_", "contact_", "normal_")) or c == "Q"]
-    numeric += ["verify_Q"] if "verify_Q" in optima.columns else []
-    _check_numbers(folder / "optima.parquet", optima, numeric, missing_ok=False)
-    return SweepResult(str(run.get("task", folder.name)), folder, run, solutions, optima)
-
-
 def verifier_q(optimum: Any) -> float:
     """The verifier's Q of an optimum (a row of ``optima.parquet``) as synthesis recorded it, the NLP's own where
     an older table has no ``verify_Q``: one Q in every title and table, not the NLP's in one and the verifier's
     in another."""
     value = optimum.get("verify_Q")
     return float(value) if value is not None and np.isfinite(value) else float(optimum["Q"])
-
-
-def _check_numbers(path: Path, table: pd.DataFrame, columns: list[str], missing_ok: bool) -> None:
-    """One line naming the row and column of the first value in ``columns`` that is not a finite number (a
-    missing one allowed where ``missing_ok``: a start that failed has no time)."""
-    for column in columns:
-        if not pd.api.types.is_numeric_dtype(table[column]) or pd.api.types.is_bool_dtype(table[column]):
-            raise BadInputError(path, f"must hold numbers, not {table[column].dtype} values", column=column)
-        values = table[column].astype(float)
-        bad = values.isin([float("inf"), float("-inf")])
-        if not missing_ok:
-            bad |= values.isna()
-        if bad.any():
-            row = int(bad.to_numpy().argmax())
-            raise BadInputError(path, f"not a finite number: {table[column].iloc[row]!r}", row=row + 1, column=column)
 
 
 @dataclass(frozen=True)
@@ -231,7 +158,7 @@ class PhysicsOutcome:
     trace: pd.DataFrame
 
 
-def read_physics(results: ResultsFolder, sweep: SweepResult) -> PhysicsOutcome | None:
+def read_physics(results: ResultsFolder, sweep: Sweep) -> PhysicsOutcome | None:
     """The physics check of ``sweep``'s task: ``grasptask physics``'s output under ``physics/<task>/`` when
     there is one, else ``synthesize --physics``'s beside the sweep; None when neither ran."""
     folders = [results.physics / sweep.folder.name]

@@ -10,7 +10,7 @@ import pandas as pd
 
 from grasptask.records.reference import PaperSynthesis
 from grasptask.records.solutions import retried
-from grasptask.report.inputs import verifier_q
+from grasptask.report.inputs import paper_setup, verifier_q
 from grasptask.task.stats import compare_with_reference
 
 DRAWING_GROUPS = ("drawing_tripod", "drawing_cylindrical", "drawing_power")
@@ -116,26 +116,26 @@ def sweep_table(sweeps: dict, paper: PaperSynthesis) -> pd.DataFrame:
     and friction needed, and time per start, beside the paper."""
     rows = []
     for task, sweep in sweeps.items():
-        seconds = sweep.solutions["seconds"].astype(float)
-        statuses = sweep.solutions["status"].value_counts()
-        verified = sweep.solutions["verified"]
-        on_retry = int((verified & retried(sweep.solutions)).sum())
+        seconds = sweep.table["seconds"].astype(float)
+        statuses = sweep.table["status"].value_counts()
+        verified = sweep.table["verified"]
+        on_retry = int((verified & retried(sweep.table)).sum())
         rows.append(
             {
                 "task": task,
-                "starts": len(sweep.solutions),
+                "starts": len(sweep.table),
                 "statuses": ", ".join(f"{s} {n}" for s, n in statuses.items()),
                 "verified": f"{int(verified.sum())} ({verified.mean():.0%}; {on_retry} on a retry)",
                 "distinct optima": len(sweep.optima),
-                "paper optima": paper.optima.get(task) if sweep.paper_setup else None,
-                "median strength margin": _median(sweep.solutions, verified, "verify_strength_margin"),
-                "median friction needed": _median(sweep.solutions, verified, "verify_friction_margin"),
+                "paper optima": paper.optima.get(task) if paper_setup(sweep.files) else None,
+                "median strength margin": _median(sweep.table, verified, "verify_strength_margin"),
+                "median friction needed": _median(sweep.table, verified, "verify_friction_margin"),
                 "median s/start": round(float(seconds.median()), 2),
                 "p90 s/start": round(float(np.percentile(seconds, 90)), 2),
                 "mean +- sd s/start": f"{seconds.mean():.1f} +- {seconds.std(ddof=1) if len(seconds) > 1 else 0:.1f}",
-                "paper s/solution": f"{paper.mean_s:.0f} +- {paper.sd_s:.0f}" if sweep.paper_setup else None,
+                "paper s/solution": f"{paper.mean_s:.0f} +- {paper.sd_s:.0f}" if paper_setup(sweep.files) else None,
                 "paper mean / our median": round(paper.mean_s / float(seconds.median()), 1)
-                if sweep.paper_setup
+                if paper_setup(sweep.files)
                 else None,
             }
         )
@@ -153,7 +153,9 @@ def quality_table(sweeps: dict, paper: PaperSynthesis, shown_q: dict | None = No
     the Q the report's views show, by (task, optimum), where the verifier was run again."""
     rows = []
     for task, sweep in sweeps.items():
-        shown = ", ".join(f"{v:g}" for v in paper.quality_shown.get(task, [])) or "-" if sweep.paper_setup else None
+        shown = (
+            ", ".join(f"{v:g}" for v in paper.quality_shown.get(task, [])) or "-" if paper_setup(sweep.files) else None
+        )
         for _, optimum in sweep.optima.iterrows():
             rows.append(
                 {

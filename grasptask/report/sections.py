@@ -10,24 +10,21 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from grasptask.errors import BadInputError
 from grasptask.exports.scene_meshes import grasp_scene
-from grasptask.grasp.grasp_settings import GraspSettings, load_grasp_settings
-from grasptask.hand import load_hand
-from grasptask.hand.hand_model import GraspingHand, Hand
+from grasptask.grasp.grasp_settings import GraspSettings
+from grasptask.hand.hand_model import GraspingHand
 from grasptask.io.artifacts import StagedOutput, file_stem
 from grasptask.io.config_schema import read_json
-from grasptask.objects import load_object
 from grasptask.objects.surface import ImplicitObject
-from grasptask.paths import DEFAULT_GRASP_CONFIG, DEFAULT_HAND, DEFAULT_OBJECT, PAPER_ELLIPSOID_TABLES
+from grasptask.paths import PAPER_ELLIPSOID_TABLES
 from grasptask.progress import progress
 from grasptask.records.reference import PaperSynthesis
-from grasptask.records.solutions import contacts_from_row, fingers_in, grasp_from_row, joint_columns, normals_from_row
-from grasptask.records.sweeps import recorded_path
+from grasptask.records.solutions import contacts_from_row, grasp_from_row, normals_from_row
+from grasptask.records.sweeps import Sweep
 from grasptask.report import paper_tables
 from grasptask.report.distance_plots import plot_embedding, plot_heatmap
 from grasptask.report.ellipsoid_plots import load_samples_or_note, plot_task_ellipsoids
-from grasptask.report.inputs import PhysicsOutcome, ResultsFolder, SweepResult, read_physics, verifier_q
+from grasptask.report.inputs import PhysicsOutcome, ResultsFolder, paper_setup, read_physics, verifier_q
 from grasptask.report.interactive import HEIGHT, ellipsoid_view, figure_json, grasp_view
 from grasptask.report.page import Figure, Note, Section, Table, View, markdown
 from grasptask.report.physics_plots import plot_physics_traces
@@ -197,14 +194,6 @@ def distances_section(results: ResultsFolder, writer: Writer) -> Section:
     return section
 
 
-def _reference_path(sweep: SweepResult, key: str, fallback: Path) -> Path:
-    """A file the sweep's run.json recorded under ``key``, found as every stage finds it; ``fallback`` (the
-    package's default) when it records none or the file has gone."""
-    value = sweep.run.get(key)
-    found = recorded_path(Path(value), sweep.folder) if isinstance(value, str) and value else None
-    return found if found is not None and found.is_file() else fallback
-
-
 #: the one sentence that says what the report's Q is
 Q_MEANING = (
     "Q (eq. 12) is the sum, over the task's wrench axes, of the squared joint torques each asks of the hand at "
@@ -212,37 +201,16 @@ Q_MEANING = (
 )
 
 
-def sweep_hand(sweep: SweepResult, hands: dict[Path, Hand]) -> tuple[GraspingHand, list[str]]:
-    """The grasping hand of ``sweep`` (its ``run.json``'s hand and fingers) and its fingers; a table that is
-    not that hand's (a BarrettHand's optima under a human ``run.json``) is one line. ``hands`` caches loads."""
-    hand_path = _reference_path(sweep, "hand", DEFAULT_HAND)
-    whole = hands.get(hand_path) or hands.setdefault(hand_path, load_hand(hand_path))
-    fingers = sweep.run.get("fingers") or fingers_in(list(sweep.optima.columns), list(whole.fingers))
-    known = len(fingers) >= 2 and all(f in whole.fingers for f in fingers)
-    hand = whole.with_grasping(fingers if known else list(whole.fingers)).grasping_hand()
-    wanted = [*joint_columns(hand.joint_names), *(f"contact_{f}_x" for f in fingers)]
-    absent = next((c for c in wanted if c not in sweep.optima.columns), None)
-    if not sweep.optima.empty and (absent is not None or not known):
-        raise BadInputError(
-            sweep.folder / "optima.parquet",
-            f"not a table of hand '{whole.name}' ({hand_path}, named by run.json): fingers {fingers}, "
-            f"no column '{absent or 'contact_<finger>_x'}'",
-        )
-    return hand, fingers
-
-
 def _no_sweeps(results: ResultsFolder) -> Note:
     return _run_missing(f"synthesis results under {results.grasps}", "grasptask synthesize ... --out DIR/grasps")
 
 
-def sweeps_section(
-    results: ResultsFolder, sweeps: dict[str, SweepResult], paper: PaperSynthesis, writer: Writer
-) -> Section:
+def sweeps_section(results: ResultsFolder, sweeps: dict[str, Sweep], paper: PaperSynthesis, writer: Writer) -> Section:
     optima = " / ".join(str(paper.optima.get(t, "?")) for t in ("drawing", "cutting", "screwdriving"))
     paper_said = (
         f" The paper reports {paper.seconds} per solution (AMPL + IPOPT on a 2.4 GHz Opteron) and {optima} local "
         "optima for drawing / cutting / screw driving."
-        if any(sweep.paper_setup for sweep in sweeps.values())
+        if any(paper_setup(sweep.files) for sweep in sweeps.values())
         else ""
     )
     section = Section(
@@ -265,7 +233,7 @@ def sweeps_section(
         writer.table("synthesis_sweeps", "Sweep statistics beside the paper", paper_tables.sweep_table(sweeps, paper))
     )
     path = writer.figure("synthesis_sweeps")
-    paperly = [t for t, sweep in sweeps.items() if sweep.paper_setup]
+    paperly = [t for t, sweep in sweeps.items() if paper_setup(sweep.files)]
     optima_shown = {t: n for t, n in paper.optima.items() if t in paperly}
     plot_sweeps(sweeps, paper.mean_s if paperly else None, paper.sd_s, optima_shown, path)
     shaded = " (the paper's mean +- sd shaded)" if paperly else ""
@@ -279,13 +247,12 @@ def sweeps_section(
 
 def grasps_section(
     results: ResultsFolder,
-    sweeps: dict[str, SweepResult],
+    sweeps: dict[str, Sweep],
     paper: PaperSynthesis,
     writer: Writer,
-    hands: dict[Path, Hand] | None = None,
 ) -> Section:
     """Per task a line of its figures, then each distinct optimum as a view and two fixed viewpoints, and the
-    table of Q. ``hands``: the hands already loaded for these sweeps (a mesh hand's sphere cover takes seconds)."""
+    table of Q."""
     section = Section(
         "grasps",
         "Your grasps: per task, its best grasp first, then every other distinct optimum",
@@ -300,20 +267,18 @@ def grasps_section(
     shown_q: dict[tuple[str, int], float] = {}  # the Q each view shows, so that the table shows the same
     task_models = load_task_models(results.task_models) if results.task_models.is_file() else {}
     objects: dict[Path, tuple] = {}
-    hands = {} if hands is None else hands
     for task, sweep in sweeps.items():
         if sweep.optima.empty:
-            section.blocks.append(Note(f"{task}: no verified grasp among {len(sweep.solutions)} starts"))
+            section.blocks.append(Note(f"{task}: no verified grasp among {len(sweep.table)} starts"))
             continue
         section.blocks.append(Note(_task_card(task, sweep, read_physics(results, sweep))))
-        object_path = _reference_path(sweep, "object", DEFAULT_OBJECT)
-        settings = load_grasp_settings(_reference_path(sweep, "grasp_config", DEFAULT_GRASP_CONFIG))
-        hand, fingers = sweep_hand(sweep, hands)
+        object_path = sweep.files.object
         if object_path not in objects:
-            obj = load_object(object_path, say=lambda _: None)  # synthesize said what it repaired
+            obj = sweep.load_object()  # synthesize said what it repaired
             objects[object_path] = obj, display_mesh(obj), display_mesh(obj, VIEW_FACES)
         obj, mesh, view_mesh = objects[object_path]
-        shown = _Shown(hand, fingers, obj, mesh, view_mesh, settings, task_models.get(task))
+        hand = sweep.hand
+        shown = _Shown(hand, list(hand.fingers), obj, mesh, view_mesh, sweep.settings, task_models.get(task))
         rows = list(sweep.optima.iterrows())
         for _, optimum in progress(rows, desc=f"report: {task} grasps", unit="grasps"):
             blocks, shown_q[task, int(optimum["optimum_id"])] = _optimum_blocks(task, optimum, shown, writer)
@@ -384,9 +349,9 @@ def _optimum_blocks(task: str, optimum: pd.Series, shown: _Shown, writer: Writer
     return blocks, quality
 
 
-def _task_card(task: str, sweep: SweepResult, physics: PhysicsOutcome | None) -> str:
+def _task_card(task: str, sweep: Sweep, physics: PhysicsOutcome | None) -> str:
     """One line of a task's results, at the head of its grasps: what a colleague asks first."""
-    solutions = sweep.solutions
+    solutions = sweep.table
     verified = int(solutions["verified"].sum())
     held = "not checked in physics"
     if physics is not None:
@@ -409,7 +374,7 @@ def _share(count: int, total: int) -> str:
     return f"{count} ({count / total:.0%})" if total else "0"
 
 
-def physics_table(outcomes: dict[str, PhysicsOutcome], sweeps: dict[str, SweepResult]) -> pd.DataFrame:
+def physics_table(outcomes: dict[str, PhysicsOutcome], sweeps: dict[str, Sweep]) -> pd.DataFrame:
     """Per task: the analytic verifier's verdicts beside the physics check's pass rates and their 2x2
     agreement."""
     rows = []
@@ -423,7 +388,7 @@ def physics_table(outcomes: dict[str, PhysicsOutcome], sweeps: dict[str, SweepRe
         rows.append(
             {
                 "task": task,
-                "starts": len(sweeps[task].solutions),
+                "starts": len(sweeps[task].table),
                 "verifier accepts": verified,
                 "physics holds (of those)": _share(held, verified),
                 "DexGraspBench test holds": "-" if bench is None else f"{bench:.0%}",
@@ -438,7 +403,7 @@ def physics_table(outcomes: dict[str, PhysicsOutcome], sweeps: dict[str, SweepRe
     return pd.DataFrame(rows)
 
 
-def physics_section(results: ResultsFolder, sweeps: dict[str, SweepResult], writer: Writer) -> Section:
+def physics_section(results: ResultsFolder, sweeps: dict[str, Sweep], writer: Writer) -> Section:
     section = Section(
         "physics",
         "Physics check: the grasps held in MuJoCo against each task's own wrenches",

@@ -33,7 +33,7 @@ def plot_sweeps(sweeps: dict, paper_mean_s: float | None, paper_sd_s: float, pap
     fig, (ax_status, ax_time, ax_found) = plt.subplots(1, 3, figsize=(14, 4.4))
     bottom = np.zeros(len(tasks))
     for status in dict.fromkeys([*STATUSES, *STATUS_COLOURS]):
-        counts = np.array([(sweeps[t].solutions["status"] == status).sum() for t in tasks], dtype=float)
+        counts = np.array([(sweeps[t].table["status"] == status).sum() for t in tasks], dtype=float)
         if counts.any():
             ax_status.bar(tasks, counts, bottom=bottom, color=STATUS_COLOURS.get(status, "#cccccc"), label=status,
                           edgecolor="white")  # fmt: skip
@@ -43,7 +43,7 @@ def plot_sweeps(sweeps: dict, paper_mean_s: float | None, paper_sd_s: float, pap
     ax_status.set_title("How each start ended (IPOPT status)")
     ax_status.legend(fontsize=8)
 
-    seconds = {t: sweeps[t].solutions["seconds"].astype(float).clip(lower=1e-2).to_numpy() for t in tasks}
+    seconds = {t: sweeps[t].table["seconds"].astype(float).clip(lower=1e-2).to_numpy() for t in tasks}
     shaded = [] if paper_mean_s is None else [paper_mean_s + paper_sd_s]
     high = max([*shaded, *(s.max() for s in seconds.values())]) * 1.5
     low = min(s.min() for s in seconds.values()) / 1.5
@@ -62,7 +62,7 @@ def plot_sweeps(sweeps: dict, paper_mean_s: float | None, paper_sd_s: float, pap
     ax_time.legend(fontsize=8)
 
     x = np.arange(len(tasks))
-    fractions = [sweeps[t].solutions["verified"].mean() * 100 for t in tasks]
+    fractions = [sweeps[t].table["verified"].mean() * 100 for t in tasks]
     ax_found.bar(x, fractions, color=[task_colour(t, tasks) for t in tasks], alpha=0.8)
     for k, task in enumerate(tasks):
         ours, paper = len(sweeps[task].optima), paper_optima.get(task)

@@ -12,7 +12,8 @@ from grasptask.errors import BadInputError
 from grasptask.hand.hand_model import Hand
 from grasptask.io.artifacts import Provenance, StagedOutput
 from grasptask.records.reference import PaperSynthesis, read_paper_synthesis
-from grasptask.report.inputs import ResultsFolder, SweepResult, find_results, read_sweep, verifier_q
+from grasptask.records.sweeps import SOLUTIONS, Sweep
+from grasptask.report.inputs import ResultsFolder, find_results, paper_setup, verifier_q
 from grasptask.report.page import Section, render_html
 from grasptask.report.sections import (
     Writer,
@@ -21,7 +22,6 @@ from grasptask.report.sections import (
     ellipsoid_tables_section,
     grasps_section,
     physics_section,
-    sweep_hand,
     sweeps_section,
 )
 from grasptask.report.style import task_order
@@ -44,15 +44,14 @@ def build_report(results_dir: str | Path, out: str | Path) -> ReportSummary:
     ``out/report.json`` from the results folder ``results_dir``."""
     start = time.perf_counter()
     results = find_results(results_dir)
-    hands: dict[Path, Hand] = {}
-    sweeps, who = _sweeps(results, hands)
+    sweeps = _sweeps(results)
     found = _found(results, sweeps)
     inputs = [
         p
         for p in (results.stats, results.ellipsoids, results.task_models, results.distances, results.distance_summary)
         if p.is_file()
     ]
-    inputs += [s.folder / "run.json" for s in sweeps.values()]
+    inputs += [s.run_file for s in sweeps.values()]
     inputs += [folder / "physics_summary.json" for folder in results.physics_folders()]
     provenance = Provenance.of("report", {"results": str(results_dir)}, inputs)
     with StagedOutput(out, provenance) as staged:
@@ -61,7 +60,7 @@ def build_report(results_dir: str | Path, out: str | Path) -> ReportSummary:
         # the user's results first: their grasps, how they held, how the sweeps went; the tasks' ellipsoids
         # next, and the paper's Tables 1-10 last
         sections = [
-            grasps_section(results, sweeps, paper, writer, hands),
+            grasps_section(results, sweeps, paper, writer),
             physics_section(results, sweeps, writer),
             sweeps_section(results, sweeps, paper, writer),
         ]
@@ -69,7 +68,7 @@ def build_report(results_dir: str | Path, out: str | Path) -> ReportSummary:
             make(results, writer) for make in (ellipsoid_figures_section, distances_section, ellipsoid_tables_section)
         ]
         notes = [f"{s.title}: {n}" for s in sections for n in s.notes]
-        summary_lines = _identity_lines(sweeps, who) + _summary_lines(sweeps, sections, paper)
+        summary_lines = _identity_lines(sweeps) + _summary_lines(sweeps, sections, paper)
         page = render_html(
             "grasptask report",
             f"results: {Path(results_dir).resolve()}; grasptask {__version__}; built {time.strftime('%Y-%m-%d %H:%M')}",
@@ -92,25 +91,32 @@ def build_report(results_dir: str | Path, out: str | Path) -> ReportSummary:
     return ReportSummary(index, len(writer.figures), len(writer.views), len(writer.tables), notes, seconds, found)
 
 
-def _sweeps(results: ResultsFolder, hands: dict[Path, Hand]) -> tuple[dict[str, SweepResult], dict[str, str]]:
-    """The results folder's sweeps by task, in the paper's order, and the name of each one's hand; ``hands``
-    keeps the hands loaded. A second sweep of a task is refused: one folder is reported at a time."""
-    sweeps: dict[str, SweepResult] = {}
-    who: dict[str, str] = {}
+def _sweeps(results: ResultsFolder) -> dict[str, Sweep]:
+    """The results folder's sweeps by task, in the paper's order, each checked whole before any figure is drawn
+    (a table of another hand is one line now, not after minutes of figures). A second sweep of a task is
+    refused: one folder is reported at a time."""
+    sweeps: dict[str, Sweep] = {}
+    hands: dict[Path, Hand] = {}  # a mesh hand's sphere cover takes seconds: once for its sweeps
     for folder in results.sweep_folders():
-        sweep = read_sweep(folder)
-        hand, _ = sweep_hand(sweep, hands)  # a table of another hand is one line now, not after minutes of figures
+        sweep = Sweep.open(folder / SOLUTIONS, hands=hands)
+        for column in REPORTED:
+            if column not in sweep.table.columns:
+                raise BadInputError(sweep.solutions, "missing column", column=column)
+        _ = sweep.optima
         if sweep.task in sweeps:
             raise BadInputError(
-                folder / "run.json",
+                sweep.run_file,
                 f"a second sweep of task '{sweep.task}' (the first: {sweeps[sweep.task].folder}); report one folder",
             )
         sweeps[sweep.task] = sweep
-        who[sweep.task] = hand.name
-    return {task: sweeps[task] for task in sorted(sweeps, key=task_order)}, who
+    return {task: sweeps[task] for task in sorted(sweeps, key=task_order)}
 
 
-def _found(results: ResultsFolder, sweeps: dict[str, SweepResult]) -> list[str]:
+#: what the report draws of each start, beyond what re-judging a table needs
+REPORTED = ("status", "seconds", "verified")
+
+
+def _found(results: ResultsFolder, sweeps: dict[str, Sweep]) -> list[str]:
     """What the report is made of, one line each, as the command says it."""
     lines = [f"sweep of {task}: {sweep.folder}" for task, sweep in sweeps.items()]
     lines += [f"unfinished sweep: {folder}" for folder in results.unfinished_sweeps()]
@@ -122,16 +128,16 @@ def _found(results: ResultsFolder, sweeps: dict[str, SweepResult]) -> list[str]:
     return lines
 
 
-def _identity_lines(sweeps: dict[str, SweepResult], hands: dict[str, str]) -> list[str]:
+def _identity_lines(sweeps: dict[str, Sweep]) -> list[str]:
     """The top of the page: which hand grasped which object for which tasks, and when and how each was run."""
     groups: dict[tuple[str, str], list[str]] = {}
     for task, sweep in sweeps.items():
-        obj = Path(str(sweep.run.get("object", "?")))
+        obj = sweep.files.object
         name = sweep.run.get("object_name") or obj.stem  # run.json from before it was recorded: the file's
-        groups.setdefault((f"{hands[task]} ({sweep.run.get('hand', '?')})", f"{name} ({obj})"), []).append(task)
+        groups.setdefault((f"{sweep.hand.name} ({sweep.files.hand})", f"{name} ({obj})"), []).append(task)
     lines = [f"Hand {hand} on object {obj}: {', '.join(tasks)}" for (hand, obj), tasks in groups.items()]
     for task, sweep in sweeps.items():
-        run, made = sweep.run, (sweep.folder / "run.json").stat().st_mtime
+        run, made = sweep.run, sweep.run_file.stat().st_mtime
         lines.append(
             f"{task}: synthesized {time.strftime('%Y-%m-%d %H:%M', time.localtime(made))}, {run.get('starts', '?')} "
             f"starts, {run.get('backend', '?')} on {run.get('executor', '?')} x {run.get('workers', '?')}, grasp "
@@ -140,16 +146,16 @@ def _identity_lines(sweeps: dict[str, SweepResult], hands: dict[str, str]) -> li
     return lines
 
 
-def _summary_lines(sweeps: dict[str, SweepResult], sections: list[Section], paper: PaperSynthesis) -> list[str]:
+def _summary_lines(sweeps: dict[str, Sweep], sections: list[Section], paper: PaperSynthesis) -> list[str]:
     lines = [s.summary for s in sections if s.summary]
     for task, sweep in sweeps.items():
-        solutions = sweep.solutions
+        solutions = sweep.table
         quality = [verifier_q(row) for _, row in sweep.optima.iterrows()]
         best = f"best Q {min(quality):.4g}" if quality else "no grasp found"
         lines.append(
             f"{task}: {int(solutions['verified'].sum())}/{len(solutions)} starts verified, {len(sweep.optima)} "
             f"distinct optima, {best}, median {solutions['seconds'].median():.1f} s per start"
-            + (f" (paper: {paper.seconds})" if sweep.paper_setup else "")
+            + (f" (paper: {paper.seconds})" if paper_setup(sweep.files) else "")
         )
     missing = [s.title for s in sections if not s.made]
     if missing:

@@ -23,7 +23,7 @@ from grasptask.paths import DEFAULT_PHYSICS_CONFIG
 from grasptask.physics.judge import Judge, best_grasp_trace, write_physics_results
 from grasptask.physics.physics_settings import Controller, load_physics_settings
 from grasptask.progress import Progress
-from grasptask.records.sweeps import SweepFiles, SweepInputs
+from grasptask.records.sweeps import Sweep, SweepInputs
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -40,35 +40,14 @@ class PhysicsOptions(SweepInputs):
     strength: float = 1.0
     friction_scale: float = 1.0
 
-    def resolved(self) -> PhysicsOptions:
-        used = SweepFiles.of(
-            self.solutions, self.hand, self.object, self.grasp_config, self.fingers, self.tasks, self.task
-        )
-        tasks, task = used.named_task(self.solutions)
-        return replace(
-            self,
-            solutions=Path(self.solutions),
-            out=Path(self.out),
-            tasks=tasks,
-            task=task,
-            hand=used.hand,
-            object=used.object,
-            grasp_config=used.grasp_config,
-            physics_config=Path(self.physics_config),
-            fingers=used.fingers,
-        )
 
-
-def _judge_for(inputs: PhysicsOptions) -> Judge:
-    """The judge of ``inputs`` (resolved): its grasps, task model, object, settings, strength and friction; the
-    first grasp's scene built, so that a hand file MuJoCo cannot compile is one line before any worker starts."""
-    assert inputs.hand is not None and inputs.object is not None and inputs.grasp_config is not None
-    assert inputs.tasks is not None and inputs.task is not None, "resolved() first"
-    sweep = inputs.open_sweep()
-    settings = load_physics_settings(inputs.physics_config)
-    settings = replace(settings, controller=inputs.controller or settings.controller)
-    friction = sweep.settings.friction_coefficient * inputs.friction_scale
-    judge = Judge.of(sweep.solved, sweep.task_model, inputs.object, friction, settings, inputs.strength)
+def _judge_for(options: PhysicsOptions, sweep: Sweep) -> Judge:
+    """The judge of ``sweep``: its grasps, task model, object, settings, strength and friction; the first grasp's
+    scene built, so that a hand file MuJoCo cannot compile is one line before any worker starts."""
+    settings = load_physics_settings(options.physics_config)
+    settings = replace(settings, controller=options.controller or settings.controller)
+    friction = sweep.settings.friction_coefficient * options.friction_scale
+    judge = Judge.of(sweep.solved, sweep.task_model, sweep.load_object(), friction, settings, options.strength)
     judge.check_scene()
     return judge
 
@@ -94,25 +73,24 @@ def run_physics(options: PhysicsOptions, echo: Callable[[str], Any] = print) -> 
     ``out/physics_summary.json`` and ``out/physics_trace.parquet`` (the best verified grasp's motion over the
     protocol), and returns the table."""
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # inherited by the simulation processes
-    inputs = options.resolved()
-    out, workers = inputs.out, inputs.workers
+    out, workers = Path(options.out), options.workers
     if not 1 <= workers <= MAX_WORKERS:
         raise BadInputError("physics", f"--workers must be from 1 to {MAX_WORKERS}, got {workers}")
-    if inputs.strength <= 0 or inputs.friction_scale <= 0:
+    if options.strength <= 0 or options.friction_scale <= 0:
         raise BadInputError("physics", "--strength and --friction-scale must be positive")
-    judge = _judge_for(inputs)  # every input checked here, before any work
+    sweep = options.open_sweep()
+    judge = _judge_for(options, sweep)  # every input checked here, before any work
     # --out held, and known to be writable, from the start: a second run into it is refused, not overwritten
-    with folder_lock(out, f"physics {inputs.task}"):
+    with folder_lock(out, f"physics {sweep.task}"):
         check_writable(out)
-        return _judge_all(judge, inputs, out, workers, echo)
+        return _judge_all(judge, options, sweep, echo)
 
 
-def _judge_all(
-    judge: Judge, inputs: PhysicsOptions, out: str | Path, workers: int, echo: Callable[[str], Any]
-) -> pd.DataFrame:
+def _judge_all(judge: Judge, options: PhysicsOptions, sweep: Sweep, echo: Callable[[str], Any]) -> pd.DataFrame:
     indices = list(range(len(judge.solved.rows)))
     counts = {"held": 0, "dropped": 0}
-    with Progress(len(indices), f"physics {inputs.task}", "grasps") as shown:
+    workers = options.workers
+    with Progress(len(indices), f"physics {sweep.task}", "grasps") as shown:
         parallel = workers > 1
         with ProcessPoolExecutor(workers, initializer=_start_worker, initargs=(judge,)) if parallel else (
             nullcontext()
@@ -126,15 +104,16 @@ def _judge_all(
                 shown.update(1, **counts)
     table = pd.DataFrame(records)
     trace = best_grasp_trace(judge)
-    files = [inputs.solutions, inputs.tasks, inputs.hand, inputs.object, inputs.grasp_config, inputs.physics_config]
+    used = sweep.files
+    files = [sweep.solutions, sweep.tasks, used.hand, used.object, used.grasp_config, options.physics_config]
     parameters = {
-        "task": inputs.task,
+        "task": sweep.task,
         "controller": judge.holding.settings.controller,
-        "strength": inputs.strength,
-        "friction_scale": inputs.friction_scale,
+        "strength": options.strength,
+        "friction_scale": options.friction_scale,
     }
-    provenance = Provenance.of("physics", parameters, [f for f in files if f is not None])
-    with StagedOutput(out, provenance) as staged:
+    provenance = Provenance.of("physics", parameters, files)
+    with StagedOutput(options.out, provenance) as staged:
         result = write_physics_results(staged, table, judge.task.name, judge.holding.settings, trace, judge=judge)
     echo(physics_line(result))
     return table

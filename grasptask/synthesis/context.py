@@ -8,13 +8,17 @@ from __future__ import annotations
 import time
 import traceback
 from dataclasses import dataclass, field, replace
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from grasptask.grasp.grasp_settings import GraspSettings
 from grasptask.hand import load_hand
+from grasptask.hand.hand_model import Hand
+from grasptask.io.artifacts import config_hash
 from grasptask.objects import load_object
+from grasptask.objects.surface import ImplicitObject
 from grasptask.physics.physics_settings import PhysicsSettings
 from grasptask.records import solutions as schema
 from grasptask.synthesis.feedback import Limits, tightened
@@ -22,7 +26,7 @@ from grasptask.synthesis.judging import Judges
 from grasptask.synthesis.solver_config import SolverConfig
 from grasptask.synthesis.solvers import assign, build_models, values
 from grasptask.synthesis.starts import Start
-from grasptask.task.task_model import load_task_models
+from grasptask.task.task_model import TaskModel, load_task_models
 
 if TYPE_CHECKING:  # the solver stack loads in the workers, not where a Job is made
     from grasptask.synthesis.backends import SolveResult
@@ -30,23 +34,41 @@ if TYPE_CHECKING:  # the solver stack loads in the workers, not where a Job is m
 
 @dataclass(frozen=True)
 class Job:
-    """Everything a worker needs to rebuild the model; plain paths and values, so it pickles. The settings are
-    read and checked once, where the sweep is prepared."""
+    """Everything a worker needs to build its models: the hand (its grasping fingers chosen), the object and the
+    task model, loaded once where the sweep is prepared and handed to the workers by value (a pickle of 1-3 MB,
+    where a published hand's sphere cover takes seconds to fit again); the settings, read and checked once."""
 
-    hand_path: str
-    object_path: str
-    tasks_path: str
-    task: str
+    hand: Hand
+    obj: ImplicitObject
+    task: TaskModel
     backend: str = "casadi"
     solver: SolverConfig = SolverConfig()
     #: the grasp settings, always given: a forgotten argument must not silently mean the defaults
     settings: GraspSettings = field(kw_only=True)
-    #: the grasping fingers, when not the hand file's own choice
-    fingers: tuple[str, ...] | None = None
     #: each verified grasp is also held in MuJoCo with these (grasptask.physics); None: not
     physics: PhysicsSettings | None = None
-    #: --unit, --mass and --task-frame for the object, as (field, value) pairs (grasptask.objects.load_object)
-    object_overrides: tuple[tuple[str, Any], ...] = ()
+    #: what the job was made from (a hash): a Dask worker keeps one context per job it was given
+    key: str = field(kw_only=True)
+
+    @classmethod
+    def from_files(
+        cls,
+        hand_path: str | Path,
+        object_path: str | Path,
+        tasks_path: str | Path,
+        task: str,
+        *,
+        fingers: tuple[str, ...] | list[str] | None = None,
+        object_overrides: dict[str, Any] | None = None,
+        **rest: Any,
+    ) -> Job:
+        """The job of the files a sweep names (``object_overrides``: --unit, --mass, --task-frame)."""
+        hand = load_hand(hand_path)
+        hand = hand.with_grasping(list(fingers)) if fingers else hand
+        obj = load_object(object_path, say=lambda _: None, **(object_overrides or {}))
+        named = [str(hand_path), str(object_path), str(tasks_path), task, list(fingers or []), object_overrides]
+        key = rest.pop("key", None) or config_hash(named)
+        return cls(hand, obj, load_task_models(tasks_path)[task], key=key, **rest)
 
 
 class SolverContext:
@@ -64,11 +86,7 @@ class SolverContext:
         from grasptask.synthesis.placement import Anchors
 
         self.job = job
-        self.hand = load_hand(job.hand_path)
-        if job.fingers:
-            self.hand = self.hand.with_grasping(job.fingers)
-        self.obj = load_object(job.object_path, say=lambda _: None, **dict(job.object_overrides))  # the parent said it
-        self.task = load_task_models(job.tasks_path)[job.task]
+        self.hand, self.obj, self.task = job.hand, job.obj, job.task
         self.settings = job.settings
         self.models = build_models(self.hand, self.obj, self.task, self.settings, job.solver, job.backend)
         self.nlp = self.models.first.nlp

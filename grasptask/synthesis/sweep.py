@@ -250,7 +250,7 @@ _DASK_LOCK = threading.Lock()
 
 def _dask_context(job: Job) -> SolverContext:
     """Runs on a Dask worker, under :data:`_DASK_LOCK`: the context is built once per worker process and job."""
-    key = (os.getpid(), repr(job))
+    key = (os.getpid(), job.key)
     if key not in _DASK_CONTEXTS:
         from threadpoolctl import threadpool_limits  # deferred: only in pool workers
 
@@ -289,6 +289,7 @@ class DaskExecutor:
         self.job, self.scheduler, self.timeout_s, self.connect_timeout_s = job, scheduler, timeout_s, connect_timeout_s
         self.notify = notify
         self.client: Any = None
+        self.shared: Any = None  # the job, scattered to the workers
         self._alone_since: float | None = None
         self._asked = 0.0
         self._said = False
@@ -337,7 +338,9 @@ class DaskExecutor:
                 self.scheduler, f"no Dask scheduler answered within {self.connect_timeout_s:g} s ({type(exc).__name__})"
             ) from exc
         try:
-            size = self._wait(self.client.submit(_dask_size, self.job, pure=False))
+            # sent once to every worker (a new one fetches it from a peer), not pickled into each start's task
+            self.shared = self.client.scatter(self.job, broadcast=True, hash=False)
+            size = self._wait(self.client.submit(_dask_size, self.shared, pure=False))
         except KeyboardInterrupt:
             raise
         except Exception as exc:  # noqa: BLE001
@@ -355,7 +358,7 @@ class DaskExecutor:
 
         futures = {
             self.client.submit(
-                _dask_solve, self.job, s, pure=False, key=f"grasp-start-{s.start_id}-{time.time_ns()}"
+                _dask_solve, self.shared, s, pure=False, key=f"grasp-start-{s.start_id}-{time.time_ns()}"
             ): s
             for s in starts
         }
