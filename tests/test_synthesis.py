@@ -422,10 +422,13 @@ def test_attempts_start_from_the_first_posture_then_each_retry_posture(tasks, mo
     )
     tried = []
 
-    def attempt(start, joints):
+    as_they_were = []
+
+    def attempt(start, joints, as_it_is=False):
         tried.append(joints)
+        as_they_were.append(as_it_is)
         keys = ("seconds", "iterations", "placement_seconds", "feedback_rounds", "all_axes_solves")
-        return {"verified": len(tried) == 2, **dict.fromkeys(keys, 1)}
+        return {"verified": len(tried) % 2 == 0, **dict.fromkeys(keys, 1)}
 
     monkeypatch.setattr(context, "_attempt", attempt)
     row = context.solve(make_starts(context.bounds)[0])
@@ -433,6 +436,14 @@ def test_attempts_start_from_the_first_posture_then_each_retry_posture(tasks, mo
     assert row["attempts"] == 2 and row["seconds"] == 2 and not row["first_attempt_verified"]
     np.testing.assert_allclose(tried[0], hand.posture(0.25))
     np.testing.assert_allclose(tried[1], hand.mid_range())
+    # a warm start (a grasp library's optimum): its own joints first, taken as they are, then the retries
+    from dataclasses import replace
+
+    own = hand.posture(0.7)
+    context.solve(replace(make_starts(context.bounds)[0], joints=own))
+    np.testing.assert_allclose(tried[2], own)
+    np.testing.assert_allclose(tried[3], hand.mid_range())
+    assert as_they_were == [False, False, True, False]
 
 
 def test_a_worker_loads_nothing_the_sweep_loaded_already(tasks, monkeypatch):

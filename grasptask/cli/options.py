@@ -147,6 +147,14 @@ _SYNTHESIS = [
         "--starts", type=click.IntRange(min=1), default=None, help="Run a deterministic subset of the 126 starts."
     ),
     click.option("--seed", type=int, default=0, show_default=True, help="Seed of the starts' jitter."),
+    click.option(
+        "--library",
+        type=click.Path(file_okay=False, path_type=Path),
+        default=None,
+        help="A grasp library folder: the sweep starts first from the optima of the nearest task (Log-Euclidean "
+        "distance) that it holds for this hand, object and fingers, and adds its own optima to it "
+        "[default: none; the sweep is then reproducible].",
+    ),
     click.option("--workers", type=click.IntRange(min=1), default=1, show_default=True, help="Solver processes."),
     click.option(
         "--executor",

@@ -23,6 +23,7 @@ import yaml
 from grasptask.errors import BadInputError
 from grasptask.grasp.grasp_settings import load_grasp_settings
 from grasptask.hand import load_hand
+from grasptask.hand.hand_model import Hand
 from grasptask.io.artifacts import (
     Provenance,
     StagedOutput,
@@ -42,6 +43,7 @@ from grasptask.objects.surface import Symmetry
 from grasptask.paths import DEFAULT_GRASP_CONFIG, DEFAULT_HAND, DEFAULT_OBJECT, DEFAULT_SOLVER_CONFIG
 from grasptask.physics.physics_settings import load_physics_settings
 from grasptask.progress import Progress
+from grasptask.records.grasp_library import LibraryEntry, add_to_library, nearest_entry, setup_key
 from grasptask.records.reference import PaperSynthesis, read_paper_synthesis
 from grasptask.records.run_record import RUN_FILE, read_run
 from grasptask.records.solutions import STATUSES, retried, solved_with_all_axes, why_few_verified
@@ -49,9 +51,9 @@ from grasptask.records.sweeps import SolvedGrasps
 from grasptask.synthesis.clustering import cluster
 from grasptask.synthesis.context import Job
 from grasptask.synthesis.solver_config import load_solver_config
-from grasptask.synthesis.starts import make_starts, subset
+from grasptask.synthesis.starts import Start, make_starts, subset, warm_starts
 from grasptask.synthesis.sweep import graceful_stop, make_executor
-from grasptask.task.task_model import load_task_model
+from grasptask.task.task_model import TaskModel, load_task_model
 
 EXECUTORS = ("pool", "serial", "dask")
 BACKENDS = ("casadi", "cyipopt")
@@ -79,6 +81,9 @@ class SynthesisOptions:
     fingers: tuple[str, ...] | None = None
     #: a physics config: hold each verified grasp in MuJoCo too (grasptask.physics); None: no physics check
     physics: Path | None = None
+    #: a grasp library folder (grasptask.records.grasp_library): warm starts from the optima of the nearest task
+    #: it holds for this setup, and this sweep's optima added to it; None: none, and the sweep reproducible
+    library: Path | None = None
     #: what a bare mesh cannot say (--unit, --mass, --task-frame): the object's unit (m, cm, mm), mass (kg) and
     #: task frame (centre, origin), and whether a frame outside it is taken; None: the object file's or YAML's own
     unit: str | None = None
@@ -89,8 +94,9 @@ class SynthesisOptions:
     def __post_init__(self) -> None:
         for name in ("tasks", "out", "hand", "object", "solver_config", "grasp_config"):
             object.__setattr__(self, name, Path(getattr(self, name)))  # strings from a notebook are welcome
-        if self.physics is not None:
-            object.__setattr__(self, "physics", Path(self.physics))
+        for name in ("physics", "library"):
+            if getattr(self, name) is not None:
+                object.__setattr__(self, name, Path(getattr(self, name)))
         if self.executor not in EXECUTORS:
             raise BadInputError("synthesize", f"unknown executor '{self.executor}' (known: {', '.join(EXECUTORS)})")
         if self.backend not in BACKENDS:
@@ -164,6 +170,51 @@ class _Prepared:
     #: the object config written beside the results (None: the given file is recorded as it is)
     object_config: dict[str, Any] | None
     object_facts: dict[str, Any]
+    library: Library | None = None
+
+
+@dataclass(frozen=True)
+class Library:
+    """A sweep's grasp library: its folder, this setup's key in it, the nearest task's entry (None: it holds none
+    for this setup yet) and the warm starts made from that entry's optima."""
+
+    folder: Path
+    setup: str
+    entry: LibraryEntry | None
+    starts: list[Start]
+
+    def said(self) -> str:
+        if self.entry is None:
+            return f"library {self.folder}: nothing yet for this hand, object and fingers; this sweep's optima go in"
+        return (
+            f"library {self.folder}: {len(self.starts)} warm starts first, the optima of task '{self.entry.task}' "
+            f"(Log-Euclidean distance {self.entry.distance:.3g})"
+        )
+
+    def record(self) -> dict[str, Any]:
+        """What run.json says of it."""
+        entry = self.entry
+        return {
+            "folder": os.path.abspath(self.folder),
+            "setup": self.setup,
+            "from_task": None if entry is None else entry.task,
+            "distance": None if entry is None else entry.distance,
+            "warm_starts": len(self.starts),
+        }
+
+
+def _library(options: SynthesisOptions, definition: dict[str, Any], task: TaskModel, hand: Hand) -> Library | None:
+    """The library the sweep names, its nearest entry and the warm starts from it; the entry joins the sweep's
+    definition, so that a resumed sweep is refused when the library it started from has changed."""
+    if options.library is None:
+        return None
+    setup = setup_key(definition["hand"], definition["object"], definition["fingers"])
+    entry = nearest_entry(options.library, setup, task)
+    if entry is None:
+        return Library(options.library, setup, None, [])
+    definition["library"] = path_hash(entry.path)
+    starts = warm_starts(entry.optima, hand.grasping_hand().joint_names, entry.path)
+    return Library(options.library, setup, entry, starts)
 
 
 def _prepare(options: SynthesisOptions) -> _Prepared:
@@ -202,6 +253,7 @@ def _prepare(options: SynthesisOptions) -> _Prepared:
     }
     if options.physics is not None:  # a sweep with the physics check is another run than one without
         definition["physics config"] = path_hash(options.physics)
+    library = _library(options, definition, model, hand)
     # the workers get the hand, the object and the task model as loaded here, by value; a mesh's or cloud's
     # signed-distance grid (3.3 s for a YCB mug) is made here once, not once in every worker
     if isinstance(obj, MeshObject | PointCloudObject):
@@ -211,7 +263,7 @@ def _prepare(options: SynthesisOptions) -> _Prepared:
     )
     return _Prepared(
         job,
-        subset(every, options.starts),
+        (library.starts if library is not None else []) + subset(every, options.starts),
         list(hand.grasping),
         obj.symmetry,
         solver.hang_after_s,
@@ -219,6 +271,7 @@ def _prepare(options: SynthesisOptions) -> _Prepared:
         read_paper_synthesis(),
         config,
         object_facts(obj),
+        library,
     )
 
 
@@ -305,6 +358,8 @@ def _run_locked(
     finished = {row["start_id"] for row in rows}
     todo = [s for s in prepared.starts if s.start_id not in finished]
     echo(f"{options.task}: {len(prepared.starts)} starts, {len(finished)} already done")
+    if prepared.library is not None:
+        echo(prepared.library.said())
     model_size = None if todo else _previous_run(folder).get("model_size")
     workers = max(1, min(options.workers, len(todo)))
     executor = make_executor(prepared.job, options.executor, workers, prepared.hang_after_s, options.scheduler, echo)
@@ -329,7 +384,7 @@ def _run_locked(
                 _solve(executor, todo, rows, log, options.task, len(prepared.starts), first, wall_start)
         finally:
             executor.close()
-    return summarise(
+    run = summarise(
         options,
         rows,
         model_size=model_size,
@@ -340,7 +395,24 @@ def _run_locked(
         paper=prepared.paper,
         object_facts=prepared.object_facts,
         job=prepared.job,
+        library=prepared.library,
     )
+    if prepared.library is not None:
+        _add_to_library(prepared.library, prepared.job.task, folder, echo)
+    return run
+
+
+def _add_to_library(library: Library, task: TaskModel, folder: Path, echo: Callable[[str], Any]) -> None:
+    """The sweep's distinct verified optima kept in its library, in place of an earlier sweep's of the task; the
+    sweep's own results are written already, and a library that cannot be written is said, not fatal."""
+    optima = pd.read_parquet(folder / "optima.parquet")
+    try:
+        kept = add_to_library(library.folder, library.setup, task, optima)
+    except OSError as exc:
+        echo(f"library {library.folder}: not added to ({exc.strerror or exc}); the sweep's results are kept")
+        return
+    if kept is not None:
+        echo(f"library: the {len(optima)} optima of task '{task.name}' kept in {kept}")
 
 
 def _say_model(size: dict[str, Any], paper: PaperSynthesis, echo: Callable[[str], Any]) -> None:
@@ -441,6 +513,7 @@ def summarise(
     paper: PaperSynthesis,
     object_facts: dict[str, Any] | None = None,
     job: Job | None = None,
+    library: Library | None = None,
 ) -> dict:
     """Write the sweep's ``solutions.parquet``, ``optima.parquet`` and ``run.json`` from its rows; the run
     summary. ``solved`` is how many of the rows this run solved in its ``wall_seconds`` (None: all of them).
@@ -453,7 +526,7 @@ def summarise(
     optima = cluster(solutions, fingers, symmetry)
     seconds = solutions["seconds"].astype(float)
     run = {
-        **_run_inputs(options, fingers, object_facts),
+        **_run_inputs(options, fingers, object_facts, library),
         **_run_outcome(solutions, optima, options.task, len(rows)),
         "seconds_per_start": {
             "median": float(seconds.median()),
@@ -486,7 +559,9 @@ def summarise(
     return run
 
 
-def _run_inputs(options: SynthesisOptions, fingers: list[str], object_facts: dict[str, Any] | None) -> dict:
+def _run_inputs(
+    options: SynthesisOptions, fingers: list[str], object_facts: dict[str, Any] | None, library: Library | None
+) -> dict:
     """What the sweep was run on and how, for run.json; paths absolute: export, report and physics read them from
     any working directory."""
     return {
@@ -503,6 +578,8 @@ def _run_inputs(options: SynthesisOptions, fingers: list[str], object_facts: dic
         # the physics config of synthesize --physics (None: not checked; a physics_summary.json beside this
         # run.json is then an earlier run's)
         "physics_config": os.path.abspath(options.physics) if options.physics is not None else None,
+        # the grasp library the sweep started from and added to (None: none, the sweep reproducible)
+        "library": library.record() if library is not None else None,
         "backend": options.backend,
         "executor": options.executor,
         "workers": options.workers,

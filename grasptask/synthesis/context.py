@@ -105,12 +105,15 @@ class SolverContext:
         while the verifier rejects the result, again from each of its retry postures. The row is the last
         attempt's; its seconds, iterations, placement seconds and feedback rounds are those of every attempt
         together, and ``first_attempt_*`` say how the first did."""
-        if self.approach is not None:  # the start's palm normal is the hand's approach direction
+        warm = start.joints is not None  # an optimum's palm turned with the hand already
+        if self.approach is not None and not warm:  # the start's palm normal is the hand's approach direction
             start = replace(start, palm_rotation=start.palm_rotation @ self.approach.T)
         postures = [self.nlp.hand.posture(f) for f in self.job.solver.postures]
+        if start.joints is not None:  # a warm start's first attempt is its own grasp, then the retries as any
+            postures[0] = np.asarray(start.joints, dtype=float)
         spent = {"seconds": 0.0, "iterations": 0, "placement_seconds": 0.0, "feedback_rounds": 0, "all_axes_solves": 0}
         for attempt, joints in enumerate(postures, 1):
-            row = self._attempt(start, joints)
+            row = self._attempt(start, joints, as_it_is=warm and attempt == 1)
             if attempt == 1:
                 first = {"first_attempt_seconds": row["seconds"], "first_attempt_verified": row["verified"]}
             for key in spent:
@@ -119,14 +122,20 @@ class SolverContext:
                 break
         return {**row, **spent, **first, "attempts": attempt}
 
-    def _initial_point(self, start: Start, joints: np.ndarray, row: dict[str, Any]) -> tuple[np.ndarray, float, int]:
+    def _initial_point(
+        self, start: Start, joints: np.ndarray, row: dict[str, Any], as_it_is: bool = False
+    ) -> tuple[np.ndarray, float, int]:
         """The first model's initial point from ``start`` in the posture ``joints``: placed (or initialised),
         then moved by the geometric phase where there is one; its seconds and iterations. The placement's
-        figures go into ``row``."""
+        figures go into ``row``. ``as_it_is``: a warm start's grasp, initialised where it is and not moved."""
         from grasptask.synthesis.placement import place  # Pyomo, loaded in the workers
 
         models = self.models
         began = time.perf_counter()
+        if as_it_is:
+            self.nlp.initialise(start.palm_rotation, start.palm_position, joints)
+            row["placement_seconds"] = seconds = time.perf_counter() - began
+            return values(models.first.order), seconds, 0
         if self.job.solver.placement:
             row["placement_backoff_m"] = place(self.nlp, start, self.anchors, joints)
         else:
@@ -140,7 +149,7 @@ class SolverContext:
                 x0[models.geometric_positions] = phase.x
         return x0, seconds, iterations
 
-    def _attempt(self, start: Start, joints: np.ndarray) -> dict:
+    def _attempt(self, start: Start, joints: np.ndarray, as_it_is: bool = False) -> dict:
         """Placement, IPOPT and the verifier from one posture; the whole model's solve when the first model left
         out an axis the grasp cannot hold; the verifier's feedback rounds."""
         models = self.models
@@ -150,7 +159,7 @@ class SolverContext:
             "position": start.position_name,
         }
         solver = models.first
-        x0, seconds, iterations = self._initial_point(start, joints, row)
+        x0, seconds, iterations = self._initial_point(start, joints, row, as_it_is)
         rounds, whole = 0, 0
         result = solver.solve(x0)
         seconds, iterations = seconds + result.seconds, iterations + result.iterations

@@ -9,10 +9,15 @@ object. Joints start at mid-range. A seeded jitter of a few degrees and millimet
 from __future__ import annotations
 
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
+import pandas as pd
 import trimesh
 from scipy.spatial.transform import Rotation
+
+from grasptask.errors import BadInputError
+from grasptask.records.solutions import grasp_from_row, joint_columns
 
 N_ORIENTATIONS = 42
 POSITIONS = ("diagonal", "middle", "above")
@@ -25,6 +30,14 @@ class Start:
     position_name: str
     palm_rotation: np.ndarray
     palm_position: np.ndarray
+    #: a warm start's joints (an optimum of a grasp library): its first attempt starts at that grasp as it was,
+    #: neither placed nor moved by the geometric phase
+    joints: np.ndarray | None = None
+
+
+#: the first id of the warm starts, apart from the 126
+WARM_FIRST_ID = 1000
+WARM_POSITION = "library"
 
 
 def palm_directions() -> np.ndarray:
@@ -80,3 +93,18 @@ def subset(starts: list[Start], n: int | None) -> list[Start]:
         return list(starts)
     picks = np.unique(np.linspace(0, len(starts) - 1, n).round().astype(int))
     return [starts[i] for i in picks]
+
+
+def warm_starts(optima: pd.DataFrame, joint_names: list[str], source: str | Path = "library") -> list[Start]:
+    """A start at each of ``optima`` (a grasp library's, best first), numbered from :data:`WARM_FIRST_ID`; an
+    optimum without one of the joints is one line naming ``source``."""
+    missing = next((c for c in joint_columns(joint_names) if c not in optima.columns), None)
+    if missing is not None:
+        raise BadInputError(source, "missing column", column=missing)
+    starts = []
+    for k, row in enumerate(optima.to_dict("records")):
+        grasp = grasp_from_row(row, joint_names)
+        starts.append(
+            Start(WARM_FIRST_ID + k, -1, WARM_POSITION, grasp.palm_rotation, grasp.palm_position, grasp.joint_angles)
+        )
+    return starts
