@@ -87,6 +87,25 @@ def line(task: str, c: dict) -> str:
     )
 
 
+def markdown_table(r: dict) -> str:
+    """The results page's table: per task, the full sweep beside the library's, and their ratios."""
+    lines = [
+        "| task | nearest in the library (distance) | full: starts, s, best Q, optima | library: starts, s, best Q, "
+        "optima | sooner | best Q ratio |",
+        "|---|---|---|---|---|---|",
+    ]
+    for task, c in r["tasks"].items():
+        f, w = c["full"], c["library"]
+        used = w.get("library") or {}
+        lines.append(
+            f"| {task} | {used.get('from_task')} ({used.get('distance', float('nan')):.3g}) | {f['starts']}, "
+            f"{f['wall_s']:.0f}, {f['best_Q']:.4g}, {f['distinct_optima']} | {w['starts']}, {w['wall_s']:.0f}, "
+            f"{w['best_Q']:.4g}, {w['distinct_optima']} | {c['wall_full_over_library']:.1f}x | "
+            f"{c['best_Q_library_over_full']:.3f} |"
+        )
+    return "\n".join(lines)
+
+
 def main(own_starts: int, solver: Path) -> dict:
     check_solver(solver)
     results: dict = {"own_starts_with_library": own_starts, "solver_config": str(solver), "tasks": {}}
