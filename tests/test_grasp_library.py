@@ -86,11 +86,11 @@ def test_a_sweep_warm_started_from_a_similar_task_finds_that_task_s_best_optimum
     library = tmp_path / "library"
     common = ["--tasks", similar, "--workers", "2", "--executor", "pool"]
     filled = cli(
-        "synthesize", *common, "--task", "drawing", "--starts", "8", "--out", tmp_path / "a", "--library", library
+        "synthesize", *common, "--task", "drawing", "--starts", "6", "--out", tmp_path / "a", "--library", library
     )
     assert filled.exit_code == 0, filled.output
     assert "nothing yet for this hand, object and fingers" in filled.output and "kept in" in filled.output
-    alone = cli("synthesize", *common, "--task", "drawing_firmer", "--starts", "8", "--out", tmp_path / "b")
+    alone = cli("synthesize", *common, "--task", "drawing_firmer", "--starts", "6", "--out", tmp_path / "b")
     assert alone.exit_code == 0, alone.output
     warm = cli(
         "synthesize",
