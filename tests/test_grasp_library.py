@@ -116,3 +116,7 @@ def test_a_sweep_warm_started_from_a_similar_task_finds_that_task_s_best_optimum
     run = json.loads((tmp_path / "c" / "drawing_firmer" / "run.json").read_text())
     assert run["library"]["from_task"] == "drawing" and run["library"]["distance"] > 0
     assert json.loads((tmp_path / "b" / "drawing_firmer" / "run.json").read_text())["library"] is None
+    report = cli("report", "--results", tmp_path / "c", "--out", tmp_path / "report")
+    assert report.exit_code == 0, report.output
+    said = json.loads((tmp_path / "report" / "report.json").read_text())["summary"]
+    assert any("warm starts from task 'drawing' of the grasp library" in line for line in said), said

@@ -24,6 +24,7 @@ FIELDS: dict[str, tuple[type | tuple[type, ...], str]] = {
     "fingers": (list, "a list of finger names"),
     "model_size": ((dict, type(None)), "two counts"),
     "log_rows": ((int, type(None)), "a count"),
+    "library": ((dict, type(None)), "the grasp library a sweep started from"),
 }
 
 

@@ -138,10 +138,17 @@ def _identity_lines(sweeps: dict[str, Sweep]) -> list[str]:
     lines = [f"Hand {hand} on object {obj}: {', '.join(tasks)}" for (hand, obj), tasks in groups.items()]
     for task, sweep in sweeps.items():
         run, made = sweep.run, sweep.run_file.stat().st_mtime
+        library = run.get("library") or {}
+        warm = (
+            f" ({library.get('warm_starts')} of them warm starts from task '{library['from_task']}' of the grasp "
+            f"library {library.get('folder')})"
+            if library.get("from_task")
+            else ""
+        )
         lines.append(
             f"{task}: synthesized {time.strftime('%Y-%m-%d %H:%M', time.localtime(made))}, {run.get('starts', '?')} "
-            f"starts, {run.get('backend', '?')} on {run.get('executor', '?')} x {run.get('workers', '?')}, grasp "
-            f"config {Path(str(run.get('grasp_config', '?'))).name}, in {sweep.folder}"
+            f"starts{warm}, {run.get('backend', '?')} on {run.get('executor', '?')} x {run.get('workers', '?')}, "
+            f"grasp config {Path(str(run.get('grasp_config', '?'))).name}, in {sweep.folder}"
         )
     return lines
 
