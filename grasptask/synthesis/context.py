@@ -35,7 +35,7 @@ if TYPE_CHECKING:  # the solver stack loads in the workers, not where a Job is m
 @dataclass(frozen=True)
 class Job:
     """Everything a worker needs to build its models: the hand (its grasping fingers chosen), the object and the
-    task model, loaded once where the sweep is prepared and handed to the workers by value (a pickle of 1-3 MB,
+    task model, loaded once where the sweep is prepared and handed to the workers by value (a pickle of 1-8 MB,
     where a published hand's sphere cover takes seconds to fit again); the settings, read and checked once."""
 
     hand: Hand
