@@ -259,6 +259,10 @@ def _dask_context(job: Job) -> SolverContext:
     return _DASK_CONTEXTS[key]
 
 
+def _the_job(job: Job) -> Job:
+    return job
+
+
 def _dask_size(job: Job) -> dict[str, int]:
     with _DASK_LOCK:
         return _dask_context(job).size
@@ -289,7 +293,7 @@ class DaskExecutor:
         self.job, self.scheduler, self.timeout_s, self.connect_timeout_s = job, scheduler, timeout_s, connect_timeout_s
         self.notify = notify
         self.client: Any = None
-        self.shared: Any = None  # the job, scattered to the workers
+        self.shared: Any = None  # the job, as the future every start depends on
         self._alone_since: float | None = None
         self._asked = 0.0
         self._said = False
@@ -338,8 +342,10 @@ class DaskExecutor:
                 self.scheduler, f"no Dask scheduler answered within {self.connect_timeout_s:g} s ({type(exc).__name__})"
             ) from exc
         try:
-            # sent once to every worker (a new one fetches it from a peer), not pickled into each start's task
-            self.shared = self.client.scatter(self.job, broadcast=True, hash=False)
+            # the job sent once, as a task of its own that every start depends on, not pickled into each start's
+            # task: a worker that joins later fetches it, and the scheduler makes it again if every worker holding
+            # it died (scattered data would be lost with them, and with it every start left)
+            self.shared = self.client.submit(_the_job, self.job, pure=False)
             size = self._wait(self.client.submit(_dask_size, self.shared, pure=False))
         except KeyboardInterrupt:
             raise
