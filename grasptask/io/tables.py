@@ -22,3 +22,18 @@ def read_table(path: str | Path, required: tuple[str, ...] | list[str] = ()) -> 
         if column not in frame.columns:
             raise BadInputError(path, "missing column", column=column)
     return frame
+
+
+def check_numbers(path: str | Path, table: pd.DataFrame, columns: list[str], missing_ok: bool) -> None:
+    """One line naming the row and column of the first value in ``columns`` that is not a finite number (a
+    missing one allowed where ``missing_ok``)."""
+    for column in columns:
+        if not pd.api.types.is_numeric_dtype(table[column]) or pd.api.types.is_bool_dtype(table[column]):
+            raise BadInputError(path, f"must hold numbers, not {table[column].dtype} values", column=column)
+        values = table[column].astype(float)
+        bad = values.isin([float("inf"), float("-inf")])
+        if not missing_ok:
+            bad |= values.isna()
+        if bad.any():
+            row = int(bad.to_numpy().argmax())
+            raise BadInputError(path, f"not a finite number: {table[column].iloc[row]!r}", row=row + 1, column=column)

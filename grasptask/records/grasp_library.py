@@ -18,11 +18,10 @@ import pandas as pd
 from grasptask.errors import BadInputError
 from grasptask.io.artifacts import config_hash, write_json_atomic
 from grasptask.io.config_schema import read_json
+from grasptask.io.tables import check_numbers
+from grasptask.records.solutions import GRASP_PREFIXES
 from grasptask.task.spd import log_euclidean_distance, spd_problem
 from grasptask.task.task_model import TaskModel
-
-#: the columns of an optimum an entry keeps: what a warm start and the table of optima need
-KEPT = ("palm_", "q_", "contact_", "normal_")
 
 
 @dataclass(frozen=True)
@@ -49,7 +48,7 @@ def add_to_library(library: str | Path, setup: str, task: TaskModel, optima: pd.
     sweep's of the same task; None when there is none to keep."""
     if optima.empty:
         return None
-    kept = [c for c in optima.columns if c.startswith(KEPT)] + ["Q"]
+    kept = [c for c in optima.columns if c.startswith(GRASP_PREFIXES)] + ["Q"]  # what a warm start needs
     rows = optima.sort_values("Q")[kept].astype(float).to_dict("records")
     S = np.asarray(task.ellipsoid.S, dtype=float)
     path = Path(library) / setup / f"{task.name}-{config_hash(S.round(12).tolist())[:12]}.json"
@@ -82,9 +81,6 @@ def _read_entry(path: Path) -> LibraryEntry:
         raise BadInputError(path, f"field 'S': {problem}")
     if not isinstance(optima, list) or not optima or not all(isinstance(row, dict) for row in optima):
         raise BadInputError(path, "field 'optima' must be a list of grasps")
-    table = pd.DataFrame(optima)
-    numbers = table.apply(pd.to_numeric, errors="coerce")
-    if not np.isfinite(numbers.to_numpy(dtype=float)).all():  # no NaN from a file reaches a solver
-        row, column = np.argwhere(~np.isfinite(numbers.to_numpy(dtype=float)))[0]
-        raise BadInputError(path, "not a finite number", row=int(row) + 1, column=str(table.columns[column]))
+    numbers = pd.DataFrame(optima).apply(pd.to_numeric, errors="coerce")
+    check_numbers(path, numbers, list(numbers.columns), missing_ok=False)  # no NaN from a file reaches a solver
     return LibraryEntry(path, task, np.asarray(S, dtype=float), numbers)

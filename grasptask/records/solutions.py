@@ -26,6 +26,10 @@ AXES = "xyz"
 Row = Mapping[str, Any]
 
 
+#: the prefixes of a grasp's columns: palm pose, joint angles, contacts and outward normals
+GRASP_PREFIXES = ("palm_", "q_", "contact_", "normal_")
+
+
 def joint_columns(joint_names: list[str]) -> list[str]:
     return [f"q_{n}" for n in joint_names]
 

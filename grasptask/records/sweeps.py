@@ -20,12 +20,18 @@ from grasptask.grasp.grasp_settings import GraspSettings, load_grasp_settings
 from grasptask.hand import load_hand
 from grasptask.hand.hand_model import GraspingHand, Hand
 from grasptask.io.sweep_log import read_log
-from grasptask.io.tables import read_table
+from grasptask.io.tables import check_numbers, read_table
 from grasptask.objects import load_object
 from grasptask.objects.surface import ImplicitObject
 from grasptask.paths import DEFAULT_GRASP_CONFIG, DEFAULT_HAND, DEFAULT_OBJECT, ROOT
 from grasptask.records.run_record import RUN_FILE, read_run, run_file, summarised_rows
-from grasptask.records.solutions import fingers_in, grasp_from_row, implausible_column, joint_columns
+from grasptask.records.solutions import (
+    GRASP_PREFIXES,
+    fingers_in,
+    grasp_from_row,
+    implausible_column,
+    joint_columns,
+)
 from grasptask.task.task_model import TaskModel, load_task_model
 
 #: the tables a sweep's folder holds beside its run record
@@ -61,26 +67,28 @@ class SweepFiles:
         fingers: tuple[str, ...] | None = None,
         tasks: str | Path | None = None,
         task: str | None = None,
+        run: dict[str, Any] | None = None,
     ) -> SweepFiles:
+        """``run``: the sweep's run record, where the caller has read it already."""
         folder = Path(solutions).parent
-        used = read_run(folder)
+        used = read_run(folder) if run is None else run
         swept = used.get("task")
         if task is not None and swept is not None and swept != task:  # judged under another task's wrenches
             raise BadInputError(run_file(folder), f"the sweep is of task '{swept}', not '{task}' (--task)")
 
-        def pick(given: str | Path | None, key: str, default: Path | None) -> Path | None:
+        def pick(given: str | Path | None, key: str) -> Path | None:
             if given is not None:
                 return Path(given)
             chosen = used.get(key)
-            return default if chosen is None else recorded_path(Path(chosen), folder)
+            return None if chosen is None else recorded_path(Path(chosen), folder)
 
         recorded = used.get("fingers")
         return cls(
-            hand=pick(hand, "hand", DEFAULT_HAND) or DEFAULT_HAND,
-            object=pick(object, "object", DEFAULT_OBJECT) or DEFAULT_OBJECT,
-            grasp_config=pick(grasp_config, "grasp_config", DEFAULT_GRASP_CONFIG) or DEFAULT_GRASP_CONFIG,
+            hand=pick(hand, "hand") or DEFAULT_HAND,
+            object=pick(object, "object") or DEFAULT_OBJECT,
+            grasp_config=pick(grasp_config, "grasp_config") or DEFAULT_GRASP_CONFIG,
             fingers=fingers or (tuple(recorded) if recorded else None),
-            tasks=pick(tasks, "tasks", None),
+            tasks=pick(tasks, "tasks"),
             task=task or swept or folder.resolve().name,
         )
 
@@ -159,21 +167,6 @@ def read_grasps(solutions_path: str | Path, whole: Hand, fingers: tuple[str, ...
     return SolvedGrasps.of(solutions, hand, solutions_path)
 
 
-def check_numbers(path: str | Path, table: pd.DataFrame, columns: list[str], missing_ok: bool) -> None:
-    """One line naming the row and column of the first value in ``columns`` that is not a finite number (a
-    missing one allowed where ``missing_ok``)."""
-    for column in columns:
-        if not pd.api.types.is_numeric_dtype(table[column]) or pd.api.types.is_bool_dtype(table[column]):
-            raise BadInputError(path, f"must hold numbers, not {table[column].dtype} values", column=column)
-        values = table[column].astype(float)
-        bad = values.isin([float("inf"), float("-inf")])
-        if not missing_ok:
-            bad |= values.isna()
-        if bad.any():
-            row = int(bad.to_numpy().argmax())
-            raise BadInputError(path, f"not a finite number: {table[column].iloc[row]!r}", row=row + 1, column=column)
-
-
 @dataclass(frozen=True)
 class Sweep:
     """A finished sweep, opened once: the files it was made from, its run record, the grasp settings, and every
@@ -207,13 +200,14 @@ class Sweep:
         package's default; ``fingers`` defaults to those the table holds contacts of. ``hands``: hands already
         loaded, by path (a mesh hand's cover takes seconds). A missing or malformed input is one line naming the
         file and the field."""
-        files = SweepFiles.of(solutions, hand, object, grasp_config, fingers, tasks, task)
+        run = read_run(Path(solutions).parent)
+        files = SweepFiles.of(solutions, hand, object, grasp_config, fingers, tasks, task, run)
         hands = {} if hands is None else hands
         whole = hands.get(files.hand) or hands.setdefault(files.hand, load_hand(files.hand))
         return cls(
             Path(solutions),
             files,
-            read_run(Path(solutions).parent),
+            run,
             load_grasp_settings(files.grasp_config),
             read_grasps(solutions, whole, files.fingers),
             dict(object_overrides or {}),
@@ -266,7 +260,7 @@ class Sweep:
                 path, f"not a table of hand '{hand.name}' ({self.files.hand}): fingers {list(hand.fingers)}, no "
                 f"column '{absent}'",
             )  # fmt: skip
-        numeric = [c for c in optima.columns if c.startswith(("palm_", "q_", "contact_", "normal_")) or c == "Q"]
+        numeric = [c for c in optima.columns if c.startswith(GRASP_PREFIXES) or c == "Q"]
         check_numbers(path, optima, numeric + (["verify_Q"] if "verify_Q" in optima.columns else []), False)
         return optima
 
