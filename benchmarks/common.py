@@ -58,11 +58,11 @@ def save(name: str, payload: dict) -> Path:
 
 def demonstration_tasks(folder: Path) -> Path:
     """The bundled simulator's 105 recordings (seed 0) fitted into task models: their task_models.json."""
-    from grasptask.stages import run_fit_task, run_simulate
+    from grasptask.stages import FitTaskOptions, SimulateOptions, run_fit_task, run_simulate
 
     root = Path(__file__).resolve().parents[1]
-    run_simulate(root / "configs/simulate.yaml", folder / "rec", seed=0, fmt="parquet")
-    run_fit_task([folder / "rec" / "manifest.csv"], folder / "tasks")
+    run_simulate(SimulateOptions(out=folder / "rec", config=root / "configs/simulate.yaml", format="parquet"))
+    run_fit_task(FitTaskOptions(inputs=[folder / "rec" / "manifest.csv"], out=folder / "tasks"))
     return folder / "tasks" / "task_models.json"
 
 
@@ -185,7 +185,7 @@ def held(sweep: Path, tasks: Path, task: str, out: Path) -> dict:
 
     began = time.perf_counter()
     options = PhysicsOptions(solutions=sweep / "solutions.parquet", out=out, workers=2, tasks=tasks, task=task)
-    table = run_physics(options, echo=lambda _: None)
+    table = run_physics(options).table
     solved = table[table["physics_passed"].notna()]
     verified = solved[solved["verified"].astype(bool)]
     return {

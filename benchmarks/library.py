@@ -28,14 +28,21 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT / "benchmarks"), str(ROOT)]
 from common import DEFAULT_SOLVER, check_solver, demonstration_tasks, save  # noqa: E402
 
-from grasptask.stages import SynthesisOptions, run_fit_task, run_simulate, run_synthesize  # noqa: E402
+from grasptask.stages import (  # noqa: E402
+    FitTaskOptions,
+    SimulateOptions,
+    SynthesisOptions,
+    run_fit_task,
+    run_simulate,
+    run_synthesize,
+)
 
 
 def similar_tasks(folder: Path, tasks: Path) -> Path:
     """The task models with two tasks like drawing: drawing from the simulator's seed-1 recordings, and drawing's
     ellipsoid 10% longer on every axis."""
-    run_simulate(ROOT / "configs/simulate.yaml", folder / "rec1", seed=1, fmt="parquet")
-    run_fit_task([folder / "rec1" / "manifest.csv"], folder / "tasks1")
+    run_simulate(SimulateOptions(out=folder / "rec1", config=ROOT / "configs/simulate.yaml", seed=1, format="parquet"))
+    run_fit_task(FitTaskOptions(inputs=[folder / "rec1" / "manifest.csv"], out=folder / "tasks1"))
     data = json.loads(tasks.read_text())
     again = json.loads((folder / "tasks1" / "task_models.json").read_text())["tasks"]["drawing"]
     data["tasks"]["drawing_again"] = again
@@ -51,7 +58,7 @@ def sweep(tasks: Path, task: str, out: Path, solver: Path, starts: int | None, l
     options = SynthesisOptions(
         tasks=tasks, task=task, out=out, solver_config=solver, starts=starts, workers=2, library=library
     )
-    run = run_synthesize(options, echo=print)
+    run = run_synthesize(options, echo=print).run
     wall = time.perf_counter() - began
     optima = pd.read_parquet(out / task / "optima.parquet")
     return {

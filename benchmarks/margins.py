@@ -169,7 +169,7 @@ def main(
                         solutions=out / task / "solutions.parquet", out=tmp / "physics" / route / hand / task,
                         workers=2, tasks=tasks, task=task,
                     )  # fmt: skip
-                    physics = run_physics(inputs, echo=lambda _: None)
+                    physics = run_physics(inputs).table
                     shown = entry[task] = figures(out / task, physics, compliance)
                     held = "-" if shown["held_of_verified"] is None else f"{shown['held_of_verified']:.0%}"
                     print(

@@ -138,7 +138,7 @@ def main(folder: Path, found: list[tuple[str, str, Path]], workers: int, name: s
                     solutions=sweep / "solutions.parquet", out=out, workers=workers, tasks=tasks_file, task=task,
                     controller=controller, strength=strength, friction_scale=friction,
                 )  # fmt: skip
-                table = run_physics(inputs, echo=lambda _: None)
+                table = run_physics(inputs).table
                 entry[protocol] = figures(table, hand, protocol, time.perf_counter() - began)
                 shown = entry[protocol]
                 held = "-" if shown["held_of_verified"] is None else f"{shown['held_of_verified']:.0%}"

@@ -42,7 +42,14 @@ from common import check_solver, save, solver_option, time_shares  # noqa: E402
 from grasptask.io.config_schema import load_yaml  # noqa: E402
 from grasptask.records.reference import read_paper_synthesis  # noqa: E402
 from grasptask.records.solutions import contacts_from_row, palm_normal_from_row  # noqa: E402
-from grasptask.stages import SynthesisOptions, run_fit_task, run_simulate, run_synthesize  # noqa: E402  # noqa: E402
+from grasptask.stages import (  # noqa: E402
+    FitTaskOptions,
+    SimulateOptions,
+    SynthesisOptions,
+    run_fit_task,
+    run_simulate,
+    run_synthesize,
+)
 
 PAPER_GRASP = Path(__file__).resolve().parents[1] / "configs" / "grasp_paper.yaml"
 PAPER_HAND = Path(__file__).resolve().parents[1] / "configs" / "hands" / "human_paper.yaml"
@@ -145,8 +152,8 @@ def main(
     results: dict = {"solver_config": str(solver), "seed": seed, "tasks": {}}
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
-        run_simulate(CONFIGS / "simulate.yaml", tmp / "rec", seed=0, fmt="parquet")
-        run_fit_task([tmp / "rec" / "manifest.csv"], tmp / "tasks")
+        run_simulate(SimulateOptions(out=tmp / "rec", config=CONFIGS / "simulate.yaml", format="parquet"))
+        run_fit_task(FitTaskOptions(inputs=[tmp / "rec" / "manifest.csv"], out=tmp / "tasks"))
         tasks = tmp / "tasks" / "task_models.json"
         unplaced = tmp / "solver_unplaced.yaml"
         unplaced.write_text(yaml.safe_dump({**load_yaml(solver), "placement": False}))
@@ -169,7 +176,7 @@ def main(
         sweeps = 0.0
         for task in TASKS:
             began = time.perf_counter()
-            run = run_synthesize(options(task, tmp / "grasps"), echo=print)
+            run = run_synthesize(options(task, tmp / "grasps"), echo=print).run
             sweeps += time.perf_counter() - began
             optima = pd.read_parquet(tmp / "grasps" / task / "optima.parquet")
             results["tasks"][task] = {

@@ -20,7 +20,14 @@ import scipy.linalg
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from common import median_seconds, save  # noqa: E402
 
-from grasptask.stages import run_distances, run_fit_task, run_simulate  # noqa: E402
+from grasptask.stages import (  # noqa: E402
+    DistanceOptions,
+    FitTaskOptions,
+    SimulateOptions,
+    run_distances,
+    run_fit_task,
+    run_simulate,
+)
 from grasptask.task.distances import compute_distances  # noqa: E402
 from grasptask.task.ellipsoid import second_moment  # noqa: E402
 from grasptask.task.fit import ellipsoid_matrices, fit_entry  # noqa: E402
@@ -76,10 +83,9 @@ def main() -> dict:
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
         for fmt in ("parquet", "csv"):
-            run_simulate("configs/simulate.yaml", tmp / f"rec_{fmt}", seed=0, fmt=fmt)
-            median, times = median_seconds(
-                lambda fmt=fmt: run_fit_task([tmp / f"rec_{fmt}" / "manifest.csv"], tmp / f"tasks_{fmt}"), 5
-            )
+            run_simulate(SimulateOptions(out=tmp / f"rec_{fmt}", format=fmt))
+            fit = FitTaskOptions(inputs=[tmp / f"rec_{fmt}" / "manifest.csv"], out=tmp / f"tasks_{fmt}")
+            median, times = median_seconds(lambda fit=fit: run_fit_task(fit), 5)
             results[f"fit_task_105_{fmt}_s"] = {"median": median, "runs": times}
         table = pd.read_parquet(tmp / "tasks_parquet" / "ellipsoids.parquet")
         samples_105 = int(table["n_samples"].sum())
@@ -91,7 +97,7 @@ def main() -> dict:
         entry = RecordingEntry(id="big", path=big, task="t", subject="1", trial=1, grasp="free")
         median, times = median_seconds(lambda: fit_entry(entry), 3)
         results["fit_10M_parquet"] = {"samples": n, "median_s": median, "samples_per_s": n / median, "runs": times}
-        median, times = median_seconds(lambda: run_fit_task([big], tmp / "big_out"), 3)
+        median, times = median_seconds(lambda: run_fit_task(FitTaskOptions(inputs=[big], out=tmp / "big_out")), 3)
         results["fit_task_stage_10M_parquet"] = {
             "samples": n,
             "median_s": median,
@@ -116,7 +122,8 @@ def main() -> dict:
 
         median, times = median_seconds(lambda: compute_distances(table).summary(), 5)
         results["distances_105_compute_s"] = {"median": median, "runs": times}
-        median, _ = median_seconds(lambda: run_distances(tmp / "tasks_parquet" / "ellipsoids.parquet", tmp / "d"), 3)
+        small = DistanceOptions(ellipsoids=tmp / "tasks_parquet" / "ellipsoids.parquet", out=tmp / "d")
+        median, _ = median_seconds(lambda: run_distances(small), 3)
         results["distances_105_stage_s"] = {"median": median, "note": "with distances.parquet, JSON and both PNGs"}
 
         large = many_ellipsoids(table, 5000)
@@ -124,7 +131,7 @@ def main() -> dict:
         results["distances_5000_compute_s"] = {"median": median, "runs": times}
         large_path = tmp / "large.parquet"
         large.to_parquet(large_path)
-        median, _ = median_seconds(lambda: run_distances(large_path, tmp / "dl"), 1)
+        median, _ = median_seconds(lambda: run_distances(DistanceOptions(ellipsoids=large_path, out=tmp / "dl")), 1)
         results["distances_5000_stage_s"] = {
             "median": median,
             "note": "single run; writes 25 million distance rows, heatmap and embedding",

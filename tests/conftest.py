@@ -5,7 +5,14 @@ import pytest
 from click.testing import CliRunner
 
 from grasptask.cli import main
-from grasptask.stages import run_distances, run_fit_task, run_simulate
+from grasptask.stages import (
+    DistanceOptions,
+    FitTaskOptions,
+    SimulateOptions,
+    run_distances,
+    run_fit_task,
+    run_simulate,
+)
 from grasptask.task.recordings import write_recording
 
 
@@ -13,10 +20,10 @@ from grasptask.task.recordings import write_recording
 def simulated(tmp_path_factory):
     """The bundled simulator's 105 recordings (seed 0, Parquet), fit-task and distances on them."""
     root = tmp_path_factory.mktemp("simulated")
-    run_simulate("configs/simulate.yaml", root / "recordings", seed=0, fmt="parquet")
-    result, stats = run_fit_task([root / "recordings" / "manifest.csv"], root / "tasks")
-    run_distances(root / "tasks" / "ellipsoids.parquet", root / "tasks")
-    return root, result, stats
+    run_simulate(SimulateOptions(out=root / "recordings", format="parquet"))
+    fitted = run_fit_task(FitTaskOptions(inputs=[root / "recordings" / "manifest.csv"], out=root / "tasks"))
+    run_distances(DistanceOptions(ellipsoids=root / "tasks" / "ellipsoids.parquet", out=root / "tasks"))
+    return root, fitted, fitted.stats
 
 
 @pytest.fixture(scope="session")

@@ -6,7 +6,7 @@ import pytest
 
 from grasptask.io.artifacts import file_hash
 from grasptask.paths import PAPER_ELLIPSOID_TABLES
-from grasptask.stages import run_distances, run_simulate
+from grasptask.stages import DistanceOptions, SimulateOptions, run_distances, run_simulate
 from grasptask.task.stats import compare_with_reference, read_reference
 
 
@@ -50,9 +50,9 @@ def test_raw_axis_length_means_within_25_percent_of_the_paper(compared):
 
 def test_tasks_separate_by_log_euclidean_distance(simulated, tmp_path):
     root, _, _ = simulated
-    summary = run_distances(root / "tasks" / "ellipsoids.parquet", tmp_path)
-    assert summary["by_task"]["loo_1nn_accuracy"] >= 0.95
-    assert summary["by_task"]["mean_within"] < summary["by_task"]["mean_between"]
+    summary = run_distances(DistanceOptions(ellipsoids=root / "tasks" / "ellipsoids.parquet", out=tmp_path))
+    assert summary.by_task["loo_1nn_accuracy"] >= 0.95
+    assert summary.by_task["mean_within"] < summary.by_task["mean_between"]
     assert (tmp_path / "distance_heatmap.png").stat().st_size > 10_000
     distances = pd.read_parquet(tmp_path / "distances.parquet")
     assert len(distances) == 105 * 105
@@ -61,9 +61,8 @@ def test_tasks_separate_by_log_euclidean_distance(simulated, tmp_path):
 
 def test_simulation_is_deterministic_per_seed(tmp_path):
     config = "configs/simulate.yaml"
-    run_simulate(config, tmp_path / "a", seed=3, fmt="csv")
-    run_simulate(config, tmp_path / "b", seed=3, fmt="csv")
-    run_simulate(config, tmp_path / "c", seed=4, fmt="csv")
+    for folder, seed in (("a", 3), ("b", 3), ("c", 4)):
+        run_simulate(SimulateOptions(out=tmp_path / folder, config=config, seed=seed, format="csv"))
     name = "recordings/cutting_free_s2_t3.csv"
     assert file_hash(tmp_path / "a" / name) == file_hash(tmp_path / "b" / name)
     assert file_hash(tmp_path / "a" / name) != file_hash(tmp_path / "c" / name)

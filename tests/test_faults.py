@@ -367,10 +367,10 @@ def test_a_command_takes_sigint_even_where_the_parent_ignored_it(cli, tmp_path, 
 
     seen = {}
 
-    def distances(ellipsoids, out):
+    def distances(options):
         seen["handler"] = signal.getsignal(signal.SIGINT)
         seen["blocked"] = signal.pthread_sigmask(signal.SIG_BLOCK, set())
-        raise BadInputError(ellipsoids, "seen")  # the command ends here, as on any bad input
+        raise BadInputError(options.ellipsoids, "seen")  # the command ends here, as on any bad input
 
     monkeypatch.setattr(grasptask.stages, "run_distances", distances, raising=False)
     previous = signal.signal(signal.SIGINT, signal.SIG_IGN)

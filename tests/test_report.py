@@ -13,7 +13,7 @@ from grasp_fixtures import ball_sweep, results_with_tasks
 
 from grasptask.report.browser_check import check_page, find_chromium
 from grasptask.report.paper_tables import PAPER_TABLES
-from grasptask.stages import build_report
+from grasptask.stages import ReportOptions, run_report
 
 
 @pytest.fixture(scope="module")
@@ -24,7 +24,7 @@ def full_report(simulated, tmp_path_factory):
     # an interrupted sweep: a per-start log but no summary
     (results / "grasps" / "cutting").mkdir(parents=True)
     (results / "grasps" / "cutting" / "solutions.jsonl").write_text('{"start_id": 0}\n')
-    summary = build_report(results, results / "report")
+    summary = run_report(ReportOptions(results=results))
     return results, summary
 
 
@@ -35,7 +35,7 @@ def _markup(page: str) -> str:
 
 def test_report_from_task_results_only(simulated, tmp_path):
     results = results_with_tasks(simulated, tmp_path / "results")
-    summary = build_report(results, tmp_path / "out")
+    summary = run_report(ReportOptions(results=results, out=tmp_path / "out"))
     out = tmp_path / "out"
     figures = sorted(p.name for p in (out / "figures").iterdir())
     assert figures == [
@@ -57,7 +57,7 @@ def test_report_from_task_results_only(simulated, tmp_path):
 
 
 def test_tables_put_each_value_beside_the_paper(simulated, tmp_path):
-    build_report(results_with_tasks(simulated, tmp_path / "results"), tmp_path / "out")
+    run_report(ReportOptions(results=results_with_tasks(simulated, tmp_path / "results"), out=tmp_path / "out"))
     table5 = (tmp_path / "out" / "tables" / "table_05.md").read_text()
     assert "Table 5:" in table5 and "proj paper" in table5 and "proj diff" in table5
     ours = pd.read_csv(simulated[0] / "tasks" / "stats.csv", dtype={"axis": str})

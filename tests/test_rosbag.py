@@ -10,7 +10,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from grasptask.stages import run_fit_task
+from grasptask.stages import FitTaskOptions, run_fit_task
 from grasptask.task.fit import ellipsoid_matrices
 from grasptask.task.manifest import read_manifest
 from grasptask.task.recordings import read_recording, write_recording
@@ -41,8 +41,8 @@ def _bag_manifest(folder: Path, simulated_root: Path, kind: str, count: int = 6)
 @pytest.mark.parametrize("kind", BAG_KINDS)
 def test_a_bag_fits_the_same_ellipsoids_as_its_csv(tmp_path, simulated, kind):
     csv_manifest, bag_manifest = _bag_manifest(tmp_path, simulated[0], kind)
-    from_csv, _ = run_fit_task([csv_manifest], tmp_path / "from_csv")
-    from_bag, _ = run_fit_task([bag_manifest], tmp_path / "from_bag")
+    from_csv = run_fit_task(FitTaskOptions(inputs=[csv_manifest], out=tmp_path / "from_csv"))
+    from_bag = run_fit_task(FitTaskOptions(inputs=[bag_manifest], out=tmp_path / "from_bag"))
     assert list(from_bag.ellipsoids["id"]) == list(from_csv.ellipsoids["id"])
     np.testing.assert_allclose(ellipsoid_matrices(from_bag.ellipsoids), ellipsoid_matrices(from_csv.ellipsoids),
                                rtol=0, atol=1e-12)  # fmt: skip

@@ -158,3 +158,67 @@ def test_only_the_run_record_module_names_the_run_record_file():
             if isinstance(node, ast.Constant) and node.value == "run.json":
                 naming.append(str(module))
     assert naming == ["grasptask/records/run_record.py"]
+
+
+def test_every_stage_command_runs_through_its_stage_and_options():
+    """One contract, ``run_X(XOptions) -> XSummary``: every command but the group's own is registered with its
+    options, its stage and what it says, and each options class refuses a bad value when it is made."""
+    import click
+    import pytest
+
+    from grasptask import stages
+    from grasptask.cli import main
+    from grasptask.cli.commands import STAGE_COMMANDS
+    from grasptask.errors import BadInputError
+
+    def names(group: click.Group, prefix: str = "") -> set[str]:
+        found: set[str] = set()
+        for name, command in group.commands.items():
+            if isinstance(command, click.Group):
+                found |= names(command, f"{prefix}{name} ")
+            else:
+                found.add(prefix + name)
+        return found
+
+    assert names(main) == set(STAGE_COMMANDS)
+    refused = [
+        lambda: stages.SimulateOptions(out="o", format="xlsx"),
+        lambda: stages.FitTaskOptions(inputs=[], out="o"),
+        lambda: stages.FitTaskOptions(inputs=["r.csv"], out="o", torque_unit="kN.m"),
+        lambda: stages.PhysicsOptions(solutions="s.parquet", out="o", workers=0),
+        lambda: stages.PhysicsOptions(solutions="s.parquet", out="o", controller="pid"),
+        lambda: stages.ReportOptions(results="r", screenshot="top.png"),
+        lambda: stages.SynthesisOptions(tasks="t.json", task="drawing", out="o", starts=0),
+    ]
+    for make in refused:
+        with pytest.raises(BadInputError):
+            make()
+
+
+def test_a_pipeline_runs_its_stages_without_going_back_into_the_cli(tmp_path, recording_factory, monkeypatch):
+    """``pipeline run`` parses each stage's line as Click would, then calls the stage itself: the command group's
+    entry point is never called again, and a stage's bad input is its exit code 2, as on the command line."""
+    import yaml
+
+    from grasptask.cli import main, run_stage
+    from grasptask.pipeline.runner import load_pipeline, run_pipeline
+
+    def no_reentry(*args, **kwargs):
+        raise AssertionError("pipeline run went back into the CLI")
+
+    monkeypatch.setattr(main, "main", no_reentry)
+    recording = recording_factory("rec.csv")
+    stages = [
+        {"name": "fit", "run": "fit-task", "args": [str(recording), "--out", str(tmp_path / "tasks")],
+         "outputs": [str(tmp_path / "tasks")]},
+        {"name": "distances", "run": "distances",
+         "args": [str(tmp_path / "tasks" / "ellipsoids.parquet"), "--out", str(tmp_path / "distances")],
+         "outputs": [str(tmp_path / "distances")]},
+        {"name": "bad", "run": "distances", "args": [str(tmp_path / "none.parquet"), "--out", str(tmp_path / "x")],
+         "outputs": [str(tmp_path / "x")]},
+    ]  # fmt: skip
+    path = tmp_path / "pipeline.yaml"
+    path.write_text(yaml.safe_dump({"name": "t", "state": str(tmp_path / "state.json"), "stages": stages}))
+    outcome = run_pipeline(load_pipeline(path), run_stage, echo=lambda _: None)
+    assert outcome.ran == ["fit", "distances"] and (tmp_path / "distances" / "distance_summary.json").is_file()
+    assert outcome.failed == "bad" and outcome.exit_code == 2 and not (tmp_path / "x").exists()

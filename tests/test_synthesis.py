@@ -295,7 +295,7 @@ def test_dask_local_cluster(tasks, tmp_path):
             executor="dask",
             scheduler=cluster.scheduler_address,
         )
-        run = run_synthesize(options, echo=lambda _: None)
+        run = run_synthesize(options, echo=lambda _: None).run
     assert run["starts"] == 2
     assert len(pd.read_parquet(tmp_path / "drawing" / "solutions.parquet")) == 2
 

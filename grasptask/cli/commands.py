@@ -1,9 +1,14 @@
-"""The stage commands: each builds its stage's options from the shared option groups, runs the stage and says what
-it wrote. No command reads an artifact itself."""
+"""The stage commands. Each is three parts, registered in :data:`STAGE_COMMANDS` under its name: its stage's
+options made from Click's parameters, the stage (a function of :mod:`grasptask.stages`, by name, loaded on first
+use) and what is said of its summary. ``pipeline run`` runs a stage's command line through the same three. No
+command reads an artifact itself."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import click
 
@@ -19,14 +24,44 @@ from grasptask.cli.options import (
     sweep_task_options,
     synthesis_options,
 )
-from grasptask.cli.summaries import fit_summary, number, synthesis_line
-from grasptask.stages import (
-    DEFAULT_SIMULATE_CONFIG,
-    FORCE_UNITS,
-    TIME_UNITS,
-    TORQUE_UNITS,
-    BadInputError,
-)
+from grasptask.cli.summaries import fit_summary, number, physics_line, synthesis_line
+from grasptask.stages import DEFAULT_SIMULATE_CONFIG, FORCE_UNITS, TIME_UNITS, TORQUE_UNITS
+
+
+@dataclass(frozen=True)
+class StageCommand:
+    """A command as the stage it runs: ``options`` makes the stage's options from Click's parameters (by name),
+    ``stage`` runs it, and ``say`` tells its summary (and may end the command with an exit code, as
+    ``click.exceptions.Exit``). Stage functions and options classes are named, not imported, so that
+    ``grasptask --help`` loads none of them."""
+
+    options: Callable[..., Any]
+    stage: Callable[[Any], Any]
+    say: Callable[[Any, Any], None]
+
+    def __call__(self, params: dict[str, Any]) -> None:
+        options = self.options(**params)
+        self.say(options, self.stage(options))
+
+
+def _stage(name: str) -> Callable[[Any], Any]:
+    """The stage function ``name`` of :mod:`grasptask.stages`, loaded when the command runs."""
+    return lambda options: getattr(stages, name)(options)
+
+
+def _options(name: str, **renamed: str) -> Callable[..., Any]:
+    """The options class ``name`` of :mod:`grasptask.stages`, made from Click's parameters by their own names
+    but those ``renamed`` (a parameter's name to the field's)."""
+
+    def make(**params: Any) -> Any:
+        return getattr(stages, name)(**{renamed.get(k, k): v for k, v in params.items()})
+
+    return make
+
+
+def run_command(name: str, params: dict[str, Any]) -> None:
+    """The body of every stage command: the one registered under its name."""
+    STAGE_COMMANDS[name](params)
 
 
 @main.command()
@@ -48,11 +83,14 @@ from grasptask.stages import (
     show_default=True,
     help="File format of the recordings.",
 )
-def simulate(out, config_path, seed, fmt):
+def simulate(**params):
     """Simulate sensorized-tool demonstrations: 7 subjects x 3 trials of drawing (tripod, cylindrical and
     power grasps), cutting and screw driving, 105 recordings plus manifest.csv."""
-    summary = stages.run_simulate(config_path, out, seed, fmt)
-    click.echo(f"wrote {summary['recordings']} recordings and {summary['manifest']}")
+    run_command("simulate", params)
+
+
+def _simulate_said(options, done) -> None:
+    click.echo(f"wrote {done.recordings} recordings and {done.manifest}")
 
 
 @main.command("fit-task")
@@ -92,51 +130,42 @@ def simulate(out, config_path, seed, fmt):
 @click.option("--torque-unit", type=click.Choice(list(TORQUE_UNITS)), default=None, help="Torque unit of plain files.")
 @click.option("--force-unit", type=click.Choice(list(FORCE_UNITS)), default=None, help="Force unit of plain files.")
 @click.option("--time-unit", type=click.Choice(list(TIME_UNITS)), default=None, help="Time unit of plain files.")
-def fit_task(
-    inputs,
-    out,
-    bias_window,
-    trim_start,
-    trim_end,
-    lowpass,
-    centered,
-    skip_bad,
-    task,
-    grasp,
-    frame,
-    tool,
-    torque_unit,
-    force_unit,
-    time_unit,
-):
+def fit_task(**params):
     """Fit a 6D task ellipsoid to each recording and a Log-Euclidean mean model to each task.
 
     INPUTS is a manifest CSV (columns path, task, subject, trial, grasp and optionally id, frame, force_unit,
     torque_unit, time_unit, tool, bias_window_s), or recording files that share the --task/--grasp labels.
     Writes ellipsoids.parquet, task_models.json and stats.csv (the long format of the paper's Tables 1-10).
     """
-    options = stages.FitOptions(stages.Preprocess(bias_window, trim_start, trim_end, lowpass), centered)
-    units = {"torque_unit": torque_unit, "force_unit": force_unit, "time_unit": time_unit}
-    result, stats = stages.run_fit_task(
-        inputs, out, options, skip_bad, task=task, grasp=grasp, frame=frame, tool=tool, units=units
-    )
-    click.echo(fit_summary(result.ellipsoids, stats))
-    click.echo(f"wrote {out}/ellipsoids.parquet, task_models.json, stats.csv")
-    if result.skipped:
-        click.echo(f"skipped {len(result.skipped)} bad recording(s):", err=True)
-        for exc in result.skipped:
+    run_command("fit-task", params)
+
+
+def _fit_options(inputs, out, bias_window, trim_start, trim_end, lowpass, centered, skip_bad, **labels):
+    fit = stages.FitOptions(stages.Preprocess(bias_window, trim_start, trim_end, lowpass), centered)
+    return stages.FitTaskOptions(inputs=inputs, out=out, fit=fit, skip_bad=skip_bad, **labels)
+
+
+def _fit_said(options, done) -> None:
+    click.echo(fit_summary(done.ellipsoids, done.stats))
+    click.echo(f"wrote {done.out}/ellipsoids.parquet, task_models.json, stats.csv")
+    if done.skipped:
+        click.echo(f"skipped {len(done.skipped)} bad recording(s):", err=True)
+        for exc in done.skipped:
             click.echo(f"  {exc}", err=True)
 
 
 @main.command()
 @click.argument("ellipsoids", type=click.Path(path_type=Path))
 @out_option
-def distances(ellipsoids, out):
+def distances(**params):
     """Log-Euclidean distances between the ellipsoids of ELLIPSOIDS (ellipsoids.parquet): distances.parquet,
     distance_summary.json (leave-one-out 1-NN accuracy, silhouette, within/between means), a heatmap ordered
     as the paper's Figure 9 and a 2D embedding."""
-    summary = stages.run_distances(ellipsoids, out)
-    by_task = summary["by_task"]
+    run_command("distances", params)
+
+
+def _distances_said(options, done) -> None:
+    by_task = done.by_task
     click.echo(
         f"{by_task['n_ellipsoids']} ellipsoids, {len(by_task['labels'])} tasks: "
         f"LOO 1-NN task accuracy {number(by_task['loo_1nn_accuracy'])}, "
@@ -144,7 +173,9 @@ def distances(ellipsoids, out):
         f"mean normalised distance within tasks {number(by_task.get('mean_within_normalised'))}"
         f" vs between {number(by_task.get('mean_between_normalised'))}"
     )
-    click.echo(f"wrote {out}/distances.parquet, distance_summary.json, distance_heatmap.png, distance_embedding.png")
+    click.echo(
+        f"wrote {done.out}/distances.parquet, distance_summary.json, distance_heatmap.png, distance_embedding.png"
+    )
 
 
 @main.command("hand")
@@ -155,12 +186,15 @@ def distances(ellipsoids, out):
     default=None,
     help="Write OUT/hand.html, the hand at mid-range joints [default: no page].",
 )
-def hand_command(hand_file, out):
+def hand_command(**params):
     """What grasptask understood of HAND_FILE (a URDF, an MJCF file or a hand YAML), before any sweep: its
     chains, joints with limits and couplings, fingertips, pads with their normals and fit errors, and the
     collision spheres; with --out, one self-contained HTML view of the hand with its pads and spheres over its
     true collision surfaces. Start here with a hand of your own."""
-    described = stages.describe_hand(hand_file, out)
+    run_command("hand", params)
+
+
+def _hand_said(options, described) -> None:
     for line in described.lines:
         click.echo(line)
     if described.page is not None:
@@ -169,59 +203,36 @@ def hand_command(hand_file, out):
 
 @main.command()
 @synthesis_options
-def synthesize(
-    tasks_path,
-    task,
-    out,
-    hand,
-    object_path,
-    grasp_config,
-    solver_config,
-    starts,
-    seed,
-    library,
-    workers,
-    executor,
-    scheduler,
-    backend,
-    resume,
-    fingers,
-    physics_flag,
-    physics_config,
-    **object_options,
-):
+def synthesize(**params):
     """Synthesize task-oriented grasps: the NLP of the paper's Sections 5-6 solved from many starts, every
     solution checked by the independent verifier. Writes OUT/TASK/solutions.parquet (one row per start),
     optima.parquet (distinct verified optima) and run.json."""
-    options = stages.SynthesisOptions(
+    run_command("synthesize", params)
+
+
+def _synthesis_options(tasks_path, object_path, physics_flag, physics_config, **given):
+    return stages.SynthesisOptions(
         tasks=tasks_path,
-        task=task,
-        out=out,
-        hand=hand,
         object=object_path,
-        solver_config=solver_config,
-        grasp_config=grasp_config,
-        starts=starts,
-        seed=seed,
-        library=library,
-        workers=workers,
-        executor=executor,
-        scheduler=scheduler,
-        backend=backend,
-        resume=resume,
-        fingers=fingers,
         physics=physics_config if physics_flag else None,
-        **object_options,  # --unit, --mass, --task-frame, --task-frame-outside
+        **given,  # the rest by their own names, --unit, --mass, --task-frame and --task-frame-outside included
     )
+
+
+def _synthesize(options):
+    """The sweep, a stop told as what of it was kept (exit code 130)."""
     try:
-        run = stages.run_synthesize(options, echo=click.echo)
+        return stages.run_synthesize(options, echo=click.echo)
     except stages.SweepInterrupted as stop:
         click.echo(f"interrupted: {stop}", err=True)
         raise click.exceptions.Exit(130) from None
-    click.echo(synthesis_line(task, run))
-    if run.get("why_few_verified"):
-        click.echo(f"{task}: few starts verified: {run['why_few_verified']}")
-    click.echo(f"wrote {out}/{task}/solutions.parquet, optima.parquet, run.json")
+
+
+def _synthesis_said(options, done) -> None:
+    click.echo(synthesis_line(done.task, done.run))
+    if done.run.get("why_few_verified"):
+        click.echo(f"{done.task}: few starts verified: {done.run['why_few_verified']}")
+    click.echo(f"wrote {done.folder}/solutions.parquet, optima.parquet, run.json")
 
 
 @main.command("verify")
@@ -231,14 +242,13 @@ def synthesize(
 @sweep_model_options
 @object_options
 @fingers_option("those SOLUTIONS holds contacts of")
-def verify_command(solutions, tasks_path, task, out, hand, object_path, grasp_config, fingers, **object_options):
+def verify_command(**params):
     """Check every grasp in SOLUTIONS (solutions.parquet) again with the independent verifier; writes
     OUT/verification.parquet with one row per start and its verification figures."""
-    options = stages.VerifyOptions(
-        solutions=solutions, out=out, tasks=tasks_path, task=task, hand=hand, object=object_path,
-        grasp_config=grasp_config, fingers=fingers, **object_options,
-    )  # fmt: skip
-    done = stages.run_verify(options)
+    run_command("verify", params)
+
+
+def _verify_said(options, done) -> None:
     click.echo(f"{done.verified}/{len(done.table)} grasps verified; wrote {done.path}")
 
 
@@ -259,33 +269,18 @@ def verify_command(solutions, tasks_path, task, out, hand, object_path, grasp_co
 )
 @scale_option("--strength", "The hand's actuators this many times as strong as its model (10: the strong-hand check).")
 @scale_option("--friction-scale", "The friction coefficient this many times the grasp config's.")
-def physics(
-    solutions,
-    tasks_path,
-    task,
-    out,
-    hand,
-    object_path,
-    grasp_config,
-    physics_config,
-    workers,
-    fingers,
-    controller,
-    strength,
-    friction_scale,
-):
+def physics(**params):
     """Hold every solved grasp of SOLUTIONS (solutions.parquet) in MuJoCo against its task's own wrenches, and
     against DexGraspBench's six forces. A URDF or MJCF hand is simulated from its own file. Writes
     OUT/physics.parquet (one row per start: pass flags, the object's worst translation and rotation, the wrench
     that failed, the peak activation, the friction used and the hand's penetration) and
     OUT/physics_summary.json (pass rates and the 2x2 agreement with the analytic verifier)."""
-    options = stages.PhysicsOptions(
-        solutions=solutions, out=out, workers=workers, tasks=tasks_path, task=task, hand=hand, object=object_path,
-        grasp_config=grasp_config, physics_config=physics_config, fingers=fingers, controller=controller,
-        strength=strength, friction_scale=friction_scale,
-    )  # fmt: skip
-    stages.run_physics(options, echo=click.echo)
-    click.echo(f"wrote {out}/physics.parquet, physics_summary.json")
+    run_command("physics", params)
+
+
+def _physics_said(options, done) -> None:
+    click.echo(physics_line(done.summary))
+    click.echo(f"wrote {done.out}/physics.parquet, physics_summary.json")
 
 
 @main.command()
@@ -297,18 +292,19 @@ def physics(
 )
 @sweep_model_options
 @fingers_option("the sweep's")
-def export(solutions, out, tasks_path, task, every_start, hand, object_path, grasp_config, fingers):
+def export(**params):
     """Write each distinct optimum of SOLUTIONS (solutions.parquet, with optima.parquet beside it) as
     OUT/optimum_NN.glb (hand collision bodies, object and contacts in the object frame, a colour per finger;
     Blender, MeshLab and three.js open it) and OUT/optimum_NN.json (joint angles by the hand file's joint names,
     the palm pose as a 4x4 matrix, contacts and normals, the contact forces and activations or joint torques per
     task wrench, Q and the verifier's figures; schema in docs/grasp_record.schema.json)."""
-    options = stages.ExportOptions(
-        solutions=solutions, out=out, tasks=tasks_path, task=task, hand=hand, object=object_path,
-        grasp_config=grasp_config, fingers=fingers, every_start=every_start,
-    )  # fmt: skip
-    done = stages.run_export(options)
-    click.echo(f"wrote {done.grasps} grasps to {out} (.glb and .json each, grasps.json), {done.verified_now} verified")
+    run_command("export", params)
+
+
+def _export_said(options, done) -> None:
+    click.echo(
+        f"wrote {done.grasps} grasps to {done.out} (.glb and .json each, grasps.json), {done.verified_now} verified"
+    )
 
 
 @main.command()
@@ -335,21 +331,15 @@ def export(solutions, out, tasks_path, task, every_start, hand, object_path, gra
     default=None,
     help="With --check-browser: save the first grasp's interactive view as drawn.",
 )
-def report(results_dir, out, check_browser, screenshot, view_screenshot):
+def report(**params):
     """Write a self-contained HTML report (OUT/index.html: images, interactive 3D views and plotly.js inlined;
     it works offline and can be mailed), OUT/figures/*.png and OUT/tables/*.md: Tables 1-10 beside the paper,
     ellipsoid figures, distances, synthesis statistics, every distinct optimum (interactive and as two fixed
     views) and the physics check. Parts whose inputs are missing become notes."""
-    out = out or results_dir / "report"
-    # what the browser check needs is checked before the report is built, not after
-    for option, path in (("--screenshot", screenshot), ("--view-screenshot", view_screenshot)):
-        if path is not None:
-            if not check_browser:
-                raise BadInputError(option, "needs --check-browser (the screenshot is the browser's)")
-            stages.check_screenshot_path(path)
-    if check_browser and stages.find_chromium() is None:
-        raise BadInputError("chromium", "not installed (apt-get install chromium chromium-driver)")
-    summary = stages.build_report(results_dir, out)
+    run_command("report", params)
+
+
+def _report_said(options, summary) -> None:
     for line in summary.found:
         click.echo(f"found {line}")
     for note in summary.notes:
@@ -359,8 +349,8 @@ def report(results_dir, out, check_browser, screenshot, view_screenshot):
         f"{summary.figures} figures, {summary.views} interactive views, {summary.tables} tables in "
         f"{summary.seconds:.1f} s; index.html {size:.1f} MB"
     )
-    if check_browser:
-        check = stages.check_page(summary.index, screenshot, view_screenshot=view_screenshot)
+    check = summary.browser
+    if check is not None:
         slowest = max((v.draw_s for v in check.views), default=0.0)
         click.echo(
             f"chromium: {check.images - len(check.broken_images)}/{check.images} images loaded, "
@@ -373,3 +363,22 @@ def report(results_dir, out, check_browser, screenshot, view_screenshot):
         if not check.ok:
             raise click.exceptions.Exit(1)
     click.echo(f"report: {summary.index}")
+
+
+#: the options of a stage that reads a finished sweep: --tasks and --object as those options name them
+SWEEP = {"tasks_path": "tasks", "object_path": "object"}
+
+#: every stage command by its name: what ``pipeline run`` runs a stage's command line through
+STAGE_COMMANDS: dict[str, StageCommand] = {
+    "simulate": StageCommand(
+        _options("SimulateOptions", config_path="config", fmt="format"), _stage("run_simulate"), _simulate_said
+    ),
+    "fit-task": StageCommand(_fit_options, _stage("run_fit_task"), _fit_said),
+    "distances": StageCommand(_options("DistanceOptions"), _stage("run_distances"), _distances_said),
+    "hand": StageCommand(_options("HandOptions", hand_file="hand"), _stage("describe_hand"), _hand_said),
+    "synthesize": StageCommand(_synthesis_options, _synthesize, _synthesis_said),
+    "verify": StageCommand(_options("VerifyOptions", **SWEEP), _stage("run_verify"), _verify_said),
+    "physics": StageCommand(_options("PhysicsOptions", **SWEEP), _stage("run_physics"), _physics_said),
+    "export": StageCommand(_options("ExportOptions", **SWEEP), _stage("run_export"), _export_said),
+    "report": StageCommand(_options("ReportOptions", results_dir="results"), _stage("run_report"), _report_said),
+}

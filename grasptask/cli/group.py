@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import signal
 import threading
+from collections.abc import Iterator
+from contextlib import contextmanager
 from typing import Any
 
 import click
@@ -17,10 +19,26 @@ def _interrupt(signum: int, frame: object) -> None:
     raise KeyboardInterrupt
 
 
+@contextmanager
+def one_line_errors(where: str) -> Iterator[None]:
+    """:class:`BadInputError`, and an output folder that cannot be written (read-only, a full disk), as one line
+    on stderr and exit code 2; a stop as exit code 130. ``where`` names what ran, for an error without a file."""
+    try:
+        yield
+    except BadInputError as exc:
+        click.echo(f"error: {exc}", err=True)
+        raise click.exceptions.Exit(2) from None
+    except OSError as exc:
+        click.echo(f"error: {exc.filename or where}: {exc.strerror or exc}", err=True)
+        raise click.exceptions.Exit(2) from None
+    except KeyboardInterrupt:
+        click.echo("interrupted: nothing half-written was kept", err=True)
+        raise click.exceptions.Exit(130) from None
+
+
 class _Group(click.Group):
-    """Turns :class:`BadInputError`, and an output folder that cannot be written (read-only, a full disk), into
-    one line on stderr and exit code 2; SIGTERM into the same orderly stop as Ctrl-C (exit code 130), so that
-    no half-written artifact, staging folder or lock is left behind."""
+    """Errors as :func:`one_line_errors` says them; SIGTERM as the same orderly stop as Ctrl-C (exit code 130),
+    so that no half-written artifact, staging folder or lock is left behind."""
 
     def invoke(self, ctx):
         main_thread = threading.current_thread() is threading.main_thread()
@@ -34,17 +52,8 @@ class _Group(click.Group):
                 signal.SIGTERM: signal.signal(signal.SIGTERM, _interrupt),
             }
         try:
-            return super().invoke(ctx)
-        except BadInputError as exc:
-            click.echo(f"error: {exc}", err=True)
-            raise click.exceptions.Exit(2) from None
-        except OSError as exc:
-            where = exc.filename or ctx.invoked_subcommand or "grasptask"
-            click.echo(f"error: {where}: {exc.strerror or exc}", err=True)
-            raise click.exceptions.Exit(2) from None
-        except KeyboardInterrupt:
-            click.echo("interrupted: nothing half-written was kept", err=True)
-            raise click.exceptions.Exit(130) from None
+            with one_line_errors(ctx.invoked_subcommand or "grasptask"):
+                return super().invoke(ctx)
         finally:
             for number, handler in previous.items():
                 signal.signal(number, handler)

@@ -1,5 +1,6 @@
 """``grasptask pipeline run``: a pipeline file's stages, each a command line checked as Click would take it before
-any runs, and run in this process."""
+any runs, and run in this process through its command's stage (:data:`~grasptask.cli.commands.STAGE_COMMANDS`):
+its options made from the parsed line, the stage function, and what the command says of it."""
 
 from __future__ import annotations
 
@@ -8,7 +9,8 @@ from pathlib import Path
 import click
 
 from grasptask import stages
-from grasptask.cli.group import main
+from grasptask.cli.commands import STAGE_COMMANDS, StageCommand, run_command
+from grasptask.cli.group import main, one_line_errors
 from grasptask.stages import BadInputError
 
 
@@ -23,22 +25,31 @@ def pipeline():
 @click.option(
     "--dry-run", is_flag=True, help="Check every stage's command line and say which would run; run and write nothing."
 )
-def pipeline_run(pipeline_file, force, dry_run):
+def pipeline_run(**params):
     """Run PIPELINE_FILE's stages in order, skipping a stage whose inputs and config are unchanged. Every
     stage's command line is checked first; a sweep stage stopped part-way goes on where it stopped."""
-    spec, outcome = stages.run_pipeline_file(
-        pipeline_file, run_stage, force=force, dry_run=dry_run, echo=click.echo, check=check_stage
-    )
-    if outcome.failed:
-        raise click.exceptions.Exit(outcome.exit_code)
-    if spec.final_message and not dry_run:
-        click.echo(spec.final_message)
+    run_command("pipeline run", params)
 
 
-def _stage_command(stage) -> click.Command:
-    """The command a pipeline stage's command line runs, its options parsed and checked as Click would parse
-    them, without running it; a command line Click refuses is one line naming the stage."""
-    args = [*stage.run, *stage.args]
+def _pipeline_options(pipeline_file, force, dry_run):
+    return stages.PipelineOptions(path=pipeline_file, runner=run_stage, check=check_stage, force=force, dry_run=dry_run)
+
+
+def _pipeline_said(options, done) -> None:
+    if done.outcome.failed:
+        raise click.exceptions.Exit(done.outcome.exit_code)
+    if done.spec.final_message and not options.dry_run:
+        click.echo(done.spec.final_message)
+
+
+STAGE_COMMANDS["pipeline run"] = StageCommand(
+    _pipeline_options, lambda options: stages.run_pipeline_file(options, echo=click.echo), _pipeline_said
+)
+
+
+def _parsed(stage, args: list[str]) -> tuple[click.Command, click.Context | None]:
+    """The command a pipeline stage's command line names, and the line parsed and checked as Click would take
+    it (None: ``--help``); a line Click refuses is one line naming the stage."""
     command: click.Command = main
     ctx = click.Context(main, info_name="grasptask")
     try:
@@ -47,30 +58,34 @@ def _stage_command(stage) -> click.Command:
             if found is None or name is None:
                 raise click.UsageError(f"No such command {name!r}.")
             command, ctx = found, click.Context(found, info_name=name, parent=ctx)
-        command.make_context(ctx.info_name, list(args), parent=ctx.parent)
+        return command, command.make_context(ctx.info_name, list(args), parent=ctx.parent)
     except click.exceptions.Exit:  # --help
-        pass
+        return command, None
     except click.UsageError as exc:
         raise BadInputError(stage.name, f"grasptask {' '.join(stage.run)}: {exc.format_message()}") from None
-    return command
 
 
 def check_stage(stage) -> None:
     """A pipeline stage's command line as Click would take it, or one line naming the stage: what ``pipeline
     run`` checks of every stage before it runs any."""
-    _stage_command(stage)
+    _parsed(stage, [*stage.run, *stage.args])
 
 
 def run_stage(stage) -> int:
-    """Run one pipeline stage's command in this process; its exit code. A command line Click refuses (an
-    unknown command or option) is one line naming the stage, not Click's usage block. A stage to resume runs
-    with ``--resume`` when its command has that option."""
+    """Run one pipeline stage's command in this process, through its stage; its exit code. A command line Click
+    refuses (an unknown command or option) is one line naming the stage, not Click's usage block; what the stage
+    refuses is one line and exit code 2, as on the command line. A stage to resume runs with ``--resume`` when
+    its command has that option."""
     args = [*stage.run, *stage.args]
-    resumable = any("--resume" in getattr(p, "opts", ()) for p in _stage_command(stage).params)
-    if getattr(stage, "resume", False) and resumable and "--resume" not in args:
-        args.append("--resume")
+    command, _ = _parsed(stage, args)
+    if getattr(stage, "resume", False) and any("--resume" in getattr(p, "opts", ()) for p in command.params):
+        args += [] if "--resume" in args else ["--resume"]
+    _, ctx = _parsed(stage, args)
+    if ctx is None:  # --help: said, nothing run
+        return 0
     try:
-        code = main.main(args=args, prog_name="grasptask", standalone_mode=False)
-    except click.UsageError as exc:
-        raise BadInputError(stage.name, f"grasptask {' '.join(stage.run)}: {exc.format_message()}") from None
-    return code if isinstance(code, int) else 0
+        with ctx, one_line_errors(stage.name):
+            STAGE_COMMANDS[ctx.command_path.removeprefix("grasptask ")](ctx.params)
+    except click.exceptions.Exit as stop:
+        return stop.exit_code
+    return 0

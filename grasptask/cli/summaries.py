@@ -63,3 +63,21 @@ def verifier_said(run: dict) -> str:
     if nlp is None or verifier is None or abs(verifier - nlp) <= 0.01 * abs(nlp):
         return ""
     return f" (the NLP's; the verifier's {number(verifier)})"
+
+
+def physics_line(result: dict) -> str:
+    """The physics check's line: how many verified grasps held, and how the two judges agreed."""
+    pair = result["agreement"]
+    ours, theirs = result["physics_pass_rate_of_verified"], result["dexgraspbench_pass_rate_of_verified"]
+    rates = "no verified grasps" if ours is None else f"{ours:.0%} held (DexGraspBench's test: {theirs:.0%})"
+    return (
+        f"{result['task']}: of {result['verified']} verified grasps {rates}; verifier x physics: "
+        f"{pair['verified_and_held']} both accept, {pair['verified_and_dropped']} only the verifier, "
+        f"{pair['rejected_and_held']} only physics, {pair['rejected_and_dropped']} neither"
+        + (
+            f"; the object's mass is not given: {result['object_mass_kg']:g} kg assumed (physics config "
+            "object_mass_kg; --mass KG on synthesize)"
+            if result.get("object_mass_given") is False
+            else ""
+        )
+    )

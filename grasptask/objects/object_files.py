@@ -43,7 +43,7 @@ object carries it.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -71,6 +71,24 @@ GENERIC_NAMES = frozenset(
     {"textured", "nontextured", "textured_simple", "model", "model_normalized", "mesh", "meshes", "object", "scan",
      "poisson", "tsdf", "google_16k", "google_64k", "google_512k", "collision", "visual", "models", "untitled"}
 )  # fmt: skip
+
+
+@dataclass(frozen=True, kw_only=True)
+class BareObjectFacts:
+    """What a bare mesh or point cloud cannot say, as ``--unit``, ``--mass``, ``--task-frame`` and
+    ``--task-frame-outside`` give it (a mesh YAML's fields); None: the file's or the YAML's own. The options of
+    the stages that load an object start from these."""
+
+    unit: str | None = None
+    mass_kg: float | None = None
+    task_frame: str | None = None
+    task_frame_outside: bool | None = None
+
+    @property
+    def object_overrides(self) -> dict[str, Any]:
+        """Those given, as :func:`load_object` takes them."""
+        given = {name: getattr(self, name) for name in OVERRIDES}
+        return {k: v for k, v in given.items() if v is not None}
 
 
 def load_object(

@@ -23,41 +23,54 @@ from grasptask.paths import (
 from grasptask.task.units import FORCE_UNITS, TIME_UNITS, TORQUE_UNITS
 
 if TYPE_CHECKING:
-    from grasptask.report.browser_check import check_page, check_screenshot_path, find_chromium
-    from grasptask.stages.fit_task import FitOptions, Preprocess, entries_from_inputs, run_fit_task
+    from grasptask.stages.fit_task import FitOptions, FitSummary, FitTaskOptions, Preprocess, run_fit_task
     from grasptask.stages.grasp_export import ExportOptions, ExportSummary, run_export
-    from grasptask.stages.hand_description import HandDescription, describe_hand
-    from grasptask.stages.html_report import ReportSummary, build_report
-    from grasptask.stages.physics_check import PhysicsOptions, run_physics
-    from grasptask.stages.pipeline_file import run_pipeline_file
+    from grasptask.stages.hand_description import HandDescription, HandOptions, describe_hand
+    from grasptask.stages.html_report import ReportOptions, ReportSummary, run_report
+    from grasptask.stages.physics_check import PhysicsOptions, PhysicsSummary, run_physics
+    from grasptask.stages.pipeline_file import PipelineOptions, PipelineSummary, run_pipeline_file
     from grasptask.stages.reverify import VerifyOptions, VerifySummary, run_verify
-    from grasptask.stages.simulated_recordings import run_simulate
-    from grasptask.stages.synthesize import SweepInterrupted, SynthesisOptions, run_synthesize, summarise
-    from grasptask.stages.task_distances import run_distances
+    from grasptask.stages.simulated_recordings import SimulateOptions, SimulateSummary, run_simulate
+    from grasptask.stages.synthesize import (
+        SweepInterrupted,
+        SynthesisOptions,
+        SynthesisSummary,
+        run_synthesize,
+        summarise,
+    )
+    from grasptask.stages.task_distances import DistanceOptions, DistanceSummary, run_distances
 
 _LAZY = {
     "run_simulate": "grasptask.stages.simulated_recordings",
+    "SimulateOptions": "grasptask.stages.simulated_recordings",
+    "SimulateSummary": "grasptask.stages.simulated_recordings",
     "run_fit_task": "grasptask.stages.fit_task",
-    "entries_from_inputs": "grasptask.stages.fit_task",
+    "FitTaskOptions": "grasptask.stages.fit_task",
+    "FitSummary": "grasptask.stages.fit_task",
     "FitOptions": "grasptask.stages.fit_task",
     "Preprocess": "grasptask.stages.fit_task",
     "run_distances": "grasptask.stages.task_distances",
+    "DistanceOptions": "grasptask.stages.task_distances",
+    "DistanceSummary": "grasptask.stages.task_distances",
     "describe_hand": "grasptask.stages.hand_description",
+    "HandOptions": "grasptask.stages.hand_description",
     "HandDescription": "grasptask.stages.hand_description",
     "SynthesisOptions": "grasptask.stages.synthesize",
+    "SynthesisSummary": "grasptask.stages.synthesize",
     "SweepInterrupted": "grasptask.stages.synthesize",
     "run_synthesize": "grasptask.stages.synthesize",
     "summarise": "grasptask.stages.synthesize",
     "run_verify": "grasptask.stages.reverify",
     "VerifyOptions": "grasptask.stages.reverify",
     "VerifySummary": "grasptask.stages.reverify",
-    "build_report": "grasptask.stages.html_report",
+    "run_report": "grasptask.stages.html_report",
+    "ReportOptions": "grasptask.stages.html_report",
     "ReportSummary": "grasptask.stages.html_report",
-    "check_page": "grasptask.report.browser_check",
-    "check_screenshot_path": "grasptask.report.browser_check",
-    "find_chromium": "grasptask.report.browser_check",
     "run_pipeline_file": "grasptask.stages.pipeline_file",
+    "PipelineOptions": "grasptask.stages.pipeline_file",
+    "PipelineSummary": "grasptask.stages.pipeline_file",
     "PhysicsOptions": "grasptask.stages.physics_check",
+    "PhysicsSummary": "grasptask.stages.physics_check",
     "run_physics": "grasptask.stages.physics_check",
     "run_export": "grasptask.stages.grasp_export",
     "ExportOptions": "grasptask.stages.grasp_export",
@@ -75,28 +88,36 @@ __all__ = [
     "FORCE_UNITS",
     "TIME_UNITS",
     "TORQUE_UNITS",
-    "FitOptions",
+    "DistanceOptions",
+    "DistanceSummary",
     "ExportOptions",
     "ExportSummary",
+    "FitOptions",
+    "FitSummary",
+    "FitTaskOptions",
+    "HandDescription",
+    "HandOptions",
     "PhysicsOptions",
+    "PhysicsSummary",
+    "PipelineOptions",
+    "PipelineSummary",
     "Preprocess",
+    "ReportOptions",
     "ReportSummary",
+    "SimulateOptions",
+    "SimulateSummary",
     "SweepInterrupted",
     "SynthesisOptions",
+    "SynthesisSummary",
     "VerifyOptions",
     "VerifySummary",
-    "build_report",
-    "check_page",
-    "check_screenshot_path",
-    "find_chromium",
-    "entries_from_inputs",
-    "run_distances",
     "describe_hand",
-    "HandDescription",
+    "run_distances",
     "run_export",
     "run_fit_task",
     "run_physics",
     "run_pipeline_file",
+    "run_report",
     "run_simulate",
     "run_synthesize",
     "run_verify",

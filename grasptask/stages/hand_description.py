@@ -11,19 +11,31 @@ from grasptask.io.artifacts import write_text_atomic
 from grasptask.report.hand_view import hand_lines, hand_page
 
 
+@dataclass(frozen=True, kw_only=True)
+class HandOptions:
+    """The hand file to describe (a URDF, an MJCF file or a hand YAML) and, optionally, the folder for its page."""
+
+    hand: Path
+    out: Path | None = None
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "hand", Path(self.hand))  # strings from a notebook are welcome
+        if self.out is not None:
+            object.__setattr__(self, "out", Path(self.out))
+
+
 @dataclass(frozen=True)
 class HandDescription:
     lines: list[str]
     page: Path | None
 
 
-def describe_hand(path: str | Path, out: str | Path | None = None) -> HandDescription:
-    """Load the hand at ``path`` (a URDF, an MJCF file or a hand YAML) and describe it; with ``out``, write
-    ``out/hand.html`` (written whole or not at all)."""
-    hand = load_hand(path)
+def describe_hand(options: HandOptions) -> HandDescription:
+    """Load the hand and describe it; with ``out``, write ``out/hand.html`` (written whole or not at all)."""
+    hand = load_hand(options.hand)
     page = None
-    if out is not None:
-        page = Path(out) / "hand.html"
+    if options.out is not None:
+        page = options.out / "hand.html"
         page.parent.mkdir(parents=True, exist_ok=True)
         write_text_atomic(page, hand_page(hand))
     return HandDescription(hand_lines(hand), page)

@@ -4,7 +4,7 @@ results folder, each beside the paper's figures, written all at once or not at a
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from grasptask import __version__
@@ -13,6 +13,8 @@ from grasptask.hand.hand_model import Hand
 from grasptask.io.artifacts import Provenance, StagedOutput
 from grasptask.records.reference import PaperSynthesis, read_paper_synthesis
 from grasptask.records.sweeps import SOLUTIONS, Sweep
+from grasptask.report import browser_check
+from grasptask.report.browser_check import BrowserCheck
 from grasptask.report.inputs import ResultsFolder, find_results, paper_setup, verifier_q
 from grasptask.report.page import Section, render_html
 from grasptask.report.sections import (
@@ -27,6 +29,34 @@ from grasptask.report.sections import (
 from grasptask.report.style import task_order
 
 
+@dataclass(frozen=True, kw_only=True)
+class ReportOptions:
+    """The results folder to report on, the report's folder (default: ``RESULTS/report``) and, with
+    ``check_browser``, a check of the page in headless Chromium that can save the page's top (``screenshot``)
+    and its first interactive view as drawn (``view_screenshot``). What the check needs is checked here, before
+    the report is built, not after."""
+
+    results: Path
+    out: Path | None = None
+    check_browser: bool = False
+    screenshot: Path | None = None
+    view_screenshot: Path | None = None
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "results", Path(self.results))  # strings from a notebook are welcome
+        for option, path in (("--screenshot", self.screenshot), ("--view-screenshot", self.view_screenshot)):
+            if path is not None:
+                if not self.check_browser:
+                    raise BadInputError(option, "needs --check-browser (the screenshot is the browser's)")
+                browser_check.check_screenshot_path(path)
+        if self.check_browser and browser_check.find_chromium() is None:
+            raise BadInputError("chromium", "not installed (apt-get install chromium chromium-driver)")
+
+    @property
+    def folder(self) -> Path:
+        return Path(self.out) if self.out is not None else self.results / "report"
+
+
 @dataclass(frozen=True)
 class ReportSummary:
     index: Path
@@ -37,9 +67,20 @@ class ReportSummary:
     seconds: float
     #: what the report was made from, one line each
     found: list[str] = field(default_factory=list)
+    #: what headless Chromium saw of the page, with ``check_browser``
+    browser: BrowserCheck | None = None
 
 
-def build_report(results_dir: str | Path, out: str | Path) -> ReportSummary:
+def run_report(options: ReportOptions) -> ReportSummary:
+    """Build the report and, with ``check_browser``, check it in headless Chromium."""
+    summary = _build_report(options.results, options.folder)
+    if not options.check_browser:
+        return summary
+    check = browser_check.check_page(summary.index, options.screenshot, view_screenshot=options.view_screenshot)
+    return replace(summary, browser=check)
+
+
+def _build_report(results_dir: str | Path, out: str | Path) -> ReportSummary:
     """Write ``out/index.html`` (self-contained), ``out/figures/*.png``, ``out/tables/*.md`` and
     ``out/report.json`` from the results folder ``results_dir``."""
     start = time.perf_counter()

@@ -5,7 +5,6 @@ agreement of the two judges."""
 from __future__ import annotations
 
 import os
-from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor
 from contextlib import nullcontext
 from dataclasses import dataclass, replace
@@ -21,7 +20,7 @@ from grasptask.io.config_schema import MAX_WORKERS
 from grasptask.io.locking import check_writable, folder_lock
 from grasptask.paths import DEFAULT_PHYSICS_CONFIG
 from grasptask.physics.judge import Judge, best_grasp_trace, write_physics_results
-from grasptask.physics.physics_settings import Controller, load_physics_settings
+from grasptask.physics.physics_settings import CONTROLLERS, Controller, load_physics_settings
 from grasptask.progress import Progress
 from grasptask.records.sweeps import Sweep, SweepInputs
 
@@ -39,6 +38,26 @@ class PhysicsOptions(SweepInputs):
     #: the hand's actuators and the friction coefficient this many times the models' (the judge's own checks)
     strength: float = 1.0
     friction_scale: float = 1.0
+
+    def __post_init__(self) -> None:
+        for name in ("solutions", "out", "physics_config"):
+            object.__setattr__(self, name, Path(getattr(self, name)))  # strings from a notebook are welcome
+        if not 1 <= self.workers <= MAX_WORKERS:
+            raise BadInputError("physics", f"--workers must be from 1 to {MAX_WORKERS}, got {self.workers}")
+        if self.strength <= 0 or self.friction_scale <= 0:
+            raise BadInputError("physics", "--strength and --friction-scale must be positive")
+        if self.controller is not None and self.controller not in CONTROLLERS:
+            raise BadInputError("physics", f"unknown controller '{self.controller}' (known: {', '.join(CONTROLLERS)})")
+
+
+@dataclass(frozen=True)
+class PhysicsSummary:
+    """The check's table (one row per start) and summary (pass rates, the judges' 2x2 agreement), and where
+    they were written."""
+
+    out: Path
+    table: pd.DataFrame
+    summary: dict[str, Any]
 
 
 def _judge_for(options: PhysicsOptions, sweep: Sweep) -> Judge:
@@ -68,25 +87,21 @@ def _check_in_worker(index: int) -> dict[str, Any]:
     return _worker.check(index)
 
 
-def run_physics(options: PhysicsOptions, echo: Callable[[str], Any] = print) -> pd.DataFrame:
+def run_physics(options: PhysicsOptions) -> PhysicsSummary:
     """Check every solved grasp of ``options.solutions``; writes ``out/physics.parquet`` (one row per start),
     ``out/physics_summary.json`` and ``out/physics_trace.parquet`` (the best verified grasp's motion over the
-    protocol), and returns the table."""
+    protocol)."""
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # inherited by the simulation processes
-    out, workers = Path(options.out), options.workers
-    if not 1 <= workers <= MAX_WORKERS:
-        raise BadInputError("physics", f"--workers must be from 1 to {MAX_WORKERS}, got {workers}")
-    if options.strength <= 0 or options.friction_scale <= 0:
-        raise BadInputError("physics", "--strength and --friction-scale must be positive")
+    out = options.out
     sweep = options.open_sweep()
     judge = _judge_for(options, sweep)  # every input checked here, before any work
     # --out held, and known to be writable, from the start: a second run into it is refused, not overwritten
     with folder_lock(out, f"physics {sweep.task}"):
         check_writable(out)
-        return _judge_all(judge, options, sweep, echo)
+        return _judge_all(judge, options, sweep)
 
 
-def _judge_all(judge: Judge, options: PhysicsOptions, sweep: Sweep, echo: Callable[[str], Any]) -> pd.DataFrame:
+def _judge_all(judge: Judge, options: PhysicsOptions, sweep: Sweep) -> PhysicsSummary:
     indices = list(range(len(judge.solved.rows)))
     counts = {"held": 0, "dropped": 0}
     workers = options.workers
@@ -115,22 +130,4 @@ def _judge_all(judge: Judge, options: PhysicsOptions, sweep: Sweep, echo: Callab
     provenance = Provenance.of("physics", parameters, files)
     with StagedOutput(options.out, provenance) as staged:
         result = write_physics_results(staged, table, judge.task.name, judge.holding.settings, trace, judge=judge)
-    echo(physics_line(result))
-    return table
-
-
-def physics_line(result: dict[str, Any]) -> str:
-    pair = result["agreement"]
-    ours, theirs = result["physics_pass_rate_of_verified"], result["dexgraspbench_pass_rate_of_verified"]
-    rates = "no verified grasps" if ours is None else f"{ours:.0%} held (DexGraspBench's test: {theirs:.0%})"
-    return (
-        f"{result['task']}: of {result['verified']} verified grasps {rates}; verifier x physics: "
-        f"{pair['verified_and_held']} both accept, {pair['verified_and_dropped']} only the verifier, "
-        f"{pair['rejected_and_held']} only physics, {pair['rejected_and_dropped']} neither"
-        + (
-            f"; the object's mass is not given: {result['object_mass_kg']:g} kg assumed (physics config "
-            "object_mass_kg; --mass KG on synthesize)"
-            if result.get("object_mass_given") is False
-            else ""
-        )
-    )
+    return PhysicsSummary(options.out, table, result)

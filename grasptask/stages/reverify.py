@@ -4,35 +4,25 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 import pandas as pd
 
 from grasptask.io.artifacts import Provenance, StagedOutput
+from grasptask.objects.object_files import BareObjectFacts
 from grasptask.records.sweeps import SweepInputs
 from grasptask.verifier.verify import verify
 
 
 @dataclass(frozen=True, kw_only=True)
-class VerifyOptions(SweepInputs):
-    """What to verify again (:class:`SweepInputs`), and where the table goes."""
+class VerifyOptions(SweepInputs, BareObjectFacts):
+    """What to verify again (:class:`SweepInputs`, and what a bare mesh cannot say: :class:`BareObjectFacts`),
+    and where the table goes."""
 
     out: Path
-    #: what a bare mesh cannot say (--unit, --mass, --task-frame, --task-frame-outside); None: the object's own
-    unit: str | None = None
-    mass_kg: float | None = None
-    task_frame: str | None = None
-    task_frame_outside: bool | None = None
 
     def __post_init__(self) -> None:
         for name in ("solutions", "out"):
             object.__setattr__(self, name, Path(getattr(self, name)))  # strings from a notebook are welcome
-
-    @property
-    def object_overrides(self) -> dict[str, Any]:
-        given = {"unit": self.unit, "mass_kg": self.mass_kg, "task_frame": self.task_frame,
-                 "task_frame_outside": self.task_frame_outside}  # fmt: skip
-        return {k: v for k, v in given.items() if v is not None}
 
 
 @dataclass(frozen=True)

@@ -2,12 +2,15 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from functools import partial
 from pathlib import Path
 
 import pandas as pd
 
+from grasptask.errors import BadInputError
 from grasptask.io.artifacts import Provenance, StagedOutput
+from grasptask.paths import DEFAULT_SIMULATE_CONFIG
 from grasptask.progress import progress
 from grasptask.task import simulate as sim
 from grasptask.task.manifest import default_id
@@ -16,11 +19,36 @@ from grasptask.task.recordings import write_recording
 FORMATS = {"csv": ".csv", "parquet": ".parquet"}
 
 
-def run_simulate(config_path: str | Path, out: str | Path, seed: int = 0, fmt: str = "csv") -> dict:
-    """Write the simulated protocol's recordings, the tool config and ``manifest.csv`` under ``out``."""
+@dataclass(frozen=True, kw_only=True)
+class SimulateOptions:
+    """Where the recordings go, the simulator's parameters (YAML), the seed (the output is identical for a
+    seed) and the recordings' file format (``csv`` or ``parquet``)."""
+
+    out: Path
+    config: Path = DEFAULT_SIMULATE_CONFIG
+    seed: int = 0
+    format: str = "csv"
+
+    def __post_init__(self) -> None:
+        for name in ("out", "config"):
+            object.__setattr__(self, name, Path(getattr(self, name)))  # strings from a notebook are welcome
+        if self.format not in FORMATS:
+            raise BadInputError("simulate", f"unknown format '{self.format}' (known: {', '.join(FORMATS)})")
+
+
+@dataclass(frozen=True)
+class SimulateSummary:
+    out: Path
+    recordings: int
+    manifest: Path
+
+
+def run_simulate(options: SimulateOptions) -> SimulateSummary:
+    """Write the simulated protocol's recordings, the tool config and ``manifest.csv`` under ``options.out``."""
+    config_path, out, seed = options.config, options.out, options.seed
     config = sim.load_config(config_path)
-    suffix = FORMATS[fmt]
-    provenance = Provenance.of("simulate", {"config": config, "format": fmt}, [config_path], seed)
+    suffix = FORMATS[options.format]
+    provenance = Provenance.of("simulate", {"config": config, "format": options.format}, [config_path], seed)
     rows = []
     with StagedOutput(out, provenance) as staged:
         staged.write_with("sensorized_tool.yaml", lambda p: p.write_text(sim.tool_yaml(config)))
@@ -43,4 +71,4 @@ def run_simulate(config_path: str | Path, out: str | Path, seed: int = 0, fmt: s
                 }
             )
         staged.write_csv("manifest.csv", pd.DataFrame(rows))
-    return {"recordings": len(rows), "out": str(out), "manifest": str(Path(out) / "manifest.csv")}
+    return SimulateSummary(out, len(rows), out / "manifest.csv")

@@ -38,7 +38,13 @@ from grasptask.io.locking import folder_lock
 from grasptask.io.sweep_log import LogContents, LogWriter, read_log, rewrite_log
 from grasptask.objects import load_object
 from grasptask.objects.mesh_object import MeshObject, PointCloudObject
-from grasptask.objects.object_files import object_config, object_facts, object_files, object_from_config
+from grasptask.objects.object_files import (
+    BareObjectFacts,
+    object_config,
+    object_facts,
+    object_files,
+    object_from_config,
+)
 from grasptask.objects.surface import Symmetry
 from grasptask.paths import DEFAULT_GRASP_CONFIG, DEFAULT_HAND, DEFAULT_OBJECT, DEFAULT_SOLVER_CONFIG
 from grasptask.physics.physics_settings import load_physics_settings
@@ -60,8 +66,9 @@ BACKENDS = ("casadi", "cyipopt")
 
 
 @dataclass(frozen=True, kw_only=True)
-class SynthesisOptions:
-    """What a sweep is run on and how; checked when made, so a bad combination fails before any work."""
+class SynthesisOptions(BareObjectFacts):
+    """What a sweep is run on and how, and what a bare mesh cannot say (:class:`BareObjectFacts`); checked when
+    made, so a bad combination fails before any work."""
 
     tasks: Path
     task: str
@@ -84,12 +91,6 @@ class SynthesisOptions:
     #: a grasp library folder (grasptask.records.grasp_library): warm starts from the optima of the nearest task
     #: it holds for this setup, and this sweep's optima added to it; None: none, and the sweep reproducible
     library: Path | None = None
-    #: what a bare mesh cannot say (--unit, --mass, --task-frame): the object's unit (m, cm, mm), mass (kg) and
-    #: task frame (centre, origin), and whether a frame outside it is taken; None: the object file's or YAML's own
-    unit: str | None = None
-    mass_kg: float | None = None
-    task_frame: str | None = None
-    task_frame_outside: bool | None = None
 
     def __post_init__(self) -> None:
         for name in ("tasks", "out", "hand", "object", "solver_config", "grasp_config"):
@@ -120,21 +121,20 @@ class SynthesisOptions:
         return self.out / self.task
 
     @property
-    def object_overrides(self) -> dict[str, Any]:
-        """--unit, --mass, --task-frame and --task-frame-outside, those given."""
-        given = {
-            "unit": self.unit,
-            "mass_kg": self.mass_kg,
-            "task_frame": self.task_frame,
-            "task_frame_outside": self.task_frame_outside,
-        }
-        return {k: v for k, v in given.items() if v is not None}
-
-    @property
     def object_used(self) -> Path:
         """The object the sweep records: the given file, or with --unit, --mass or --task-frame the config
         written beside its results (``object.yaml``), which the later stages then read."""
         return self.folder / OBJECT_FILE if self.object_overrides else self.object
+
+
+@dataclass(frozen=True)
+class SynthesisSummary:
+    """The sweep's record, as ``run.json`` holds it (verified starts, distinct optima, the best Q, the time per
+    start, the statuses, what the user waited for), the task and the folder of its results."""
+
+    folder: Path
+    task: str
+    run: dict[str, Any]
 
 
 class SweepInterrupted(KeyboardInterrupt):
@@ -327,9 +327,9 @@ def _check_fresh(folder: Path, done: LogContents) -> None:
         )
 
 
-def run_synthesize(options: SynthesisOptions, echo: Callable[[str], Any] = print) -> dict:
+def run_synthesize(options: SynthesisOptions, echo: Callable[[str], Any] = print) -> SynthesisSummary:
     """Solve the task's starts, verify every solution, and write ``solutions.parquet``, ``optima.parquet`` and
-    ``run.json`` under ``options.folder``; the run summary.
+    ``run.json`` under ``options.folder``; ``echo`` hears the sweep's progress.
 
     Every input is checked, and a worker has built the model, before anything of an earlier sweep in the
     folder is touched; the folder is locked for the run."""
@@ -340,9 +340,10 @@ def run_synthesize(options: SynthesisOptions, echo: Callable[[str], Any] = print
         done = read_log(log)
         rows: list[dict] = []  # this run's, as they finish: what a stop keeps
         try:
-            return _run_locked(options, prepared, done, rows, echo)
+            run = _run_locked(options, prepared, done, rows, echo)
         except KeyboardInterrupt:
             raise SweepInterrupted(len(rows), log, untouched=bool(done.rows) and not options.resume) from None
+    return SynthesisSummary(options.folder, options.task, run)
 
 
 def _run_locked(

@@ -3,8 +3,10 @@ the paper's Figure 9."""
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from functools import partial
 from pathlib import Path
+from typing import Any
 
 from grasptask.io.artifacts import Provenance, StagedOutput
 from grasptask.report.distance_plots import plot_embedding, plot_heatmap
@@ -12,8 +14,34 @@ from grasptask.task.distances import compute_distances
 from grasptask.task.fit import read_ellipsoids
 
 
-def run_distances(ellipsoids_path: str | Path, out: str | Path) -> dict:
+@dataclass(frozen=True, kw_only=True)
+class DistanceOptions:
+    """The ellipsoids to compare (``ellipsoids.parquet``, as ``fit-task`` writes it) and where to write."""
+
+    ellipsoids: Path
+    out: Path
+
+    def __post_init__(self) -> None:
+        for name in ("ellipsoids", "out"):
+            object.__setattr__(self, name, Path(getattr(self, name)))  # strings from a notebook are welcome
+
+
+@dataclass(frozen=True)
+class DistanceSummary:
+    """What ``distance_summary.json`` holds: how well the distances separate the tasks (``by_task``: the
+    leave-one-out 1-NN accuracy, the silhouette, the mean distances within and between tasks), and more."""
+
+    out: Path
+    summary: dict[str, Any]
+
+    @property
+    def by_task(self) -> dict[str, Any]:
+        return self.summary["by_task"]
+
+
+def run_distances(options: DistanceOptions) -> DistanceSummary:
     """Write ``distances.parquet``, ``distance_summary.json`` and the heatmap and embedding PNGs."""
+    ellipsoids_path, out = options.ellipsoids, options.out
     ellipsoids = read_ellipsoids(ellipsoids_path)
     distances = compute_distances(ellipsoids)
     summary = distances.summary()
@@ -29,4 +57,4 @@ def run_distances(ellipsoids_path: str | Path, out: str | Path) -> dict:
         staged.write_json("distance_summary.json", summary)
         staged.write_with("distance_heatmap.png", partial(plot_heatmap, distances))
         staged.write_with("distance_embedding.png", partial(plot_embedding, distances))
-    return summary
+    return DistanceSummary(out, summary)
