@@ -65,12 +65,13 @@ def distance_grid(
     # samples, whose error falls as the square of its spacing over the distance, then the dense tree for the
     # grid points near the surface
     coarse = points[np.random.default_rng(0).permutation(len(points))[:COARSE_SAMPLES]]
-    distance, nearest_coarse = cKDTree(coarse).query(grid)
+    # the queries on every core (the grid is built once, before any solver starts): the same values, sooner
+    distance, nearest_coarse = cKDTree(coarse).query(grid, workers=-1)
     index = np.zeros(len(grid), dtype=int)
     close = distance < FAR_M
-    distance[close], index[close] = tree.query(grid[close])
+    distance[close], index[close] = tree.query(grid[close], workers=-1)
     if inside is None:  # the sign far away from the coarse sample's normal
-        index[~close] = tree.query(coarse[nearest_coarse[~close]])[1]
+        index[~close] = tree.query(coarse[nearest_coarse[~close]], workers=-1)[1]
     along = ((grid - points[index]) * normals[index]).sum(axis=1)
     sample_spacing = float(np.median(tree.query(points[:2000], k=2)[0][:, 1]))
     near = distance < 2 * spacing + sample_spacing
