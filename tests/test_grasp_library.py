@@ -84,7 +84,7 @@ def test_a_sweep_warm_started_from_a_similar_task_finds_that_task_s_best_optimum
     similar.write_text(json.dumps(data))
     assert "drawing_firmer" in load_task_models(similar) and "drawing" in models
     library = tmp_path / "library"
-    common = ["--tasks", similar, "--workers", "2", "--executor", "pool"]
+    common = ["--tasks", similar, "--executor", "serial"]
     filled = cli(
         "synthesize", *common, "--task", "drawing", "--starts", "6", "--out", tmp_path / "a", "--library", library
     )

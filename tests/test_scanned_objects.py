@@ -120,7 +120,7 @@ def test_unit_mass_and_task_frame_reach_run_json(cli, simulated, tmp_path):
     tasks = simulated[0] / "tasks" / "task_models.json"
     out = tmp_path / "out"
     args = ["synthesize", "--tasks", tasks, "--task", "drawing", "--out", out, "--object", path, "--starts", "1",
-            "--solver-config", "tests/data/solver_tiny.yaml"]  # fmt: skip
+            "--solver-config", "tests/data/solver_tiny.yaml", "--executor", "serial"]  # fmt: skip
     result = cli(*args, "--unit", "mm", "--mass", "0.45", "--task-frame", "centre")
     assert result.exit_code == 0, result.output
     run = json.loads((out / "drawing" / "run.json").read_text())
