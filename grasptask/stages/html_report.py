@@ -44,6 +44,9 @@ class ReportOptions:
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "results", Path(self.results))  # strings from a notebook are welcome
+        for name in ("out", "screenshot", "view_screenshot"):
+            if getattr(self, name) is not None:
+                object.__setattr__(self, name, Path(getattr(self, name)))
         for option, path in (("--screenshot", self.screenshot), ("--view-screenshot", self.view_screenshot)):
             if path is not None:
                 if not self.check_browser:
@@ -54,7 +57,7 @@ class ReportOptions:
 
     @property
     def folder(self) -> Path:
-        return Path(self.out) if self.out is not None else self.results / "report"
+        return self.out if self.out is not None else self.results / "report"
 
 
 @dataclass(frozen=True)
