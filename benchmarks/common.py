@@ -56,12 +56,13 @@ def save(name: str, payload: dict) -> Path:
     return path
 
 
-def demonstration_tasks(folder: Path) -> Path:
-    """The bundled simulator's 105 recordings (seed 0) fitted into task models: their task_models.json."""
+def demonstration_tasks(folder: Path, seed: int = 0) -> Path:
+    """The bundled simulator's 105 recordings (of ``seed``) fitted into task models: their task_models.json."""
     from grasptask.stages import FitTaskOptions, SimulateOptions, run_fit_task, run_simulate
 
     root = Path(__file__).resolve().parents[1]
-    run_simulate(SimulateOptions(out=folder / "rec", config=root / "configs/simulate.yaml", format="parquet"))
+    simulated = SimulateOptions(out=folder / "rec", config=root / "configs/simulate.yaml", seed=seed, format="parquet")
+    run_simulate(simulated)
     run_fit_task(FitTaskOptions(inputs=[folder / "rec" / "manifest.csv"], out=folder / "tasks"))
     return folder / "tasks" / "task_models.json"
 

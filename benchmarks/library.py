@@ -28,23 +28,14 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT / "benchmarks"), str(ROOT)]
 from common import DEFAULT_SOLVER, check_solver, demonstration_tasks, save  # noqa: E402
 
-from grasptask.stages import (  # noqa: E402
-    FitTaskOptions,
-    SimulateOptions,
-    SynthesisOptions,
-    run_fit_task,
-    run_simulate,
-    run_synthesize,
-)
+from grasptask.stages import SynthesisOptions, run_synthesize  # noqa: E402
 
 
 def similar_tasks(folder: Path, tasks: Path) -> Path:
     """The task models with two tasks like drawing: drawing from the simulator's seed-1 recordings, and drawing's
     ellipsoid 10% longer on every axis."""
-    run_simulate(SimulateOptions(out=folder / "rec1", config=ROOT / "configs/simulate.yaml", seed=1, format="parquet"))
-    run_fit_task(FitTaskOptions(inputs=[folder / "rec1" / "manifest.csv"], out=folder / "tasks1"))
     data = json.loads(tasks.read_text())
-    again = json.loads((folder / "tasks1" / "task_models.json").read_text())["tasks"]["drawing"]
+    again = json.loads(demonstration_tasks(folder / "seed1", seed=1).read_text())["tasks"]["drawing"]
     data["tasks"]["drawing_again"] = again
     drawing = data["tasks"]["drawing"]
     data["tasks"]["drawing_firmer"] = {**drawing, "S": (np.asarray(drawing["S"]) * 1.1**2).tolist()}

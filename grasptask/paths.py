@@ -15,3 +15,12 @@ DEFAULT_OBJECT = CONFIG_DIR / "objects" / "tool.yaml"
 DEFAULT_SOLVER_CONFIG = CONFIG_DIR / "solver.yaml"
 DEFAULT_GRASP_CONFIG = CONFIG_DIR / "grasp.yaml"
 DEFAULT_PHYSICS_CONFIG = CONFIG_DIR / "physics.yaml"
+
+
+def as_paths(options: object, *names: str, optional: tuple[str, ...] = ()) -> None:
+    """The named fields of a frozen options dataclass as Paths, those in ``optional`` unless None: a notebook's
+    strings are welcome wherever a path is."""
+    for name in names + optional:
+        value = getattr(options, name)
+        if value is not None or name not in optional:
+            object.__setattr__(options, name, Path(value))

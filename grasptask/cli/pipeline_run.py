@@ -77,10 +77,10 @@ def run_stage(stage) -> int:
     refuses is one line and exit code 2, as on the command line. A stage to resume runs with ``--resume`` when
     its command has that option."""
     args = [*stage.run, *stage.args]
-    command, _ = _parsed(stage, args)
-    if getattr(stage, "resume", False) and any("--resume" in getattr(p, "opts", ()) for p in command.params):
-        args += [] if "--resume" in args else ["--resume"]
-    _, ctx = _parsed(stage, args)
+    command, ctx = _parsed(stage, args)
+    resumable = any("--resume" in getattr(p, "opts", ()) for p in command.params)
+    if getattr(stage, "resume", False) and resumable and "--resume" not in args:
+        _, ctx = _parsed(stage, [*args, "--resume"])  # parsed again only when the line changes
     if ctx is None:  # --help: said, nothing run
         return 0
     try:

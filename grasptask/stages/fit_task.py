@@ -13,6 +13,7 @@ import pandas as pd
 from grasptask.errors import BadInputError
 from grasptask.io.artifacts import Provenance, StagedOutput
 from grasptask.io.locking import check_writable, folder_lock
+from grasptask.paths import as_paths
 from grasptask.progress import progress
 from grasptask.task.fit import FitOptions, fit_recordings
 from grasptask.task.manifest import RecordingEntry, is_manifest, read_manifest
@@ -47,9 +48,7 @@ class FitTaskOptions:
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "inputs", tuple(Path(p) for p in self.inputs))
-        object.__setattr__(self, "out", Path(self.out))
-        if self.tool is not None:
-            object.__setattr__(self, "tool", Path(self.tool))
+        as_paths(self, "out", optional=("tool",))
         if not self.inputs:
             raise BadInputError("fit-task", "give a manifest or at least one recording file")
         if self.frame not in FRAMES:

@@ -14,6 +14,7 @@ from grasptask.grasp.grasp_pose import Grasp
 from grasptask.io.artifacts import Provenance, StagedOutput
 from grasptask.io.tables import read_table
 from grasptask.objects.object_files import object_files
+from grasptask.paths import as_paths
 from grasptask.progress import progress
 from grasptask.records.sweeps import SolvedGrasps, SweepInputs
 from grasptask.verifier.verify import verify
@@ -60,8 +61,7 @@ class ExportOptions(SweepInputs):
     every_start: bool = False
 
     def __post_init__(self) -> None:
-        for name in ("solutions", "out"):
-            object.__setattr__(self, name, Path(getattr(self, name)))  # strings from a notebook are welcome
+        as_paths(self, "solutions", "out")
 
 
 def run_export(options: ExportOptions) -> ExportSummary:

@@ -8,6 +8,7 @@ from pathlib import Path
 
 from grasptask.hand.hand_files import load_hand
 from grasptask.io.artifacts import write_text_atomic
+from grasptask.paths import as_paths
 from grasptask.report.hand_view import hand_lines, hand_page
 
 
@@ -19,9 +20,7 @@ class HandOptions:
     out: Path | None = None
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "hand", Path(self.hand))  # strings from a notebook are welcome
-        if self.out is not None:
-            object.__setattr__(self, "out", Path(self.out))
+        as_paths(self, "hand", optional=("out",))
 
 
 @dataclass(frozen=True)

@@ -11,6 +11,7 @@ from grasptask import __version__
 from grasptask.errors import BadInputError
 from grasptask.hand.hand_model import Hand
 from grasptask.io.artifacts import Provenance, StagedOutput
+from grasptask.paths import as_paths
 from grasptask.records.reference import PaperSynthesis, read_paper_synthesis
 from grasptask.records.sweeps import SOLUTIONS, Sweep
 from grasptask.report import browser_check
@@ -43,10 +44,7 @@ class ReportOptions:
     view_screenshot: Path | None = None
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "results", Path(self.results))  # strings from a notebook are welcome
-        for name in ("out", "screenshot", "view_screenshot"):
-            if getattr(self, name) is not None:
-                object.__setattr__(self, name, Path(getattr(self, name)))
+        as_paths(self, "results", optional=("out", "screenshot", "view_screenshot"))
         for option, path in (("--screenshot", self.screenshot), ("--view-screenshot", self.view_screenshot)):
             if path is not None:
                 if not self.check_browser:

@@ -18,7 +18,7 @@ from grasptask.io.artifacts import Provenance, StagedOutput
 from grasptask.io.child_processes import die_with_parent
 from grasptask.io.config_schema import MAX_WORKERS
 from grasptask.io.locking import check_writable, folder_lock
-from grasptask.paths import DEFAULT_PHYSICS_CONFIG
+from grasptask.paths import DEFAULT_PHYSICS_CONFIG, as_paths
 from grasptask.physics.judge import Judge, best_grasp_trace, write_physics_results
 from grasptask.physics.physics_settings import CONTROLLERS, Controller, load_physics_settings
 from grasptask.progress import Progress
@@ -40,8 +40,7 @@ class PhysicsOptions(SweepInputs):
     friction_scale: float = 1.0
 
     def __post_init__(self) -> None:
-        for name in ("solutions", "out", "physics_config"):
-            object.__setattr__(self, name, Path(getattr(self, name)))  # strings from a notebook are welcome
+        as_paths(self, "solutions", "out", "physics_config")
         if not 1 <= self.workers <= MAX_WORKERS:
             raise BadInputError("physics", f"--workers must be from 1 to {MAX_WORKERS}, got {self.workers}")
         if self.strength <= 0 or self.friction_scale <= 0:

@@ -7,6 +7,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from grasptask.paths import as_paths
 from grasptask.pipeline.runner import Outcome, PipelineSpec, Stage, load_pipeline, run_pipeline
 
 
@@ -24,7 +25,7 @@ class PipelineOptions:
     dry_run: bool = False
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "path", Path(self.path))  # strings from a notebook are welcome
+        as_paths(self, "path")
 
 
 @dataclass(frozen=True)

@@ -9,6 +9,7 @@ import pandas as pd
 
 from grasptask.io.artifacts import Provenance, StagedOutput
 from grasptask.objects.object_files import BareObjectFacts
+from grasptask.paths import as_paths
 from grasptask.records.sweeps import SweepInputs
 from grasptask.verifier.verify import verify
 
@@ -21,8 +22,7 @@ class VerifyOptions(SweepInputs, BareObjectFacts):
     out: Path
 
     def __post_init__(self) -> None:
-        for name in ("solutions", "out"):
-            object.__setattr__(self, name, Path(getattr(self, name)))  # strings from a notebook are welcome
+        as_paths(self, "solutions", "out")
 
 
 @dataclass(frozen=True)

@@ -10,7 +10,7 @@ import pandas as pd
 
 from grasptask.errors import BadInputError
 from grasptask.io.artifacts import Provenance, StagedOutput
-from grasptask.paths import DEFAULT_SIMULATE_CONFIG
+from grasptask.paths import DEFAULT_SIMULATE_CONFIG, as_paths
 from grasptask.progress import progress
 from grasptask.task import simulate as sim
 from grasptask.task.manifest import default_id
@@ -30,8 +30,7 @@ class SimulateOptions:
     format: str = "csv"
 
     def __post_init__(self) -> None:
-        for name in ("out", "config"):
-            object.__setattr__(self, name, Path(getattr(self, name)))  # strings from a notebook are welcome
+        as_paths(self, "out", "config")
         if self.format not in FORMATS:
             raise BadInputError("simulate", f"unknown format '{self.format}' (known: {', '.join(FORMATS)})")
 

@@ -46,7 +46,7 @@ from grasptask.objects.object_files import (
     object_from_config,
 )
 from grasptask.objects.surface import Symmetry
-from grasptask.paths import DEFAULT_GRASP_CONFIG, DEFAULT_HAND, DEFAULT_OBJECT, DEFAULT_SOLVER_CONFIG
+from grasptask.paths import DEFAULT_GRASP_CONFIG, DEFAULT_HAND, DEFAULT_OBJECT, DEFAULT_SOLVER_CONFIG, as_paths
 from grasptask.physics.physics_settings import load_physics_settings
 from grasptask.progress import Progress
 from grasptask.records.grasp_library import LibraryEntry, add_to_library, nearest_entry, setup_key
@@ -93,11 +93,9 @@ class SynthesisOptions(BareObjectFacts):
     library: Path | None = None
 
     def __post_init__(self) -> None:
-        for name in ("tasks", "out", "hand", "object", "solver_config", "grasp_config"):
-            object.__setattr__(self, name, Path(getattr(self, name)))  # strings from a notebook are welcome
-        for name in ("physics", "library"):
-            if getattr(self, name) is not None:
-                object.__setattr__(self, name, Path(getattr(self, name)))
+        as_paths(
+            self, "tasks", "out", "hand", "object", "solver_config", "grasp_config", optional=("physics", "library")
+        )
         if self.executor not in EXECUTORS:
             raise BadInputError("synthesize", f"unknown executor '{self.executor}' (known: {', '.join(EXECUTORS)})")
         if self.backend not in BACKENDS:

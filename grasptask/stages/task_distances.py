@@ -9,6 +9,7 @@ from pathlib import Path
 from typing import Any
 
 from grasptask.io.artifacts import Provenance, StagedOutput
+from grasptask.paths import as_paths
 from grasptask.report.distance_plots import plot_embedding, plot_heatmap
 from grasptask.task.distances import compute_distances
 from grasptask.task.fit import read_ellipsoids
@@ -22,8 +23,7 @@ class DistanceOptions:
     out: Path
 
     def __post_init__(self) -> None:
-        for name in ("ellipsoids", "out"):
-            object.__setattr__(self, name, Path(getattr(self, name)))  # strings from a notebook are welcome
+        as_paths(self, "ellipsoids", "out")
 
 
 @dataclass(frozen=True)
