@@ -273,7 +273,11 @@ def contacts_and_collisions(nlp: NLPBuilder) -> None:
     inward normal at ``p`` (eq. 2 for a contact that moves over the fingertip)."""
     m, surface, p, samples = nlp.model, nlp.surface, nlp.contacts, nlp.samples
     b = nlp.b
-    m.eq3_contact = pyo.Constraint(range(b), rule=lambda _, j: surface.contact(p[j]) == 0)
+    # on a distance field, a rolling contact is where its sphere's centre stands r - compliance off the surface
+    at_centre = {j: c for j, c in nlp.pad_centres.items() if surface.measures_distance}
+    where = [at_centre.get(j, p[j]) for j in range(b)]
+    level = [float(nlp.contact_offsets[j]) if j in at_centre else 0.0 for j in range(b)]
+    m.eq3_contact = pyo.Constraint(range(b), rule=lambda _, j: surface.contact(where[j]) == level[j])
     m.eq14_collision = pyo.Constraint(
         range(len(samples)), rule=lambda _, s: surface.clearance(samples[s][0], samples[s][1]) >= -samples[s][2]
     )
@@ -282,7 +286,7 @@ def contacts_and_collisions(nlp: NLPBuilder) -> None:
     m.normal_definition = pyo.ConstraintList()
     m.tangent_definition = pyo.ConstraintList()
     for j in range(b):
-        grad = surface.gradient(p[j])
+        grad = surface.gradient(where[j])
         norm = sum(g * g for g in grad) ** 0.5
         for i in XYZ:
             m.normal_definition.add(m.n[j, i] * norm == -grad[i])

@@ -26,6 +26,9 @@ Point = Sequence[Any]
 
 
 class NLPSurface(Protocol):
+    #: the surface's value is the distance to it, so a rolling fingertip's contact is found from its centre
+    measures_distance: bool
+
     def attach(self, model: Any, definitions: list[tuple[Any, Any]]) -> None: ...
 
     def contact(self, p: Point) -> Any: ...
@@ -39,6 +42,8 @@ class SuperquadricSurface:
     """A superquadric in terms of ``F^(e1/2)``, which is well scaled near the surface. Collisions use the
     superquadric inflated by the ball's radius, because the radial distance beside a long thin cylinder
     overstates the true clearance several-fold."""
+
+    measures_distance = False
 
     def __init__(self, sq: Superquadric):
         self.a, self.e1, self.e2 = sq.a, sq.e1, sq.e2
@@ -87,6 +92,8 @@ class SuperquadricSurface:
 class GPSurface:
     """The GP's posterior mean ``sum_k alpha_k |p - x_k|^3 + c0 + c.p``: a signed distance in metres."""
 
+    measures_distance = False
+
     def __init__(self, gp: GPImplicitSurface):
         self.support, self.alpha, self.coef = gp.support, gp.alpha, gp.mean_coefficients
 
@@ -125,7 +132,15 @@ class GridSurface:
     """A mesh's or point cloud's signed-distance grid (:class:`DistanceGrid`), through a quintic B-spline that
     the backend evaluates. Each point where the NLP needs the surface gets variables for its coordinates (unless
     they are variables already), for the distance and, at contacts, for its gradient; eq. 3 is then
-    ``distance == 0``, eq. 14 ``distance - radius >= 0``."""
+    ``distance == 0``, eq. 14 ``distance - radius >= 0``.
+
+    A signed distance is smooth away from the surface, but a wall thinner than the grid's spacing (a scanned
+    mug's, 1-3 mm) is not in its zero set: the zero set there is off by 1-3 mm, and most of the mug's starts
+    ended infeasible. So a rolling contact is found where the field is smooth, at its fingertip sphere's centre:
+    ``distance(c) == r - compliance``, the normal from the gradient at ``c``, and ``p = c + (r - compliance) n``
+    is then the surface's point nearest ``c``, for a true distance as for the surface."""
+
+    measures_distance = True
 
     def __init__(self, grid: DistanceGrid):
         self.grid = grid
