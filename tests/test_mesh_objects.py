@@ -384,3 +384,30 @@ def test_a_workers_models_share_one_distance_grid(tasks, tmp_path):
     )
     assert first.surrogate is not None and first.surrogate.grid is whole.surrogate.grid is obj.distance_grid
     assert load_object(path).distance_grid is not obj.distance_grid  # another object, its own grid
+
+
+def test_a_rolling_contact_on_a_scan_is_held_where_a_thin_wall_is_seen(tasks):
+    """A cup's 1.2 mm wall, half a grid cell, is not in the spline's zero set (it reads 0.5 mm or more off the
+    surface) but is seen from a fingertip's centre, 6 mm off (within 0.1 mm): so on a mesh each rolling contact's
+    row holds its pad sphere's centre at r - compliance, and on a formula the contact on the surface."""
+    import pyomo.environ as pyo
+
+    from grasptask.hand import load_hand
+    from grasptask.synthesis.nlp import build_model
+    from grasptask.synthesis.spline import distance_function, evaluate
+    from grasptask.task.task_model import load_task_models
+    from tests.scan_files import cup
+
+    obj = MeshObject(cup(wall=0.0012))
+    surrogate = distance_function(obj.distance_grid)
+    points, faces = trimesh.sample.sample_surface(obj.mesh, 2000, seed=1)
+    off = points + 0.006 * obj.mesh.face_normals[faces]
+    assert np.median(np.abs(evaluate(surrogate, points))) > 5e-4
+    assert np.median(np.abs(evaluate(surrogate, off) - obj.signed_distance(off))) < 1e-4
+
+    hand, task = load_hand(), load_task_models(tasks)["drawing"]
+    offsets = hand.grasping_hand().contact_offsets(GraspSettings().rolling_contacts)
+    assert (offsets > 0.004).all()
+    for target, levels in ((obj, offsets), (load_object("configs/objects/tool.yaml"), 0 * offsets)):
+        m = build_model(hand, target, task, GraspSettings()).model
+        np.testing.assert_allclose([pyo.value(m.eq3_contact[j].upper) for j in m.eq3_contact], levels)
