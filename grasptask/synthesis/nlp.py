@@ -270,7 +270,9 @@ def contacts_and_collisions(nlp: NLPBuilder) -> None:
 
     A rolling contact is its fingertip sphere's point nearest the surface, sunk by the hand's compliance:
     ``p = c + (r - compliance) n``, with the sphere's centre ``c`` fixed in the distal link and ``n`` the
-    inward normal at ``p`` (eq. 2 for a contact that moves over the fingertip)."""
+    inward normal at ``p`` (eq. 2 for a contact that moves over the fingertip). On a distance field eq. 3 holds
+    ``c`` at ``r - compliance`` from the surface and ``n`` is the normal there, which is the same point for an
+    exact distance, and a wall thinner than the grid is seen (:class:`~grasptask.synthesis.surfaces.GridSurface`)."""
     m, surface, p, samples = nlp.model, nlp.surface, nlp.contacts, nlp.samples
     b = nlp.b
     # on a distance field, a rolling contact is where its sphere's centre stands r - compliance off the surface

@@ -135,10 +135,10 @@ class GridSurface:
     ``distance == 0``, eq. 14 ``distance - radius >= 0``.
 
     A signed distance is smooth away from the surface, but a wall thinner than the grid's spacing (a scanned
-    mug's, 1-3 mm) is not in its zero set: the zero set there is off by 1-3 mm, and most of the mug's starts
-    ended infeasible. So a rolling contact is found where the field is smooth, at its fingertip sphere's centre:
-    ``distance(c) == r - compliance``, the normal from the gradient at ``c``, and ``p = c + (r - compliance) n``
-    is then the surface's point nearest ``c``, for a true distance as for the surface."""
+    mug's, 1-3 mm) is not in its zero set: the zero set there is up to a millimetre off, and most of the mug's
+    starts ended infeasible. So a rolling contact is found where the field is smooth, at its fingertip sphere's
+    centre: ``distance(c) == r - compliance``, the normal from the gradient at ``c``, and
+    ``p = c + (r - compliance) n``, which for an exact distance is the surface's point nearest ``c``."""
 
     measures_distance = True
 
