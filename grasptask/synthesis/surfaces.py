@@ -92,7 +92,7 @@ class SuperquadricSurface:
 class GPSurface:
     """The GP's posterior mean ``sum_k alpha_k |p - x_k|^3 + c0 + c.p``: a signed distance in metres."""
 
-    measures_distance = False
+    measures_distance = False  # a distance near the surface it was fitted to, not 6-8 mm off it
 
     def __init__(self, gp: GPImplicitSurface):
         self.support, self.alpha, self.coef = gp.support, gp.alpha, gp.mean_coefficients
