@@ -426,6 +426,43 @@ def test_fingertips_sunk_by_the_compliance_are_seated_at_rest_before_the_hold(tm
     assert record["physics_initial_penetration_mm"] == pytest.approx(0.5, abs=0.1)
 
 
+def test_a_finger_at_its_joint_limits_is_seated_within_them_and_its_coupling():
+    """The human middle finger at its limits (MCP fully extended, PIP fully flexed, its DIP following at 2/3)
+    pressed 0.3 mm onto a ball: seating backs it out by the joints that can still move, within their limits
+    and the coupling. A step blind to both was clipped and overwritten until the tip sank no less deep, and
+    the grasp was held unseated."""
+    from grasptask.physics.seating import SEATED_DEPTH_M, seat
+
+    hand = load_hand("configs/hands/human.yaml").grasping_hand()
+    ball = Superquadric(np.full(3, 0.03), 1.0, 1.0, name="ball")
+    body = object_body(ball, SETTINGS)
+    q = hand.apply_coupling(np.radians([60, 50, -15, -10, 18, 15, 90, 13, 8, 11, -10, 110, 0]))
+    pose = forward(hand, q)
+    centre, normal = pose.pad_centres()[0, 2], pose.pad_normals()[0, 2]
+
+    def scene_at(offset: float):
+        scene = build_scene(hand, ball, body, Grasp(np.eye(3), -(centre - offset * normal), q), 0.5, SETTINGS)
+        data = mujoco.MjData(scene.model)
+        data.qpos[scene.hand_qpos] = scene.posture
+        mujoco.mj_forward(scene.model, data)
+        return scene, data, hand_contacts(scene, data).depths.max(initial=0.0)
+
+    near, far = 0.0, 0.05  # the ball's centre this far beyond the pad: 0.3 mm deep between them
+    for _ in range(20):
+        middle = (near + far) / 2
+        near, far = (middle, far) if scene_at(middle)[2] > 3e-4 else (near, middle)
+    scene, data, depth = scene_at(near)
+    assert depth == pytest.approx(3e-4, abs=2e-5)
+    seating = seat(scene, hand, scene.posture)
+    assert seating.joints is not None
+    data.qpos[scene.hand_qpos] = seating.joints
+    mujoco.mj_forward(scene.model, data)
+    assert hand_contacts(scene, data).depths.max(initial=0.0) <= SEATED_DEPTH_M
+    seated = scene.to_hand(seating.joints)
+    assert np.all(seated >= hand.lower - 1e-9) and np.all(seated <= hand.upper + 1e-9)
+    np.testing.assert_allclose(seated, hand.apply_coupling(seated), atol=1e-9)
+
+
 @pytest.mark.parametrize(
     "change, message",
     [
