@@ -6,6 +6,7 @@ import json
 import os
 import platform
 import statistics
+import subprocess
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -39,6 +40,36 @@ def cpu() -> dict:
     return {"model": fields.get("model name"), "simd": simd}
 
 
+#: the libraries whose version changes a solve or a physics verdict (none is pinned)
+SOLVING_PACKAGES = ("casadi", "cyipopt", "pyomo", "numpy", "scipy", "trimesh", "coacd", "mujoco", "quadprog")
+
+
+def packages() -> dict:
+    """Each of :data:`SOLVING_PACKAGES`' installed version (None where it is not installed): a fresh install
+    takes the newest, so a results file says which it was measured with."""
+    from importlib import metadata
+
+    def version(name: str) -> str | None:
+        try:
+            return metadata.version(name)
+        except metadata.PackageNotFoundError:
+            return None
+
+    return {name: version(name) for name in SOLVING_PACKAGES}
+
+
+def commit() -> str | None:
+    """The checkout's commit, with "+changes" when files differ from it (None outside a git checkout)."""
+    root = Path(__file__).resolve().parents[1]
+    try:
+        head = subprocess.run(["git", "rev-parse", "HEAD"], cwd=root, capture_output=True, text=True, check=True)
+        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"], cwd=root,
+                               capture_output=True, text=True, check=True)  # fmt: skip
+    except (OSError, subprocess.CalledProcessError):
+        return None
+    return head.stdout.strip() + ("+changes" if dirty.stdout.strip() else "")
+
+
 def machine() -> dict:
     return {
         "cpus": os.cpu_count(),
@@ -46,6 +77,8 @@ def machine() -> dict:
         "python": platform.python_version(),
         "platform": platform.platform(),
         "openblas_threads": os.environ.get("OPENBLAS_NUM_THREADS"),
+        "packages": packages(),
+        "commit": commit(),
     }
 
 

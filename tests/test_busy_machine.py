@@ -67,3 +67,22 @@ def test_the_shipped_settings_stop_on_iterations_and_guard_hung_workers_far_abov
     solver = load_solver_config("configs/solver.yaml")
     assert "max_wall_time" not in solver.ipopt and solver.ipopt["max_iter"] == 1500
     assert solver.hang_after_s >= 600
+
+
+def test_a_benchmarks_results_say_which_libraries_and_commit_measured_them():
+    """Nothing is pinned, so a fresh install takes the newest solver and physics libraries: a results file
+    records their versions and the commit beside the machine."""
+    import importlib.util
+
+    import numpy as np
+
+    root = Path(__file__).resolve().parents[1]
+    spec = importlib.util.spec_from_file_location("benchmark_common", root / "benchmarks" / "common.py")
+    assert spec is not None and spec.loader is not None
+    common = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(common)
+    facts = common.machine()
+    assert facts["packages"]["numpy"] == np.__version__ and facts["packages"]["casadi"] is not None
+    assert set(facts["packages"]) == set(common.SOLVING_PACKAGES)
+    head = subprocess.run(["git", "rev-parse", "HEAD"], cwd=root, capture_output=True, text=True).stdout.strip()
+    assert facts["commit"] is None if not head else facts["commit"].startswith(head)
