@@ -19,11 +19,11 @@ from grasptask.hand.hand_model import Hand
 from grasptask.physics.scene import Scene
 from grasptask.physics.sensing import Contacts, hand_contacts, point_jacobian
 
-#: the depth a seated grasp may keep (m), and the Gauss-Newton steps it may take
+#: the depth a seated grasp may keep (m), and the steps seating may take
 SEATED_DEPTH_M, SEATING_STEPS = 5e-5, 60
 #: how many times a step that leaves the hand deeper is halved before seating gives up
 HALVINGS = 8
-#: the Gauss-Newton step's damping (m: a joint's lever, below which it barely moves a point) and its largest size
+#: the least-squares step's damping (m: a joint's lever, below which it barely moves a point) and its largest size
 DAMPING, MAX_STEP_RAD = 1e-3, np.radians(2.0)
 
 
@@ -84,8 +84,8 @@ def _excess(contacts: Contacts) -> float:
 
 def _coupling_map(scene: Scene, hand: Hand) -> np.ndarray:
     """``(n, n)``: simulated joint steps from steps of the joints no coupling drives, ``dq = C dq_free`` (a
-    coupled joint's own column is zero). A step blind to the coupling is undone by it: the human hand's DIP
-    follows its PIP, and seating moved the DIP alone, to be put back, while its tip sank deeper."""
+    coupled joint's own column is zero). A step blind to the coupling is partly undone by it: the human hand's
+    DIP follows its PIP, so a step that moves the DIP alone is put back when the coupling is applied."""
     coupled = np.eye(len(scene.columns))
     for dependent, independent, ratio, _ in hand.couplings():
         d, i = scene.expand[dependent], scene.expand[independent]
