@@ -448,7 +448,7 @@ def test_a_finger_at_its_joint_limits_is_seated_within_them_and_its_coupling():
         return scene, data, hand_contacts(scene, data).depths.max(initial=0.0)
 
     near, far = 0.0, 0.05  # the ball's centre this far beyond the pad: 0.3 mm deep between them
-    for _ in range(20):
+    for _ in range(14):
         middle = (near + far) / 2
         near, far = (middle, far) if scene_at(middle)[2] > 3e-4 else (near, middle)
     scene, data, depth = scene_at(near)
