@@ -57,8 +57,8 @@ def seat(scene: Scene, hand: Hand, joints: np.ndarray) -> Seating:
             break
         room = np.array([lower - q, upper - q])
         step = _step(scene, data, contacts, deep, coupled, room)
-        # a full step can trade one contact for another: on a scanned mug's convex parts the depths cycled
-        # 0.22 -> 0.51 -> 0.35 -> 0.64 mm for 60 steps, and the grasp was held unseated
+        # a full step can trade one contact for another (MuJoCo's contact set changes within it): halving
+        # seated 2 more of the YCB mug's 32 screw-driving grasps
         for _ in range(HALVINGS):
             trial = scene.from_hand(hand.apply_coupling(np.clip(scene.to_hand(q + step), hand.lower, hand.upper)))
             tried = _contacts_at(scene, data, trial)
