@@ -72,17 +72,13 @@ def test_the_shipped_settings_stop_on_iterations_and_guard_hung_workers_far_abov
 def test_a_benchmarks_results_say_which_libraries_and_commit_measured_them():
     """Nothing is pinned, so a fresh install takes the newest solver and physics libraries: a results file
     records their versions and the commit beside the machine."""
-    import importlib.util
-
     import numpy as np
 
+    from benchmarks.common import SOLVING_PACKAGES, machine
+
     root = Path(__file__).resolve().parents[1]
-    spec = importlib.util.spec_from_file_location("benchmark_common", root / "benchmarks" / "common.py")
-    assert spec is not None and spec.loader is not None
-    common = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(common)
-    facts = common.machine()
+    facts = machine()
     assert facts["packages"]["numpy"] == np.__version__ and facts["packages"]["casadi"] is not None
-    assert set(facts["packages"]) == set(common.SOLVING_PACKAGES)
+    assert set(facts["packages"]) == set(SOLVING_PACKAGES)
     head = subprocess.run(["git", "rev-parse", "HEAD"], cwd=root, capture_output=True, text=True).stdout.strip()
     assert facts["commit"] is None if not head else facts["commit"].startswith(head)
