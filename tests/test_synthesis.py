@@ -24,6 +24,7 @@ from grasptask.objects import load_object
 from grasptask.paths import DEFAULT_HAND
 from grasptask.records.solutions import STATUSES
 from grasptask.synthesis.nlp import build_model
+from grasptask.synthesis.solver_config import IPOPT_DEFAULTS
 from grasptask.synthesis.starts import make_starts, palm_directions, subset
 from grasptask.synthesis.sweep import _next_start
 from grasptask.task.task_model import load_task_models
@@ -344,6 +345,30 @@ def test_both_backends_reach_the_same_optimum_on_a_test_problem():
     assert a.status == b.status == "optimal"
     np.testing.assert_allclose(a.x, b.x, atol=1e-7)
     assert b.iterations > 0
+
+
+@pytest.mark.parametrize("backend", ["casadi", "cyipopt"])
+def test_a_solve_stuck_in_restoration_stops_there_as_max_iter(backend):
+    """A start the restoration phase cannot bring back (the toy's sphere with x0 = 3 has no point) stops after
+    max_resto_iter iterations in a row there, as a recorded max-iter, and not after max_iter."""
+    from grasptask.synthesis.backends import BACKENDS, write_nl
+
+    if backend == "cyipopt":
+        pytest.importorskip("cyipopt", reason="make setup-cyipopt builds it; `make test` does so first")
+    m = pyo.ConcreteModel()
+    m.x = pyo.Var(range(2), initialize=0.1)
+    m.sphere = pyo.Constraint(expr=m.x[0] ** 2 + m.x[1] ** 2 == 1)
+    m.off = pyo.Constraint(expr=m.x[0] == 3)
+    m.objective = pyo.Objective(expr=m.x[0] ** 2 + m.x[1] ** 2)
+    text, order = write_nl(m)
+    x0 = np.array([v.value for v in order])
+    options = {"print_level": 0, "sb": "yes", "max_iter": 500}
+    unbounded = BACKENDS[backend](text, options).solve(x0)
+    capped = BACKENDS[backend](text, {**options, "max_resto_iter": 1}).solve(x0)
+    assert unbounded.status == "infeasible"
+    assert capped.status == "max-iter" and capped.x is not None and capped.iterations < unbounded.iterations
+    # the shipped defaults cap the restoration phase well inside a solve's iterations
+    assert IPOPT_DEFAULTS["max_resto_iter"] <= IPOPT_DEFAULTS["max_iter"] / 10
 
 
 def test_cyipopt_backend_on_the_grasp_nlp(cli, tasks, tmp_path):
