@@ -26,7 +26,7 @@ IPOPT_DEFAULTS: dict[str, int | float | str] = {
     "acceptable_iter": 10,
     "acceptable_constr_viol_tol": 1.0e-6,  # an 'acceptable' exit must still be feasible
     "max_iter": 1500,  # a solve stops on its iterations, never on the clock: the same rows on a busy machine
-    "max_resto_iter": 100,  # a solve the restoration phase cannot bring back stops there, and its start retries
+    "max_resto_iter": 250,  # a solve the restoration phase cannot bring back stops there, and its start retries
     "mu_strategy": "adaptive",
     "alpha_for_y": "min-dual-infeas",  # the equality multipliers' step minimises the dual infeasibility
     "nlp_scaling_method": "gradient-based",
