@@ -349,8 +349,8 @@ def test_both_backends_reach_the_same_optimum_on_a_test_problem():
 
 @pytest.mark.parametrize("backend", ["casadi", "cyipopt"])
 def test_a_solve_stuck_in_restoration_stops_there_as_max_iter(backend):
-    """A start the restoration phase cannot bring back (the toy's sphere with x0 = 3 has no point) stops after
-    max_resto_iter iterations in a row there, as a recorded max-iter, and not after max_iter."""
+    """A solve the restoration phase cannot bring back (the unit circle and x0 = 3 share no point) stops after
+    max_resto_iter iterations in a row there, as a recorded max-iter with its last point, for a retry to follow."""
     from grasptask.synthesis.backends import BACKENDS, write_nl
 
     if backend == "cyipopt":
