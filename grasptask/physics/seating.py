@@ -56,13 +56,13 @@ def seat(scene: Scene, hand: Hand, joints: np.ndarray) -> Seating:
         if (scene.finger_of_body[contacts.bodies[deep]] < 0).any():
             break
         room = np.array([lower - q, upper - q])
-        step = _step(scene, data, contacts, deep, coupled, room)
+        step, excess = _step(scene, data, contacts, deep, coupled, room), _excess(contacts)
         # a full step can trade one contact for another (MuJoCo's contact set changes within it): halving
         # seated 2 more of the YCB mug's 32 screw-driving grasps
         for _ in range(HALVINGS):
             trial = scene.from_hand(hand.apply_coupling(np.clip(scene.to_hand(q + step), hand.lower, hand.upper)))
             tried = _contacts_at(scene, data, trial)
-            if _excess(tried) < _excess(contacts):
+            if _excess(tried) < excess:
                 break
             step = step / 2
         else:
