@@ -70,10 +70,20 @@ def commit() -> str | None:
     return head.stdout.strip() + ("+changes" if dirty.stdout.strip() else "")
 
 
+def blas_kernels() -> str | None:
+    """The kernels numpy's OpenBLAS chose for this CPU (``OPENBLAS_CORETYPE`` overrides them): a scan's sweep
+    depends on its inputs' last bits, and these change them (docs/design/objects.md)."""
+    import numpy  # noqa: F401  (loads the library threadpoolctl reads)
+    from threadpoolctl import threadpool_info
+
+    return next((pool.get("architecture") for pool in threadpool_info() if pool["user_api"] == "blas"), None)
+
+
 def machine() -> dict:
     return {
         "cpus": os.cpu_count(),
         "cpu": cpu(),
+        "numpy_blas_kernels": blas_kernels(),
         "python": platform.python_version(),
         "platform": platform.platform(),
         "openblas_threads": os.environ.get("OPENBLAS_NUM_THREADS"),

@@ -3,6 +3,8 @@ many workers solve it: every solve stops on its iterations, not on the clock."""
 
 from __future__ import annotations
 
+import os
+import platform
 import subprocess
 import sys
 from collections.abc import Iterator
@@ -82,3 +84,14 @@ def test_a_benchmarks_results_say_which_libraries_and_commit_measured_them():
     assert set(facts["packages"]) == set(SOLVING_PACKAGES)
     head = subprocess.run(["git", "rev-parse", "HEAD"], cwd=root, capture_output=True, text=True).stdout.strip()
     assert facts["commit"] is None if not head else facts["commit"].startswith(head)
+
+
+@pytest.mark.skipif(platform.machine() != "x86_64", reason="OpenBLAS's x86 kernels")
+def test_a_benchmarks_results_say_which_blas_kernels_numpy_chose():
+    """A scan's sweep turns on its inputs' last bits, which numpy's BLAS kernels change: a results file names
+    them, as the processor chose them or as ``OPENBLAS_CORETYPE`` forced them."""
+    root = Path(__file__).resolve().parents[1]
+    code = "from benchmarks.common import machine; print(machine()['numpy_blas_kernels'])"
+    env = {**os.environ, "OPENBLAS_CORETYPE": "Nehalem"}  # any x86-64 runs it
+    forced = subprocess.run([sys.executable, "-c", code], cwd=root, env=env, capture_output=True, text=True, check=True)
+    assert forced.stdout.strip() == "Nehalem"
