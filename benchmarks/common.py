@@ -239,6 +239,13 @@ def held(sweep: Path, tasks: Path, task: str, out: Path) -> dict:
     }
 
 
+def held_cell(figures: dict) -> str:
+    """A table cell for :func:`held`'s share of a sweep's figures: "-" where physics did not run or had nothing to
+    hold."""
+    share = figures.get("physics", {}).get("held_of_verified")
+    return "-" if share is None else f"{share:.0%}"
+
+
 def first_attempt_cell(figures: dict | None) -> str:
     """A table cell for :func:`first_attempt_figures`: "-" for a sweep without retries."""
     if not figures or figures["median_s_per_start"] is None:

@@ -40,6 +40,7 @@ from common import (  # noqa: E402
     first_attempt_cell,
     first_attempt_figures,
     held,
+    held_cell,
     print_saved,
     ratios_to,
     save,
@@ -202,8 +203,7 @@ def main(
 def held_by(figures: dict, folder: Path, hand: str, task: str, tasks: Path) -> None:
     """The physics judge on one kept sweep's grasps, added to its figures and said."""
     figures["physics"] = held(folder / hand / task, tasks, task, folder / "physics" / hand / task)
-    share = figures["physics"]["held_of_verified"]
-    print(f"{hand} {task}: physics holds {'-' if share is None else f'{share:.0%}'} of the verified", flush=True)
+    print(f"{hand} {task}: physics holds {held_cell(figures)} of the verified", flush=True)
 
 
 def summarise(folder: Path, name: str, physics: bool = False) -> dict:
@@ -222,11 +222,6 @@ def summarise(folder: Path, name: str, physics: bool = False) -> dict:
             results["starts_per_task"] = next(iter(tasks.values()))["starts"]
     save_and_print(name, compare(results), markdown_table)
     return results
-
-
-def _held(figures: dict) -> str:
-    share = figures.get("physics", {}).get("held_of_verified")
-    return "-" if share is None else f"{share:.0%}"
 
 
 def _mm(value: float | None) -> str:
@@ -254,7 +249,7 @@ def markdown_table(results: dict) -> str:
                 f"| {hand} | {task} | {size} | {f['median_s_per_start']:.2f}{ratio} | {f['p90_s_per_start']:.1f} | "
                 f"{f['verified_fraction']:.0%} | {first_attempt_cell(f.get('first_attempt'))} | "
                 f"{f['distinct_optima']} | {failing} | {_mm(f.get('verified_penetration_max_mm'))}, "
-                f"{_mm(f.get('verified_fingertip_gap_max_mm'))} | {_held(f)} |"
+                f"{_mm(f.get('verified_fingertip_gap_max_mm'))} | {held_cell(f)} |"
             )
     return "\n".join(lines)
 

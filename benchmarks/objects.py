@@ -44,6 +44,7 @@ from common import (  # noqa: E402
     first_attempt_cell,
     first_attempt_figures,
     held,
+    held_cell,
     print_saved,
     ratios_to,
     save,
@@ -208,11 +209,6 @@ def main(
     return results
 
 
-def _held(figures: dict) -> str:
-    share = figures.get("physics", {}).get("held_of_verified")
-    return "-" if share is None else f"{share:.0%}"
-
-
 def markdown_table(results: dict) -> str:
     lines = [
         "| object | build s | task | median s (x cylinder) | p90 s | ms/iteration | verified | first attempt only: "
@@ -226,7 +222,7 @@ def markdown_table(results: dict) -> str:
             lines.append(
                 f"| {obj} | {entry['build_s']:.1f} | {task} | {f['median_s_per_start']:.2f}{ratio} | "
                 f"{f['p90_s_per_start']:.1f} | {per} | {f['verified_fraction']:.0%} | "
-                f"{first_attempt_cell(f.get('first_attempt'))} | {f['distinct_optima']} | {_held(f)} |"
+                f"{first_attempt_cell(f.get('first_attempt'))} | {f['distinct_optima']} | {held_cell(f)} |"
             )
     return "\n".join(lines)
 
