@@ -115,6 +115,18 @@ def _simulate_said(options, done) -> None:
     default=None,
     help="Zero-phase Butterworth low-pass cutoff in Hz (default: no filtering).",
 )
+@click.option(
+    "--resample",
+    type=click.FloatRange(min=0, min_open=True),
+    default=None,
+    help="Put every recording on an even grid at this rate (Hz), by linear interpolation, before any other "
+    "step (default: as sampled; fit-task says where sampling is uneven).",
+)
+@click.option(
+    "--drop-spikes",
+    is_flag=True,
+    help="Leave out the samples fit-task finds to be spikes (default: kept, and said with their rows).",
+)
 @click.option("--centered", is_flag=True, help="Use the covariance instead of the second moment about the origin.")
 @click.option("--skip-bad", is_flag=True, help="Set aside bad recordings, list them at the end, and go on.")
 @click.option("--task", default="unlabelled", show_default=True, help="Task label for plain recording files.")
@@ -134,19 +146,30 @@ def fit_task(**params):
     """Fit a 6D task ellipsoid to each recording and a Log-Euclidean mean model to each task.
 
     INPUTS is a manifest CSV (columns path, task, subject, trial, grasp and optionally id, frame, force_unit,
-    torque_unit, time_unit, tool, bias_window_s), or recording files that share the --task/--grasp labels.
-    Writes ellipsoids.parquet, task_models.json and stats.csv (the long format of the paper's Tables 1-10).
+    torque_unit, time_unit, tool, bias_window_s, start_s, end_s, variable, rate_hz, topic), or recording files
+    (CSV, Parquet, MATLAB .mat) that share the --task/--grasp labels. Writes ellipsoids.parquet, task_models.json
+    and stats.csv (the long format of the paper's Tables 1-10).
+
+    Each recording is checked, and what is found is said once, with its figures, and kept in task_models.json:
+    uneven sampling, a recording shorter than the tool config's minimum, values beyond its plausible range (a
+    probable unit error), spikes, and a mean that dominates the spread (an untared sensor or the tool's weight).
     """
     run_command("fit-task", params)
 
 
-def _fit_options(inputs, out, bias_window, trim_start, trim_end, lowpass, centered, skip_bad, **labels):
-    fit = stages.FitOptions(stages.Preprocess(bias_window, trim_start, trim_end, lowpass), centered)
-    return stages.FitTaskOptions(inputs=inputs, out=out, fit=fit, skip_bad=skip_bad, **labels)
+def _fit_options(
+    inputs, out, bias_window, trim_start, trim_end, lowpass, resample, drop_spikes, centered, skip_bad, **labels
+):
+    steps = stages.Preprocess(bias_window, trim_start, trim_end, lowpass, resample_hz=resample, drop_spikes=drop_spikes)
+    return stages.FitTaskOptions(
+        inputs=inputs, out=out, fit=stages.FitOptions(steps, centered), skip_bad=skip_bad, **labels
+    )
 
 
 def _fit_said(options, done) -> None:
     click.echo(fit_summary(done.ellipsoids, done.stats))
+    for finding in done.findings:
+        click.echo(f"check: {finding['file']} ({finding['id']}): {finding['message']}")
     click.echo(f"wrote {done.out}/ellipsoids.parquet, task_models.json, stats.csv")
     if done.skipped:
         click.echo(f"skipped {len(done.skipped)} bad recording(s):", err=True)

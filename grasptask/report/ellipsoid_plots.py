@@ -39,7 +39,7 @@ def recording_samples(
     for entry in read_manifest(manifest):
         if entry.id not in wanted:
             continue
-        _, wrenches = load_wrenches(entry, entry_tool(entry, tools))
+        wrenches = load_wrenches(entry, entry_tool(entry, tools)).wrenches
         pick = rng.choice(len(wrenches), min(per_recording, len(wrenches)), replace=False)
         samples[entry.id] = wrenches[np.sort(pick)]
     return samples

@@ -70,12 +70,14 @@ class FitTaskOptions:
 @dataclass(frozen=True)
 class FitSummary:
     """The ellipsoids fitted (one row per recording), the paper's Tables 1-10 in long form, the recordings set
-    aside, and where they were written."""
+    aside, what the checks said of the others (uneven sampling, short, implausible, spikes, offset: one dict
+    each, as ``task_models.json`` holds them) and where they were written."""
 
     out: Path
     ellipsoids: pd.DataFrame
     stats: pd.DataFrame
     skipped: list[BadInputError]
+    findings: list[dict] = field(default_factory=list)
 
 
 def _entries(options: FitTaskOptions) -> list[RecordingEntry]:
@@ -120,6 +122,6 @@ def _fit_and_write(entries: list[RecordingEntry], options: FitTaskOptions) -> Fi
     config = {"options": asdict(options.fit), "skip_bad": options.skip_bad, "labels": labels}
     with StagedOutput(options.out, Provenance.of("fit-task", config, [*options.inputs, *hashed])) as staged:
         staged.write_parquet("ellipsoids.parquet", result.ellipsoids)
-        staged.write_json("task_models.json", task_models_payload(result.ellipsoids))
+        staged.write_json("task_models.json", task_models_payload(result.ellipsoids, result.findings))
         staged.write_csv("stats.csv", stats)
-    return FitSummary(options.out, result.ellipsoids, stats, result.skipped)
+    return FitSummary(options.out, result.ellipsoids, stats, result.skipped, result.findings)

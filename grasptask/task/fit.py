@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from collections.abc import Callable, Iterable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -12,10 +12,12 @@ import pandas as pd
 from grasptask.errors import BadInputError
 from grasptask.io.tables import read_table
 from grasptask.task import preprocess
+from grasptask.task import recording_checks as checks
 from grasptask.task.ellipsoid import Ellipsoid, ellipsoid_matrices, is_singular, second_moment
 from grasptask.task.frames import transform_wrenches
 from grasptask.task.manifest import RecordingEntry
-from grasptask.task.recordings import MIN_SAMPLES, read_recording
+from grasptask.task.recording_checks import Finding
+from grasptask.task.recordings import MIN_SAMPLES, Layout, read_recording, window_mask
 from grasptask.task.rosbag import read_wrench_bag
 from grasptask.task.spd import spd_problem
 from grasptask.task.tool import ToolConfig, load_tool
@@ -28,35 +30,62 @@ class FitOptions:
     centered: bool = False
 
 
-def load_wrenches(
-    entry: RecordingEntry, tool: ToolConfig | None = None, options: FitOptions = FitOptions()
-) -> tuple[np.ndarray, np.ndarray]:
-    """Time (s) and ``(n, 6)`` wrenches (N, N.m) in the object frame, preprocessed."""
+@dataclass(frozen=True)
+class Samples:
+    """A recording as fitted: time (s) and ``(n, 6)`` wrenches (N, N.m) in the object frame, preprocessed, and
+    what the checks found in it."""
+
+    t: np.ndarray
+    wrenches: np.ndarray
+    findings: list[Finding] = field(default_factory=list)
+
+
+def load_wrenches(entry: RecordingEntry, tool: ToolConfig | None = None, options: FitOptions = FitOptions()) -> Samples:
+    """The entry's samples in SI units and the object frame, cut to its window, checked and preprocessed."""
     tool = tool or ToolConfig(name="none")
-    data = _read_samples(entry, tool)
+    layout = replace(
+        tool.layout, variable=entry.variable or tool.layout.variable, rate_hz=entry.rate_hz or tool.layout.rate_hz
+    )
+    data = _read_samples(entry, tool, layout)
     units = {**tool.units, **entry.units}
     factor = {key: table[units.get(key, next(iter(table)))] for key, table in UNIT_TABLES.items()}
     t, wrenches = data[:, 0], data[:, 1:]
-    if factor["time_unit"] != 1.0:
+    if factor["time_unit"] != 1.0 and not layout.rate_hz:
         t = t * factor["time_unit"]
     if factor["force_unit"] != 1.0 or factor["torque_unit"] != 1.0:
         wrenches = wrenches * np.repeat([factor["force_unit"], factor["torque_unit"]], 3)
     if entry.frame == "sensor":
         wrenches = transform_wrenches(wrenches, tool.sensor_rotation, tool.sensor_position)
+    rows = np.arange(1, len(t) + 1)
+    if not entry.topic and entry.window_s != (None, None):  # a bag's own reader cuts its window
+        keep = window_mask(entry.source or entry.path, t, *entry.window_s)
+        t, wrenches, rows = t[keep], wrenches[keep], rows[keep]
+    steps = options.preprocess
+    spiky = checks.spike_rows(wrenches)
+    findings = [
+        checks.uneven_sampling(t, steps.resample_hz, steps.lowpass_hz),
+        checks.too_short(t, tool.plausible.min_duration_s),
+        checks.implausible(wrenches[~spiky], tool.plausible.force_n, tool.plausible.torque_nm),
+        checks.spikes(wrenches, spiky, rows, steps.drop_spikes),
+    ]
+    if steps.drop_spikes and spiky.any():
+        t, wrenches = t[~spiky], wrenches[~spiky]
     try:
-        t, wrenches = preprocess.apply(t, wrenches, options.preprocess, entry.bias_window_s)
+        t, wrenches = preprocess.apply(t, wrenches, steps, entry.bias_window_s)
     except ValueError as exc:
         raise BadInputError(entry.path, str(exc)) from exc
     if len(t) < MIN_SAMPLES:
         raise BadInputError(entry.path, f"only {len(t)} samples left after preprocessing (at least {MIN_SAMPLES})")
-    return t, wrenches
+    if not options.centered:
+        findings.append(checks.offset(wrenches))
+    return Samples(t, wrenches, [f for f in findings if f is not None])
 
 
-def _read_samples(entry: RecordingEntry, tool: ToolConfig) -> np.ndarray:
-    """The entry's ``(n, 7)`` samples from its CSV or Parquet file, or from its ROS bag's topic, whose frame
-    must be the tool's sensor frame when the manifest says the wrenches are in the sensor frame."""
+def _read_samples(entry: RecordingEntry, tool: ToolConfig, layout: Layout) -> np.ndarray:
+    """The entry's ``(n, 7)`` samples from its CSV, Parquet or MATLAB file, or from its ROS bag's topic, whose
+    frame must be the tool's sensor frame when the manifest says the wrenches are in the sensor frame."""
     if not entry.topic:
-        return read_recording(entry.path, tool.columns, tool.ignore_columns)
+        return read_recording(entry.path, layout)
 
     bag = read_wrench_bag(entry.path, entry.topic, *entry.window_s)
     if entry.frame == "sensor" and tool.frame_id and bag.frame_id != tool.frame_id:
@@ -75,9 +104,10 @@ def _read_samples(entry: RecordingEntry, tool: ToolConfig) -> np.ndarray:
 
 def fit_entry(
     entry: RecordingEntry, tool: ToolConfig | None = None, options: FitOptions = FitOptions()
-) -> tuple[Ellipsoid, int, float]:
-    """The recording's ellipsoid and its sample count and duration."""
-    t, wrenches = load_wrenches(entry, tool, options)
+) -> tuple[Ellipsoid, Samples]:
+    """The recording's ellipsoid, and its samples as fitted."""
+    samples = load_wrenches(entry, tool, options)
+    wrenches = samples.wrenches
     if not np.any(wrenches):
         raise BadInputError(entry.path, "all wrench samples are zero, so the ellipsoid is singular")
     matrix = second_moment(wrenches, options.centered)
@@ -86,13 +116,17 @@ def fit_entry(
         raise BadInputError(
             entry.path, f"wrench samples span only {rank} of 6 dimensions, so the ellipsoid is singular"
         )
-    return Ellipsoid.from_matrix(matrix), len(t), float(t[-1] - t[0])
+    return Ellipsoid.from_matrix(matrix), samples
 
 
 @dataclass
 class FitResult:
+    """The ellipsoids (a row per recording), the recordings set aside, and what the checks said of the rest:
+    one dict per finding, with the recording's id and file (:meth:`Finding`'s check, message and figures)."""
+
     ellipsoids: pd.DataFrame
     skipped: list[BadInputError]
+    findings: list[dict] = field(default_factory=list)
 
     @property
     def matrices(self) -> np.ndarray:
@@ -116,16 +150,21 @@ def fit_recordings(
 ) -> FitResult:
     """Fit every recording; with ``skip_bad`` a bad recording is set aside instead of stopping the run."""
     tools: dict[Path, ToolConfig] = {}
-    rows, skipped = [], []
+    rows, skipped, findings = [], [], []
     for entry in progress(list(entries)):
         try:
             tool = entry_tool(entry, tools)
-            ellipsoid, n, duration = fit_entry(entry, tool, options)
+            ellipsoid, samples = fit_entry(entry, tool, options)
         except BadInputError as exc:
             if not skip_bad:
                 raise
             skipped.append(exc)
             continue
+        n, duration = len(samples.t), float(samples.t[-1] - samples.t[0])
+        findings += [
+            {"id": entry.id, "file": str(entry.path), "check": f.check, "message": f.message, "figures": f.figures}
+            for f in samples.findings
+        ]
         rows.append(
             {
                 "id": entry.id,
@@ -152,7 +191,7 @@ def fit_recordings(
         )
     if not rows:
         raise BadInputError("fit-task", "no recordings to fit")
-    return FitResult(pd.DataFrame(rows), skipped)
+    return FitResult(pd.DataFrame(rows), skipped, findings)
 
 
 def read_ellipsoids(path: str | Path) -> pd.DataFrame:

@@ -5,8 +5,10 @@ Required columns: ``path, task, subject, trial, grasp``. Optional: ``id`` (defau
 ``time_unit``, ``tool`` (a tool config, required for ``frame=sensor``) and ``bias_window_s`` (length of the
 initial static window used for bias removal, then trimmed). Paths are relative to the manifest's folder.
 A ROS bag (``.bag``, or a ROS 2 bag's folder or storage file) needs the ``topic`` of its ``WrenchStamped``
-messages, and may give a time window, ``start_s`` and ``end_s`` seconds after the topic's first message.
-Row numbers count data rows from 1.
+messages. Any recording may give a time window, ``start_s`` and ``end_s`` seconds after its first sample, so that
+several rows cut trials from one log; ``variable`` names the matrix of a ``.mat`` file's samples and ``rate_hz``
+the sample rate of a file without time stamps (both override the tool config's). Row numbers count data rows
+from 1.
 """
 
 from __future__ import annotations
@@ -34,6 +36,8 @@ OPTIONAL = (
     "topic",
     "start_s",
     "end_s",
+    "variable",
+    "rate_hz",
 )
 FRAMES = ("object", "sensor")
 
@@ -53,10 +57,14 @@ class RecordingEntry:
     tool: Path | None = None
     bias_window_s: float = 0.0
     source: str = ""  # "<manifest>: row N", for messages
-    #: a ROS bag's topic of WrenchStamped messages ("": the file is a CSV or Parquet recording) ...
+    #: a ROS bag's topic of WrenchStamped messages ("": the file is a CSV, Parquet or MATLAB recording)
     topic: str = ""
-    #: ... and the time window to read, seconds after the topic's first message (None: from the start, to the end)
+    #: the time window to read, seconds after the first sample (None: from the start, to the end)
     window_s: tuple[float | None, float | None] = (None, None)
+    #: a .mat file's matrix of samples ("": the tool config's)
+    variable: str = ""
+    #: the sample rate of a file without time stamps (None: the tool config's, else the file's time column)
+    rate_hz: float | None = None
 
     @property
     def group(self) -> str:
@@ -132,15 +140,16 @@ def _entry(path: Path, row_number: int, row: dict[str, str]) -> RecordingEntry:
         raise fail("tool", "frame is 'sensor' but no tool config names the sensor pose")
     if tool_path is not None and not tool_path.is_file():
         raise fail("tool", f"tool config not found: {tool_path}")
-    bias = row.get("bias_window_s", "").strip()
-    try:
-        bias_window = float(bias) if bias else 0.0
-    except ValueError:
-        bias_window = -1.0
-    if not np.isfinite(bias_window) or bias_window < 0:
-        raise fail("bias_window_s", f"must be a non-negative number of seconds, got {bias!r}")
+    bias_window = _number(row, "bias_window_s", fail) or 0.0
     recording = path.parent / row["path"].strip()
-    topic, window = _bag_fields(row, recording, fail)
+    topic = _bag_topic(row, recording, fail)
+    window = _window(row, fail)
+    rate_hz = _number(row, "rate_hz", fail, positive=True)
+    if rate_hz is not None and topic:
+        raise fail("rate_hz", "a ROS bag's times are its messages' stamps; leave rate_hz empty")
+    variable = row.get("variable", "").strip()
+    if variable and recording.suffix.lower() != ".mat":
+        raise fail("variable", f"only a MATLAB file has variables; {recording.name} is not one")
     task, grasp, subject = row["task"].strip(), row["grasp"].strip(), row["subject"].strip()
     return RecordingEntry(
         id=row.get("id", "").strip() or default_id(task, grasp, subject, trial),
@@ -156,32 +165,43 @@ def _entry(path: Path, row_number: int, row: dict[str, str]) -> RecordingEntry:
         source=f"{path}: row {row_number}",
         topic=topic,
         window_s=window,
+        variable=variable,
+        rate_hz=rate_hz,
     )
 
 
-def _bag_fields(row: dict[str, str], recording: Path, fail) -> tuple[str, tuple[float | None, float | None]]:
-    """A bag row's topic and time window, checked; a recording that is not a bag may have neither."""
+def _number(row: dict[str, str], name: str, fail, positive: bool = False) -> float | None:
+    """A row's optional number of seconds (``>= 0``) or rate (``> 0``); None where the cell is empty."""
+    text = row.get(name, "").strip()
+    if not text:
+        return None
+    try:
+        value = float(text)
+    except ValueError:
+        value = float("nan")
+    if not np.isfinite(value) or value < 0 or (positive and value == 0):
+        what = "a positive number (Hz)" if positive else "a non-negative number of seconds"
+        raise fail(name, f"must be {what}, got {text!r}")
+    return value
+
+
+def _window(row: dict[str, str], fail) -> tuple[float | None, float | None]:
+    """The row's time window, seconds after the recording's first sample."""
+    start, end = _number(row, "start_s", fail), _number(row, "end_s", fail)
+    if start is not None and end is not None and end <= start:
+        raise fail("end_s", f"the window ends ({end} s) before it starts ({start} s)")
+    return start, end
+
+
+def _bag_topic(row: dict[str, str], recording: Path, fail) -> str:
+    """A bag row's topic, checked; a recording that is not a bag has none."""
     topic = row.get("topic", "").strip()
-    bounds: list[float | None] = []
-    for name in ("start_s", "end_s"):
-        text = row.get(name, "").strip()
-        try:
-            value = float(text) if text else None
-        except ValueError:
-            value = -1.0
-        if value is not None and (not np.isfinite(value) or value < 0):
-            raise fail(name, f"must be a non-negative number of seconds, got {text!r}")
-        bounds.append(value)
     if not is_bag(recording):
-        for name in ("topic", "start_s", "end_s"):
-            if row.get(name, "").strip():
-                raise fail(name, f"only a ROS bag has a {name}; {recording.name} is not one")
-        return "", (None, None)
+        if topic:
+            raise fail("topic", f"only a ROS bag has a topic; {recording.name} is not one")
+        return ""
     if not topic:
         raise fail("topic", f"{recording.name} is a ROS bag: name the topic of its WrenchStamped messages")
     if row.get("time_unit", "").strip():
         raise fail("time_unit", "a ROS bag's times are its messages' stamps, in seconds; leave time_unit empty")
-    start, end = bounds
-    if start is not None and end is not None and end <= start:
-        raise fail("end_s", f"the window ends ({end} s) before it starts ({start} s)")
-    return topic, (start, end)
+    return topic

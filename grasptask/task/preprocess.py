@@ -1,4 +1,5 @@
-"""Optional preprocessing of wrench samples: bias removal, trimming, zero-phase low-pass filtering."""
+"""Optional preprocessing of wrench samples: resampling to an even rate, bias removal, trimming, zero-phase
+low-pass filtering."""
 
 from __future__ import annotations
 
@@ -11,7 +12,9 @@ import numpy as np
 class Preprocess:
     """Preprocessing options; all off by default.
 
-    ``bias_window_s`` overrides each recording's own static window from the manifest when given.
+    ``bias_window_s`` overrides each recording's own static window from the manifest when given;
+    ``resample_hz`` puts unevenly sampled recordings on an even grid first; ``drop_spikes`` leaves out the samples
+    :func:`grasptask.task.recording_checks.spike_rows` finds.
     """
 
     bias_window_s: float | None = None
@@ -19,6 +22,15 @@ class Preprocess:
     trim_end_s: float = 0.0
     lowpass_hz: float | None = None
     lowpass_order: int = 4
+    resample_hz: float | None = None
+    drop_spikes: bool = False
+
+
+def resample(t: np.ndarray, wrenches: np.ndarray, rate_hz: float) -> tuple[np.ndarray, np.ndarray]:
+    """The samples linearly interpolated onto an even grid at ``rate_hz`` from the first sample's time, so that
+    each sample stands for the same time in the ellipsoid's mean."""
+    grid = t[0] + np.arange(int(np.floor((t[-1] - t[0]) * rate_hz + 1e-9)) + 1) / rate_hz
+    return grid, np.column_stack([np.interp(grid, t, wrenches[:, c]) for c in range(wrenches.shape[1])])
 
 
 def remove_bias(t: np.ndarray, wrenches: np.ndarray, window_s: float) -> tuple[np.ndarray, np.ndarray]:
@@ -49,7 +61,9 @@ def lowpass(t: np.ndarray, wrenches: np.ndarray, cutoff_hz: float, order: int = 
 def apply(
     t: np.ndarray, wrenches: np.ndarray, options: Preprocess, bias_window_s: float = 0.0
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Bias removal (recording's window unless overridden), trimming, then filtering."""
+    """Resampling, bias removal (recording's window unless overridden), trimming, then filtering."""
+    if options.resample_hz:
+        t, wrenches = resample(t, wrenches, options.resample_hz)
     window = options.bias_window_s if options.bias_window_s is not None else bias_window_s
     if window > 0:
         t, wrenches = remove_bias(t, wrenches, window)

@@ -1,4 +1,4 @@
-"""Reading one recording (CSV or Parquet) into a validated ``(n, 7)`` array of t, fx, fy, fz, tx, ty, tz.
+"""Reading one recording (CSV, Parquet or a MATLAB file) into a validated ``(n, 7)`` array of t, fx, fy, fz, tx, ty, tz.
 
 Row numbers in error messages count data rows from 1, not counting a CSV header.
 """
@@ -6,7 +6,8 @@ Row numbers in error messages count data rows from 1, not counting a CSV header.
 from __future__ import annotations
 
 import csv
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -17,22 +18,49 @@ import pyarrow.parquet as pq
 
 from grasptask.errors import BadInputError, existing_file
 from grasptask.io.csv_format import ENCODING, sniff
-from grasptask.task.tool import CANONICAL_COLUMNS
+from grasptask.task import matlab
+from grasptask.task.matlab import MAT_SUFFIX
+
+CANONICAL_COLUMNS = ("t", "fx", "fy", "fz", "tx", "ty", "tz")
 
 MIN_SAMPLES = 10
-RECORDING_SUFFIXES = (".csv", ".parquet", ".pq")
+RECORDING_SUFFIXES = (".csv", ".parquet", ".pq", MAT_SUFFIX)
+#: ``ignore_columns: rest``: every column the layout does not map is left out
+REST = "rest"
+_WRENCH = CANONICAL_COLUMNS[1:]
 
 
-def read_recording(
-    path: str | Path,
-    columns: Mapping[str, str] | None = None,
-    ignore_columns: Sequence[str] = (),
-) -> np.ndarray:
-    """The recording's samples as float64 ``(n, 7)`` in canonical column order, units as stored.
+@dataclass(frozen=True)
+class Layout:
+    """Where a file keeps a recording's time and wrench (a tool config says it; see :mod:`grasptask.task.tool`).
 
-    ``columns`` maps a canonical name (``t``, ``fx``, ...) to the file's own column name; ``ignore_columns``
-    names file columns to drop. Anything else that is missing, extra, non-numeric, NaN or infinite, too short
-    or not strictly increasing in time raises :class:`BadInputError` naming the file, row and column.
+    ``columns`` maps a canonical name (``t``, ``fx``, ...) to the file's own column, or for a ``.mat`` file to a
+    variable reference (``time``, ``ft[3]``); ``ignore`` names file columns to leave out, or is ``"rest"`` for
+    all that ``columns`` does not map. ``rate_hz`` stands in for a time column. A ``.mat`` file's wrench may be
+    channels ``wrench`` (from 1) of the matrix ``variable``, with samples along its ``samples`` (rows or
+    columns) and its time in channel ``time`` (or a variable of that name).
+    """
+
+    columns: Mapping[str, str] = field(default_factory=dict)
+    ignore: tuple[str, ...] | str = ()
+    rate_hz: float | None = None
+    variable: str | None = None
+    samples: str | None = None
+    wrench: tuple[int, ...] = (1, 2, 3, 4, 5, 6)
+    time: int | str | None = None
+
+    @property
+    def needed(self) -> tuple[str, ...]:
+        """The canonical columns the file must give: the wrench, and time unless a rate stands in for it."""
+        return _WRENCH if self.rate_hz else CANONICAL_COLUMNS
+
+
+def read_recording(path: str | Path, layout: Layout = Layout()) -> np.ndarray:
+    """The recording's samples as float64 ``(n, 7)`` in canonical column order, units as stored (time, where
+    ``layout.rate_hz`` stands in for it, in seconds from 0).
+
+    Anything missing, extra (unless ignored), non-numeric, NaN or infinite, too short or not strictly
+    increasing in time raises :class:`BadInputError` naming the file, row and column.
     """
     path = Path(path)
     existing_file(path)
@@ -40,16 +68,41 @@ def read_recording(
         raise BadInputError(path, "empty file")
     suffix = path.suffix.lower()
     if suffix not in RECORDING_SUFFIXES:
-        raise BadInputError(path, f"unknown recording format '{suffix}' (expected .csv or .parquet)")
-    rename = {file_name: canonical for canonical, file_name in (columns or {}).items()}
-    file_columns = _read_header(path, suffix)
-    names = [rename.get(c, c) for c in file_columns if c not in set(ignore_columns)]
-    _check_columns(path, names, rename)
-    wanted = [c for c in file_columns if c not in set(ignore_columns)]
-    table = _read_table(path, suffix, wanted, file_columns)
-    data = _to_float(path, table, wanted, names)
+        raise BadInputError(path, f"unknown recording format '{suffix}' (expected .csv, .parquet or .mat)")
+    if suffix == MAT_SUFFIX:
+        data = _read_mat(path, layout)
+    else:
+        rename = {file_name: canonical for canonical, file_name in layout.columns.items()}
+        file_columns = _read_header(path, suffix)
+        wanted = _check_columns(path, file_columns, rename, layout)
+        names = [rename.get(c, c) for c in wanted]
+        table = _read_table(path, suffix, wanted, file_columns)
+        data = _to_float(path, table, wanted, names, layout.rate_hz)
     check_values(path, data)
     return data
+
+
+def _read_mat(path: Path, layout: Layout) -> np.ndarray:
+    """A ``.mat`` file's channels, by the layout's variable and channels or its column references."""
+    variables = matlab.read_variables(path)
+    if layout.variable:
+        references = {name: f"{layout.variable}[{k}]" for name, k in zip(_WRENCH, layout.wrench, strict=True)}
+        if isinstance(layout.time, int):
+            references = {"t": f"{layout.variable}[{layout.time}]", **references}
+        elif layout.time:
+            references = {"t": layout.time, **references}
+    else:
+        references = {name: layout.columns.get(name, name) for name in _WRENCH}
+    if "t" not in references and not layout.rate_hz:
+        references = {"t": layout.columns.get("t", "t"), **references}
+    hint = (
+        "say where the samples are in the tool config (matlab: {variable: NAME, samples: rows, wrench: [1, 2, 3, "
+        "4, 5, 6], time: 7}, or rate_hz) or in the manifest's variable column"
+    )
+    found = matlab.channels(path, variables, references, layout.samples, hint)
+    n = len(next(iter(found.values())))
+    time = found["t"] if "t" in found else np.arange(n) / float(layout.rate_hz or 1.0)
+    return np.column_stack([time, *(found[name] for name in _WRENCH)])
 
 
 def _read_header(path: Path, suffix: str) -> list[str]:
@@ -68,29 +121,54 @@ def _read_header(path: Path, suffix: str) -> list[str]:
         raise BadInputError(path, f"not a readable Parquet file ({type(exc).__name__})") from exc
 
 
-def _check_columns(path: Path, names: list[str], rename: Mapping[str, str]) -> None:
+def _check_columns(path: Path, file_columns: list[str], rename: Mapping[str, str], layout: Layout) -> list[str]:
+    """The file's columns to read, in file order: each needed canonical column once, and no other unless the
+    layout ignores it."""
+    ignored = set(layout.ignore) if layout.ignore != REST else set()
+    kept = [c for c in file_columns if c not in ignored]
+    names = [rename.get(c, c) for c in kept]
     seen = set()
     for name in names:
         if name in seen:
             raise BadInputError(path, "duplicate column", column=name)
         seen.add(name)
     inverse = {v: k for k, v in rename.items()}
-    for name in CANONICAL_COLUMNS:
+    for name in layout.needed:
         if name not in seen:
-            wanted = inverse.get(name, name)
-            near = next((n for n in names if n.lower() == wanted.lower()), None)
-            hint = (
-                f"; the file has '{near}': name the file's columns in a tool config (--tool), e.g. "
-                f"columns: {{{name}: {near}}}"
-                if near is not None
-                else ""
-            )
-            raise BadInputError(path, f"missing column{hint}", column=wanted)
-    for name in names:
-        if name not in CANONICAL_COLUMNS:
             raise BadInputError(
-                path, f"unexpected column (expected {', '.join(CANONICAL_COLUMNS)})", column=inverse.get(name, name)
+                path, _missing(name, inverse.get(name, name), names, layout), column=inverse.get(name, name)
             )
+    if layout.rate_hz and "t" in seen:
+        raise BadInputError(
+            path, "a time column and rate_hz both give the time: give one", column=inverse.get("t", "t")
+        )
+    if layout.ignore == REST:
+        return [c for c, name in zip(kept, names, strict=True) if name in layout.needed]
+    for name in names:
+        if name not in layout.needed:
+            raise BadInputError(
+                path,
+                f"unexpected column (expected {', '.join(layout.needed)}): map it in the tool config's columns, "
+                "or leave it out with ignore_columns (a list, or 'rest' for every column not mapped)",
+                column=inverse.get(name, name),
+            )
+    return kept
+
+
+def _missing(name: str, wanted: str, names: list[str], layout: Layout) -> str:
+    """The line for a missing column: what the file has, and the setting that maps it."""
+    near = next((n for n in names if n.lower() == wanted.lower()), None)
+    if near is not None:
+        return (
+            f"missing column; the file has '{near}': name the file's columns in a tool config (--tool), e.g. "
+            f"columns: {{{name}: {near}}}"
+        )
+    shown = ", ".join(names[:12]) + (f", ... ({len(names)} in all)" if len(names) > 12 else "")
+    rate = "; a file without time stamps gives rate_hz instead" if name == "t" else ""
+    return (
+        f"missing column (the file has: {shown}); map the file's columns in a tool config (--tool, or the "
+        f"manifest's tool column): columns: {{{name}: COLUMN}}{rate}"
+    )
 
 
 def _read_table(path: Path, suffix: str, wanted: list[str], file_columns: list[str]) -> pa.Table:
@@ -127,13 +205,19 @@ def _locate_non_numeric(path: Path, wanted: list[str]) -> None:
             raise BadInputError(path, f"non-numeric value {frame[column].iloc[row]!r}", row=row + 1, column=column)
 
 
-def _to_float(path: Path, table: pa.Table, wanted: list[str], names: list[str]) -> np.ndarray:
+def _to_float(
+    path: Path, table: pa.Table, wanted: list[str], names: list[str], rate_hz: float | None = None
+) -> np.ndarray:
     if table.num_rows == 0:
         raise BadInputError(path, f"no samples (at least {MIN_SAMPLES} are needed)")
     order = {name: file_name for file_name, name in zip(wanted, names, strict=True)}
     # column-major, so that each column is copied in one contiguous run
     data = np.empty((table.num_rows, len(CANONICAL_COLUMNS)), order="F")
+    if rate_hz:
+        data[:, 0] = np.arange(table.num_rows) / rate_hz
     for k, name in enumerate(CANONICAL_COLUMNS):
+        if name not in order:
+            continue
         column = table.column(order[name])
         if pa.types.is_string(column.type) or pa.types.is_large_string(column.type):
             values = pd.to_numeric(column.to_pandas(), errors="coerce")
@@ -174,6 +258,22 @@ def check_values(path: str | Path, data: np.ndarray) -> None:
     if not (steps > 0).all():
         row = int(np.flatnonzero(steps <= 0)[0]) + 2
         raise BadInputError(path, "time is not strictly increasing", row=row, column="t")
+
+
+def window_mask(where: str | Path, t: np.ndarray, start_s: float | None, end_s: float | None) -> np.ndarray:
+    """The samples between ``start_s`` and ``end_s`` seconds after the first (``t`` in seconds; either may be
+    None); an empty window is one line naming the recording's span."""
+    keep = np.ones(len(t), dtype=bool)
+    since = t - t[0]
+    if start_s is not None:
+        keep &= since >= start_s
+    if end_s is not None:
+        keep &= since <= end_s
+    if not keep.any():
+        raise BadInputError(
+            where, f"no samples in the window {start_s} .. {end_s} s (the recording spans 0 .. {since[-1]:.6g} s)"
+        )
+    return keep
 
 
 def write_recording(path: Path, data: np.ndarray) -> None:

@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from grasptask.errors import BadInputError
-from grasptask.task.recordings import check_values
+from grasptask.task.recordings import check_values, window_mask
 
 WRENCH_TYPES = ("geometry_msgs/msg/WrenchStamped", "geometry_msgs/WrenchStamped")
 ROS2_STORAGE = (".db3", ".mcap")
@@ -90,15 +90,7 @@ def read_wrench_bag(
     order = np.argsort(times, kind="stable")
     seconds = (times[order] - times[order[0]]) * 1e-9
     wrenches = np.array(values, dtype=float)[order]
-    keep = np.ones(len(seconds), dtype=bool)
-    if start_s is not None:
-        keep &= seconds >= start_s
-    if end_s is not None:
-        keep &= seconds <= end_s
-    if not keep.any():
-        raise BadInputError(
-            where, f"no messages in the window {start_s} .. {end_s} s (the topic spans 0 .. {seconds[-1]:.6g} s)"
-        )
+    keep = window_mask(where, seconds, start_s, end_s)
     data = np.column_stack([seconds[keep], wrenches[keep]])
     check_values(where, data)
     return BagRecording(data, frames.pop())

@@ -60,13 +60,16 @@ def mean_models(ellipsoids: pd.DataFrame, by: str) -> dict[str, TaskModel]:
     return models
 
 
-def task_models_payload(ellipsoids: pd.DataFrame) -> dict:
+def task_models_payload(ellipsoids: pd.DataFrame, findings: list[dict] | None = None) -> dict:
+    """What ``task_models.json`` holds: a model per task and per group, and what fit-task's checks said of the
+    recordings (``findings``: one entry per recording and check, with its message and figures)."""
     return {
         "frame": "object (origin at the handle centre, z along the handle axis)",
         "wrench_order": WRENCH_ORDER,
         "units": {"force": "N", "torque": "N.m"},
         "tasks": {name: m.to_dict() for name, m in mean_models(ellipsoids, "task").items()},
         "groups": {name: m.to_dict() for name, m in mean_models(ellipsoids, "group").items()},
+        "findings": findings or [],
     }
 
 

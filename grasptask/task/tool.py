@@ -8,23 +8,29 @@ A tool config is a YAML file named by a manifest's ``tool`` column::
       rotation_rpy_deg: [180, 0, 30]   # fixed-axis roll (x), pitch (y), yaw (z), applied in that order
       frame_id: ft_sensor        # optional: the header frame_id of the sensor's ROS messages, checked
     columns: {t: time_ms, fx: Fx}      # optional: recording column name for each canonical column
-    ignore_columns: [status]           # optional: recording columns to drop
+    ignore_columns: [status]           # optional: recording columns to drop, or `rest` for all not mapped
+    rate_hz: 1000                      # optional: the sample rate, for files without a time column
+    matlab: {variable: ft, samples: rows, wrench: [2, 3, 4, 5, 6, 7], time: 1}   # optional: .mat layout
     units: {torque_unit: N.cm, time_unit: ms}   # optional defaults; the manifest's columns win
+    plausible: {force_n: 500, torque_nm: 20, min_duration_s: 1}   # optional: what fit-task says is implausible
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Annotated, Literal
 
 import numpy as np
+from pydantic import Field, Strict
 from pydantic.dataclasses import dataclass as schema
 from scipy.spatial.transform import Rotation
 
-from grasptask.io.config_schema import SCHEMA, Text, Vector, load_yaml, validated
+from grasptask.io.config_schema import SCHEMA, NonNegative, Positive, Text, Vector, load_yaml, validated
+from grasptask.task.recordings import CANONICAL_COLUMNS, REST, Layout
 from grasptask.task.units import UNIT_TABLES
 
-CANONICAL_COLUMNS = ("t", "fx", "fy", "fz", "tx", "ty", "tz")
+Channel = Annotated[int, Strict(), Field(ge=1)]
 
 
 @schema(frozen=True, config=SCHEMA)
@@ -79,6 +85,38 @@ class UnitsFile:
 
 
 @schema(frozen=True, config=SCHEMA)
+class MatlabFile:
+    """Where a MATLAB file keeps the samples: one matrix, how it lies, and which of its channels are which."""
+
+    #: the matrix of samples (a struct's field as ``data.ft``); the manifest's ``variable`` column overrides it
+    variable: Text | None = None
+    #: rows: one sample a row (n x k); columns: one sample a column (k x n); none: the longer axis
+    samples: Literal["rows", "columns"] | None = None
+    #: its channels holding fx, fy, fz, tx, ty, tz, counted from 1
+    wrench: tuple[Channel, Channel, Channel, Channel, Channel, Channel] = (1, 2, 3, 4, 5, 6)
+    #: its channel holding time (from 1), or the name of a time vector; none: ``rate_hz`` gives the time
+    time: Channel | Text | None = None
+
+    def __post_init__(self) -> None:
+        if len(set(self.wrench)) < 6:
+            raise ValueError("matlab.wrench names a channel twice")
+        if isinstance(self.time, int) and self.time in self.wrench:
+            raise ValueError(f"matlab.time is channel {self.time}, which matlab.wrench holds too")
+
+
+@schema(frozen=True, config=SCHEMA)
+class PlausibleFile:
+    """What a hand-held tool plausibly measures: fit-task says where a recording goes beyond it (a probable unit
+    error) or is too short to hold a task. The defaults leave room above what a person's hand does: it pushes,
+    pulls and grips with at most a few hundred newtons and turns with at most about 10-15 N.m (NASA-STD-3000,
+    Man-Systems Integration Standards, vol. I, strength data). A robot's tool may need more."""
+
+    force_n: Positive = 500.0
+    torque_nm: Positive = 20.0
+    min_duration_s: NonNegative = 1.0
+
+
+@schema(frozen=True, config=SCHEMA)
 class ToolFile:
     """A tool config file's schema."""
 
@@ -86,9 +124,13 @@ class ToolFile:
     description: str = ""
     sensor: SensorFile = SensorFile()
     columns: ColumnsFile = ColumnsFile()
-    #: recording columns to drop
-    ignore_columns: list[Text] = field(default_factory=list)
+    #: recording columns to drop, or ``rest``: every column that ``columns`` does not map
+    ignore_columns: list[Text] | Literal["rest"] = field(default_factory=list)
+    #: the sample rate (Hz) of files without a time column; the manifest's ``rate_hz`` column overrides it
+    rate_hz: Positive | None = None
+    matlab: MatlabFile = MatlabFile()
     units: UnitsFile = UnitsFile()
+    plausible: PlausibleFile = PlausibleFile()
 
 
 @dataclass(frozen=True)
@@ -96,11 +138,12 @@ class ToolConfig:
     name: str
     sensor_position: np.ndarray = field(default_factory=lambda: np.zeros(3))
     sensor_rotation: np.ndarray = field(default_factory=lambda: np.eye(3))
-    columns: dict[str, str] = field(default_factory=dict)
-    ignore_columns: tuple[str, ...] = ()
+    #: where its files keep time and wrench
+    layout: Layout = Layout()
     units: dict[str, str] = field(default_factory=dict)
     #: the frame_id the sensor's ROS WrenchStamped messages carry ("": not checked)
     frame_id: str = ""
+    plausible: PlausibleFile = PlausibleFile()
 
 
 def load_tool(path: str | Path) -> ToolConfig:
@@ -108,12 +151,21 @@ def load_tool(path: str | Path) -> ToolConfig:
     tool = validated(ToolFile, load_yaml(path), path)
     columns = {name: getattr(tool.columns, name) for name in CANONICAL_COLUMNS}
     units = {key: getattr(tool.units, key) for key in UNIT_TABLES}
+    layout = Layout(
+        columns={k: v for k, v in columns.items() if v is not None},
+        ignore=REST if tool.ignore_columns == REST else tuple(tool.ignore_columns),
+        rate_hz=tool.rate_hz,
+        variable=tool.matlab.variable,
+        samples=tool.matlab.samples,
+        wrench=tuple(tool.matlab.wrench),
+        time=tool.matlab.time,
+    )
     return ToolConfig(
         name=tool.name,
         sensor_position=np.array(tool.sensor.position_m, dtype=float),
         sensor_rotation=tool.sensor.rotation(),
-        columns={k: v for k, v in columns.items() if v is not None},
-        ignore_columns=tuple(tool.ignore_columns),
+        layout=layout,
         units={k: v for k, v in units.items() if v is not None},
         frame_id=tool.sensor.frame_id,
+        plausible=tool.plausible,
     )
