@@ -135,9 +135,7 @@ def _check_columns(path: Path, file_columns: list[str], rename: Mapping[str, str
     inverse = {v: k for k, v in rename.items()}
     for name in layout.needed:
         if name not in seen:
-            raise BadInputError(
-                path, _missing(name, inverse.get(name, name), names, layout), column=inverse.get(name, name)
-            )
+            raise BadInputError(path, _missing(name, inverse.get(name, name), kept), column=inverse.get(name, name))
     if layout.rate_hz and "t" in seen:
         raise BadInputError(
             path, "a time column and rate_hz both give the time: give one", column=inverse.get("t", "t")
@@ -155,7 +153,7 @@ def _check_columns(path: Path, file_columns: list[str], rename: Mapping[str, str
     return kept
 
 
-def _missing(name: str, wanted: str, names: list[str], layout: Layout) -> str:
+def _missing(name: str, wanted: str, names: list[str]) -> str:
     """The line for a missing column: what the file has, and the setting that maps it."""
     near = next((n for n in names if n.lower() == wanted.lower()), None)
     if near is not None:
