@@ -196,6 +196,13 @@ def _distances_said(options, done) -> None:
         f"mean normalised distance within tasks {number(by_task.get('mean_within_normalised'))}"
         f" vs between {number(by_task.get('mean_between_normalised'))}"
     )
+    tasks = done.summary["tasks"]
+    for task, near in tasks["nearest"].items():
+        click.echo(
+            f"nearest task: {task} -> {near['task']}, Log-Euclidean distance {number(near['distance'])} between "
+            f"their models (normalised {number(near['distance_normalised'])})"
+        )
+    click.echo(done.weighing)
     click.echo(
         f"wrote {done.out}/distances.parquet, distance_summary.json, distance_heatmap.png, distance_embedding.png"
     )

@@ -13,7 +13,7 @@ import pandas as pd
 
 from grasptask.errors import BadInputError
 from grasptask.report.style import apply_style, save_figure, task_colour
-from grasptask.task.ellipsoid import FORCE, TORQUE
+from grasptask.task.ellipsoid import FORCE, TORQUE, principal_axes
 from grasptask.task.fit import ellipsoid_matrices, entry_tool, load_wrenches
 from grasptask.task.manifest import read_manifest
 from grasptask.task.units import PAPER_TORQUE_UNIT, TORQUE_UNITS
@@ -53,10 +53,11 @@ def _ellipse(block2: np.ndarray, n: int = 100) -> np.ndarray:
     return (vectors @ (np.sqrt(np.clip(values, 0, None))[:, None] * circle)).T
 
 
-def _main_axis(block3: np.ndarray) -> np.ndarray:
-    """The longest semi-axis of a 3D ellipsoid, as a vector."""
-    values, vectors = np.linalg.eigh(block3)
-    return vectors[:, -1] * np.sqrt(max(values[-1], 0.0))
+def _semi_axes(block3: np.ndarray) -> np.ndarray:
+    """The three semi-axes of a 3D ellipsoid as the rows of a matrix, the longest first, each signed as the
+    task model's axes are."""
+    lengths, axes = principal_axes(block3)
+    return (axes * lengths).T
 
 
 def plot_task_ellipsoids(
@@ -78,7 +79,7 @@ def plot_task_ellipsoids(
         if samples:
             points = np.vstack([samples[i] for i in ellipsoids["id"] if i in samples])[:, block] * factor
         model_block = model_matrix[block, block] * scale2
-        model_axis = _main_axis(model_block)
+        model_axes = _semi_axes(model_block)
         for col, (i, j) in enumerate(PLANES):
             ax = axes[row, col]
             if points is not None:
@@ -87,13 +88,16 @@ def plot_task_ellipsoids(
                 block3 = matrix[block, block] * scale2
                 outline = _ellipse(block3[np.ix_([i, j], [i, j])])
                 ax.plot(*outline.T, color=colour, lw=0.6, alpha=0.45, label="trial ellipsoids" if k == 0 else None)
-                axis = _main_axis(block3)
+                axis = _semi_axes(block3)[0]
                 ax.plot([-axis[i], axis[i]], [-axis[j], axis[j]], color=MAIN_AXIS, lw=0.6, alpha=0.6,
                         label="trial main axes" if k == 0 else None)  # fmt: skip
             outline = _ellipse(model_block[np.ix_([i, j], [i, j])])
             ax.plot(*outline.T, color=colour, lw=2.4, label="task model (mean)", zorder=3)
-            ax.plot([-model_axis[i], model_axis[i]], [-model_axis[j], model_axis[j]], color="black", lw=2.2,
-                    label="mean main axis", zorder=4)  # fmt: skip
+            for k, axis in enumerate(model_axes):  # the model's semi-axes, as arrows from the origin
+                ax.annotate("", xy=(axis[i], axis[j]), xytext=(0, 0), zorder=4,
+                            arrowprops={"arrowstyle": "-|>", "color": "black" if k == 0 else "0.45",
+                                        "lw": 2.0 if k == 0 else 1.2})  # fmt: skip
+            ax.plot([], [], color="black", lw=2.0, label="task model's axes")
             ax.set_xlabel(f"{name} {AXIS_NAMES[i]} ({unit})")
             ax.set_ylabel(f"{name} {AXIS_NAMES[j]} ({unit})")
             ax.set_aspect("equal", adjustable="datalim")

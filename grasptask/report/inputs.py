@@ -119,7 +119,10 @@ def _hidden(folder: Path, root: Path) -> bool:
 
 
 def find_results(root: str | Path) -> ResultsFolder:
-    """``root`` as results; a folder that holds nothing a report shows is one line."""
+    """``root`` as results; a folder that holds nothing a report shows is one line saying where it looked.
+
+    The task models are ``tasks/task_models.json``, else the ones the sweeps were made for, else the shallowest
+    ``task_models.json`` that ``fit-task --out`` wrote anywhere under ``root``."""
     root = Path(root)
     if not root.is_dir():
         raise BadInputError(root, "results folder not found")
@@ -130,13 +133,26 @@ def find_results(root: str | Path) -> ResultsFolder:
             if named is not None and named.is_file():
                 results = ResultsFolder(root, named)
                 break
+    if not results.task_models.is_file():
+        fitted = _fitted_models(root)
+        if fitted is not None:
+            results = ResultsFolder(root, fitted)
     if not results.holds_anything():
         raise BadInputError(
             root,
-            "holds nothing to report: no sweep (<task>/run.json beside solutions.parquet, at any depth), task "
-            "models, ellipsoids or recordings",
+            "holds nothing to report: looked at any depth for a sweep (<task>/run.json beside solutions.parquet), "
+            "task models (task_models.json, as fit-task writes them), physics and export folders, and at "
+            f"{results.ellipsoids} and {results.manifest}",
         )
     return results
+
+
+def _fitted_models(root: Path) -> Path | None:
+    """The shallowest ``task_models.json`` under ``root`` with fit-task's ``ellipsoids.parquet`` beside it (or
+    else any), leaving out hidden folders and reports."""
+    found = [p for p in root.rglob("task_models.json") if not _hidden(p.parent, root)]
+    found.sort(key=lambda p: (not (p.parent / "ellipsoids.parquet").is_file(), len(p.parts), str(p)))
+    return found[0] if found else None
 
 
 def verifier_q(optimum: Any) -> float:

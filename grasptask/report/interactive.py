@@ -15,7 +15,7 @@ from plotly.io.json import to_json_plotly
 from plotly.subplots import make_subplots
 
 from grasptask.exports.scene_meshes import CONTACT_COLOUR, OBJECT_COLOUR, PALM_COLOUR, GraspScene, icosphere_copies
-from grasptask.task.ellipsoid import FORCE, TORQUE
+from grasptask.task.ellipsoid import FORCE, TORQUE, principal_axes
 from grasptask.task.units import PAPER_TORQUE_UNIT, TORQUE_UNITS
 from grasptask.verifier.mechanics import friction_cone_edges
 from grasptask.verifier.verification import Verification
@@ -172,7 +172,7 @@ def ellipsoid_mesh(blocks: list[np.ndarray], subdivisions: int) -> trimesh.Trime
 
 def ellipsoid_view(task: str, model: np.ndarray, recordings: list[np.ndarray], colour: str) -> go.Figure:
     """A task's force (N) and torque (N.cm) ellipsoids in 3D: the task model's (the Log-Euclidean mean) and,
-    faint, each recording's, with the model's main axis."""
+    faint, each recording's, with the model's three axes as arrows."""
     torque_factor = 1.0 / TORQUE_UNITS[PAPER_TORQUE_UNIT]
     titles = (f"force (N), {html.escape(task)}", f"torque ({PAPER_TORQUE_UNIT}), {html.escape(task)}")
     figure = make_subplots(rows=1, cols=2, specs=[[{"type": "scene"}, {"type": "scene"}]], subplot_titles=titles)
@@ -182,14 +182,20 @@ def ellipsoid_view(task: str, model: np.ndarray, recordings: list[np.ndarray], c
         trials = ellipsoid_mesh([m[block, block] * scale for m in recordings], subdivisions=1)
         cameras["scene" if col == 1 else "scene2"] = fitted_camera(trials.vertices, SUBPLOT_EYE_SCALE)
         model_block = model[block, block] * scale
-        values, vectors = np.linalg.eigh(model_block)
-        axis = vectors[:, -1] * np.sqrt(max(values[-1], 0.0))
+        lengths, directions = principal_axes(model_block)
+        semi = (directions * lengths).T  # the model's semi-axes, longest first
+        tips = go.Cone(x=semi[:, 0], y=semi[:, 1], z=semi[:, 2], u=semi[:, 0], v=semi[:, 1], w=semi[:, 2],
+                       sizemode="absolute", sizeref=0.15 * float(np.linalg.norm(semi[0])), anchor="tip",
+                       colorscale=[[0, "black"], [1, "black"]], showscale=False, hoverinfo="skip",
+                       legendgroup="axes", showlegend=False)  # fmt: skip
+        arrows = np.vstack([[np.zeros(3), a, np.full(3, np.nan)] for a in semi])
         for trace in (
             _mesh_trace(trials, colour, f"{len(recordings)} recordings", 0.12, hoverinfo="skip",
                         legendgroup="recordings", showlegend=first),
             _mesh_trace(ellipsoid_mesh([model_block], subdivisions=3), colour, "task model", 0.75, hoverinfo="skip",
                         legendgroup="model", showlegend=first),
-            _line(np.vstack([-axis, axis]), "black", "main axis", width=6, legendgroup="axis", showlegend=first),
+            _line(arrows, "black", "task model's axes", width=5, legendgroup="axes", showlegend=first),
+            tips,
         ):  # fmt: skip
             figure.add_trace(trace, row=1, col=col)
     axis_style = {"showbackground": False, "gridcolor": "#dddddd", "zerolinecolor": "#999999"}

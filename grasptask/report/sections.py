@@ -31,7 +31,7 @@ from grasptask.report.physics_plots import plot_physics_traces
 from grasptask.report.render import display_mesh, render_grasp
 from grasptask.report.style import task_colour
 from grasptask.report.sweep_plots import plot_sweeps
-from grasptask.task.distances import read_distances
+from grasptask.task.distances import read_distances, task_comparison, weighing_line
 from grasptask.task.ellipsoid import ellipsoid_matrices
 from grasptask.task.fit import read_ellipsoids
 from grasptask.task.stats import read_reference
@@ -154,9 +154,16 @@ def ellipsoid_figures_section(results: ResultsFolder, writer: Writer) -> Section
                 path,
                 f"{task}: shadows of the force (top, N) and torque (bottom, N.cm) ellipsoids of its {len(members)} "
                 f"recordings on the object's coordinate planes, with sampled data points; the thick outline is the "
-                f"task model (Log-Euclidean mean), black its main axis. Task-model axis lengths gamma: "
-                + ", ".join(f"{v:.3g}" for v in lengths)
-                + " (SI).",
+                f"task model (Log-Euclidean mean), the arrows its three axes (black the longest). Task-model axis "
+                "lengths gamma: " + ", ".join(f"{v:.3g}" for v in lengths) + " (SI).",
+            )
+        )
+        section.blocks.append(
+            writer.table(
+                f"axes_{file_stem(task)}",
+                f"{task}: the task model's six axes u_i (rows, longest first) in the object frame, their lengths "
+                "gamma_i and their weights in eq. 12; the first three components are force, the last three torque.",
+                _axes_table(models[task]),
             )
         )
     return section
@@ -174,6 +181,7 @@ def distances_section(results: ResultsFolder, writer: Writer) -> Section:
         return section
     distances = read_distances(results.distances, read_ellipsoids(results.ellipsoids))
     by_task = read_json(results.distance_summary).get("by_task", {})
+    tasks = task_comparison(distances.table, float(distances.raw.max()))
     section.summary = (
         f"Distances: leave-one-out nearest-neighbour task accuracy {by_task.get('loo_1nn_accuracy', 0):.2f}"
     )
@@ -184,6 +192,8 @@ def distances_section(results: ResultsFolder, writer: Writer) -> Section:
         f"mean normalised distance within tasks {by_task.get('mean_within_normalised', float('nan')):.2f}, between "
         f"tasks {by_task.get('mean_between_normalised', float('nan')):.2f}."
     )
+    section.intro += " " + weighing_line(tasks)
+    section.blocks.append(writer.table("task_distances", _TASK_TABLE, _task_table(tasks)))
     heatmap, embedding = writer.figure("distance_heatmap"), writer.figure("distance_embedding")
     plot_heatmap(distances, heatmap)
     plot_embedding(distances, embedding)
@@ -192,6 +202,32 @@ def distances_section(results: ResultsFolder, writer: Writer) -> Section:
         Figure(embedding, "Classical MDS of the distances: each point is one recording's ellipsoid."),
     ]
     return section
+
+
+_TASK_TABLE = (
+    "Which task is like which: the Log-Euclidean distance between the task models (each task's mean ellipsoid), "
+    "raw and normalised by the largest distance between two recordings, and each task's nearest."
+)
+
+
+def _task_table(tasks: dict) -> pd.DataFrame:
+    """Tasks by tasks, the distances between their models, and each task's nearest (a ``task_comparison``)."""
+    frame = pd.DataFrame(tasks["distances"], index=tasks["names"], columns=tasks["names"]).round(3)
+    nearest = tasks["nearest"]
+    frame["nearest task"] = [nearest[n]["task"] if n in nearest else "" for n in tasks["names"]]
+    frame["normalised"] = [
+        round(nearest[n]["distance_normalised"], 3) if n in nearest else None for n in tasks["names"]
+    ]
+    return frame.rename_axis("task").reset_index()
+
+
+def _axes_table(model: TaskModel) -> pd.DataFrame:
+    """A task model's 6D axes: each axis's length and weight (eq. 12) and its direction u_i, force then torque."""
+    frame = pd.DataFrame(model.axes.round(3), columns=["fx", "fy", "fz", "tx", "ty", "tz"])
+    frame.insert(0, "weight", model.weights.round(4))
+    frame.insert(0, "gamma (N, N.m)", [float(f"{g:.3g}") for g in model.lengths])
+    frame.insert(0, "axis", [f"u{i + 1}" for i in range(len(model.lengths))])
+    return frame
 
 
 #: the one sentence that says what the report's Q is

@@ -11,7 +11,7 @@ from typing import Any
 from grasptask.io.artifacts import Provenance, StagedOutput
 from grasptask.paths import as_paths
 from grasptask.report.distance_plots import plot_embedding, plot_heatmap
-from grasptask.task.distances import compute_distances
+from grasptask.task.distances import compute_distances, weighing_line
 from grasptask.task.fit import read_ellipsoids
 
 
@@ -37,6 +37,11 @@ class DistanceSummary:
     @property
     def by_task(self) -> dict[str, Any]:
         return self.summary["by_task"]
+
+    @property
+    def weighing(self) -> str:
+        """The sentence on how force and torque are weighed, with this set's figures."""
+        return weighing_line(self.summary["tasks"])
 
 
 def run_distances(options: DistanceOptions) -> DistanceSummary:

@@ -18,9 +18,10 @@ from sklearn.metrics import silhouette_samples
 
 from grasptask.errors import BadInputError
 from grasptask.io.tables import read_table
-from grasptask.task.ellipsoid import ellipsoid_matrices
+from grasptask.task.ellipsoid import ellipsoid_matrices, torque_axes_weight, torque_to_force
 from grasptask.task.spd import log_vectors
 from grasptask.task.stats import group_order
+from grasptask.task.task_model import mean_models
 
 
 def distance_matrix(matrices: np.ndarray) -> np.ndarray:
@@ -109,6 +110,7 @@ class Distances:
         return {
             "by_task": separation_summary(self.raw, self.table["task"].to_numpy()),
             "by_group": separation_summary(self.raw, self.table["group"].to_numpy()),
+            "tasks": task_comparison(self.table, float(self.raw.max())),
         }
 
     def long_table(self) -> pd.DataFrame:
@@ -124,6 +126,61 @@ class Distances:
                 "distance_normalised": self.normalised.ravel(),
             }
         )
+
+
+def task_model_distances(ellipsoids: pd.DataFrame, torque_factor: float = 1.0) -> pd.DataFrame:
+    """The Log-Euclidean distances between the task models (each task's mean ellipsoid), tasks by tasks;
+    ``torque_factor`` rescales the torques first (100: torques in N.cm), to show what the unit weighs."""
+    models = mean_models(ellipsoids, "task")
+    scale = np.diag([1.0, 1.0, 1.0, torque_factor, torque_factor, torque_factor])
+    matrices = np.stack([scale @ m.ellipsoid.S @ scale for m in models.values()])
+    return pd.DataFrame(distance_matrix(matrices), index=list(models), columns=list(models))
+
+
+def task_comparison(ellipsoids: pd.DataFrame, largest: float) -> dict:
+    """Which task is like which: the task models' distances (raw, and normalised by ``largest``, the largest
+    distance between two recordings), each task's nearest, and how force and torque are weighed (SI units:
+    each task's RMS torque over its RMS force, the share of eq. 12's weights its torque axes hold, and how much
+    the task distances change with torques in N.cm)."""
+    table = task_model_distances(ellipsoids)
+    names = list(table.index)
+    raw = table.to_numpy()
+    nearest = {}
+    if len(names) > 1:
+        masked = raw + np.diag(np.full(len(names), np.inf))
+        for k, name in enumerate(names):
+            other = int(np.argmin(masked[k]))
+            nearest[name] = {
+                "task": names[other],
+                "distance": float(raw[k, other]),
+                "distance_normalised": float(raw[k, other] / largest) if largest > 0 else 0.0,
+            }
+    in_cm = task_model_distances(ellipsoids, 100.0).to_numpy()
+    off = ~np.eye(len(names), dtype=bool)
+    change = float(np.max(np.abs(in_cm[off] / raw[off] - 1.0))) if off.any() and (raw[off] > 0).all() else 0.0
+    models = mean_models(ellipsoids, "task")
+    return {
+        "names": names,
+        "distances": raw.tolist(),
+        "nearest": nearest,
+        "torque_to_force": {n: torque_to_force(m.ellipsoid.S) for n, m in models.items()},
+        "torque_axes_weight": {n: torque_axes_weight(m.ellipsoid) for n, m in models.items()},
+        "change_with_torque_in_Ncm": change,
+    }
+
+
+def weighing_line(tasks: dict) -> str:
+    """One sentence on how force and torque are weighed, with this set's figures (a :func:`task_comparison`)."""
+    ratios = tasks["torque_to_force"].values()
+    weights = tasks["torque_axes_weight"].values()
+    return (
+        "Forces and torques are weighed in SI units, N against N.m (SPEC 3), so a 1 N.m torque counts as a "
+        f"1 N force: here the RMS torque is {100 * min(ratios):.2g}-{100 * max(ratios):.2g}% of the RMS force, "
+        f"the task models' torque-dominated axes hold {100 * min(weights):.2g}-{100 * max(weights):.2g}% of eq. "
+        "12's weights, and with torques in N.cm the distances between task models would change by up to "
+        f"{100 * tasks['change_with_torque_in_Ncm']:.2g}% (the Log-Euclidean distance feels the unit only "
+        "through the coupling of force and torque)."
+    )
 
 
 def paper_order(ellipsoids: pd.DataFrame) -> pd.DataFrame:

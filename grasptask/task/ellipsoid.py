@@ -70,6 +70,19 @@ class Ellipsoid:
         return self.lengths / self.lengths.sum()
 
 
+def torque_to_force(matrix: np.ndarray) -> float:
+    """The RMS torque magnitude over the RMS force magnitude, ``sqrt(tr S_tt / tr S_ff)`` (m): in SI units a
+    1 N.m torque weighs as a 1 N force, so this is how much the torques weigh beside the forces."""
+    force = float(np.trace(matrix[FORCE, FORCE]))
+    return float(np.sqrt(np.trace(matrix[TORQUE, TORQUE]) / force)) if force > 0 else float("inf")
+
+
+def torque_axes_weight(ellipsoid: Ellipsoid) -> float:
+    """The share of eq. 12's weights held by the axes that are mostly torque (``|u_i,torque|^2 > 1/2``)."""
+    torque = (ellipsoid.axes[TORQUE, :] ** 2).sum(axis=0) > 0.5
+    return float(ellipsoid.weights[torque].sum())
+
+
 def block_lengths(matrices: np.ndarray, block: slice) -> np.ndarray:
     """Axis lengths of the force or torque projection (3x3 block) of ``(..., 6, 6)`` matrices, ascending."""
     return np.sqrt(np.clip(np.linalg.eigvalsh(matrices[..., block, block]), 0.0, None))
