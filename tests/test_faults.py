@@ -411,6 +411,29 @@ def test_a_rerun_that_fails_on_a_full_disk_leaves_the_finished_sweep_resumable(t
     assert resumed.returncode == 0 and "2 already done" in resumed.stdout, resumed.stderr
 
 
+def test_a_rerun_stopped_part_way_leaves_the_finished_sweep_and_its_own_rows(tasks, tmp_path):
+    """A seed-5 rerun over a finished seed-0 sweep stopped after its first rows: the seed-0 sweep's files are as
+    they were (its --resume takes it), and the rerun's rows are kept beside them (its own --resume goes on)."""
+    assert run_sweep(tasks, tmp_path, "--starts", "2", "--executor", "serial").returncode == 0
+    folder = tmp_path / "drawing"
+    names = ("solutions.jsonl", "sweep.json", "run.json", "solutions.parquet")
+    before = {name: (folder / name).read_bytes() for name in names}
+    rerun = start_sweep(tasks, tmp_path, "--starts", "4", "--executor", "serial", "--seed", "5")
+    staged = folder / ".solutions.jsonl.new"
+    wait_for(lambda: staged.is_file() and staged.read_text().count("\n") >= 1, what="the rerun's first row")
+    rerun.send_signal(signal.SIGINT)
+    _, err = rerun.communicate(timeout=120)
+    assert rerun.returncode == 130 and ".solutions.jsonl.new" in err, err
+    assert {name: (folder / name).read_bytes() for name in names} == before
+    original = run_sweep(tasks, tmp_path, "--starts", "2", "--executor", "serial", "--resume")
+    assert original.returncode == 0 and "2 already done" in original.stdout, original.stderr
+    kept = staged.read_text().count("\n")
+    again = run_sweep(tasks, tmp_path, "--starts", "4", "--executor", "serial", "--seed", "5", "--resume")
+    assert again.returncode == 0 and f"{kept} already done" in again.stdout, again.stderr
+    assert not staged.exists() and len(log_rows(tmp_path)) == 4
+    assert json.loads((folder / "sweep.json").read_text())["definition"]["seed"] == 5
+
+
 def test_a_rerun_stopped_before_its_first_row_leaves_the_finished_sweep(tasks, tmp_path):
     assert run_sweep(tasks, tmp_path, "--starts", "2", "--executor", "serial").returncode == 0
     folder = tmp_path / "drawing"

@@ -3,12 +3,20 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Literal, get_args
+from typing import Annotated, Literal, get_args
 
+from pydantic import Field, Strict
 from pydantic.dataclasses import dataclass
 
 from grasptask.io.config_schema import SCHEMA, Positive, Share, load_yaml, validated
 from grasptask.paths import DEFAULT_PHYSICS_CONFIG
+
+#: a phase of the protocol lasts at most this long: a grasp that holds is simulated to its end, so an hour-long
+#: hold (``hold_s: 1.0e6``) would run for ever; seconds of simulated time say all a hold can say
+MAX_PHASE_S = 10.0
+Phase = Annotated[float, Strict(), Field(gt=0, le=MAX_PHASE_S)]
+#: MuJoCo's step is at least this: a smaller one costs hours a grasp and says nothing more
+MIN_TIMESTEP_S = 1e-5
 
 Controller = Literal["grip", "spring"]
 CONTROLLERS: tuple[str, ...] = get_args(Controller)
@@ -22,7 +30,7 @@ class PhysicsSettings:
     #: "grip" (contact forces from a QP over MuJoCo's contacts) or "spring" (a spring on each synthesized pad)
     controller: Controller = "grip"
     #: MuJoCo's step (s)
-    timestep_s: Positive = 0.001
+    timestep_s: Annotated[float, Strict(), Field(ge=MIN_TIMESTEP_S, le=0.01)] = 0.001
     #: the object's mass when its config gives none (DexGraspBench's 100 g)
     object_mass_kg: Positive = 0.1
     #: MuJoCo's torsional friction coefficient (m): the radius of a fingertip's soft contact patch
@@ -30,7 +38,7 @@ class PhysicsSettings:
     #: the grip controller: the least normal force on each hand link in contact, and on a closing fingertip ...
     min_normal_force_n: Positive = 0.5
     #: ... raised from 0 over this time while the hand closes ...
-    closing_s: Positive = 0.1
+    closing_s: Phase = 0.1
     #: ... the part of the friction cone its forces may use ...
     grip_friction_fraction: Share = 0.8
     #: ... and the impedance on the object's pose error from where the grasp settled
@@ -57,13 +65,13 @@ class PhysicsSettings:
     #: reflected actuator inertia on every hand joint (kg m^2): keeps the stiff controller stable at the timestep
     armature_kg_m2: Positive = 1e-3
     #: the controller's period (s): 100 Hz
-    control_period_s: Positive = 0.01
+    control_period_s: Phase = 0.01
     #: closing and settling (s)
-    settle_s: Positive = 0.3
+    settle_s: Phase = 0.3
     #: each test wrench ramped in over this time (s) ...
-    ramp_s: Positive = 0.2
+    ramp_s: Phase = 0.2
     #: ... then held for this time (s)
-    hold_s: Positive = 0.3
+    hold_s: Phase = 0.3
     #: a grasp passes when no test moves the object further than these from where the hand settled it
     max_translation_m: Positive = 0.005
     #: ... nor turns it further than this

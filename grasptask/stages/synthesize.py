@@ -280,13 +280,13 @@ def _previous_run(folder: Path) -> dict[str, Any]:
         return {}
 
 
-def _check_resume(folder: Path, prepared: _Prepared, done: LogContents) -> None:
+def _check_resume(folder: Path, prepared: _Prepared, done: LogContents, definition: Path) -> None:
     """Refuse to resume a different run: another seed, task, task model, hand, object, configuration or
-    solver; or starts done here that the new selection does not hold."""
+    solver (as ``definition`` records the run); or starts done here that the new selection does not hold."""
     if not done.rows:
         return
     try:
-        recorded = read_json(folder / DEFINITION_FILE).get("definition", {})
+        recorded = read_json(definition).get("definition", {})
     except BadInputError:
         raise BadInputError(
             folder, f"--resume: no readable {DEFINITION_FILE} says what run these {len(done.rows)} starts belong to"
@@ -312,8 +312,17 @@ def _check_resume(folder: Path, prepared: _Prepared, done: LogContents) -> None:
         )
 
 
-def _check_fresh(folder: Path, done: LogContents) -> None:
-    """A run without --resume replaces a finished sweep's log, but never an unfinished one's rows."""
+def _check_fresh(folder: Path, done: LogContents, staged: bool) -> None:
+    """A run without --resume replaces a finished sweep's log, but never an unfinished one's rows (nor those of
+    an unfinished rerun, staged beside a finished sweep)."""
+    rerun = read_log(_staged(folder, LOG_FILE))
+    if staged and rerun.rows:
+        raise BadInputError(
+            folder,
+            f"holds an unfinished rerun ({len(rerun.rows)} starts done, in {_staged(folder, LOG_FILE).name}) beside "
+            f"a finished sweep; continue it with --resume and its options, or remove "
+            f"{_staged(folder, LOG_FILE)} to start again",
+        )
     if not done.rows:
         return
     previous = _previous_run(folder)
@@ -334,26 +343,54 @@ def run_synthesize(options: SynthesisOptions, echo: Callable[[str], Any] = print
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # inherited by the solver processes
     prepared = _prepare(options)
     with folder_lock(options.folder, f"synthesize {options.task}"):
-        log = options.folder / LOG_FILE
+        log = _log_to_write(options, prepared)
         done = read_log(log)
         rows: list[dict] = []  # this run's, as they finish: what a stop keeps
         try:
-            run = _run_locked(options, prepared, done, rows, echo)
+            run = _run_locked(options, prepared, done, rows, echo, log)
         except KeyboardInterrupt:
-            raise SweepInterrupted(len(rows), log, untouched=bool(done.rows) and not options.resume) from None
+            untouched = log.name != LOG_FILE and not options.resume  # a finished sweep sits beside a rerun's log
+            raise SweepInterrupted(len(rows), log, untouched=untouched) from None
     return SynthesisSummary(options.folder, options.task, run)
 
 
-def _run_locked(
-    options: SynthesisOptions, prepared: _Prepared, done: LogContents, rows: list[dict], echo: Callable[[str], Any]
-) -> dict:
-    """The sweep in its locked folder: the starts left solved, each row appended to ``rows`` and the log."""
-    folder, log = options.folder, options.folder / LOG_FILE
+def _staged(folder: Path, name: str) -> Path:
+    """Where a rerun keeps file ``name`` until it finishes, beside the finished sweep's own."""
+    return folder / f".{name}.new"
+
+
+def _log_to_write(options: SynthesisOptions, prepared: _Prepared) -> Path:
+    """The log this run goes on from and writes to: the sweep's own; or, for a rerun over a finished sweep, its
+    staged log, so that the finished sweep's files stay as they are until the rerun is finished (a rerun that
+    fails part-way is resumed with its own options, and the finished sweep with its own)."""
+    folder = options.folder
+    main, staged = folder / LOG_FILE, _staged(folder, LOG_FILE)
     if options.resume:
-        _check_resume(folder, prepared, done)
+        try:
+            recorded = read_json(_staged(folder, DEFINITION_FILE)).get("definition")
+        except BadInputError:
+            recorded = None
+        return staged if staged.is_file() and recorded == prepared.definition else main
+    return staged if read_log(main).rows else main
+
+
+def _run_locked(
+    options: SynthesisOptions,
+    prepared: _Prepared,
+    done: LogContents,
+    rows: list[dict],
+    echo: Callable[[str], Any],
+    log: Path,
+) -> dict:
+    """The sweep in its locked folder: the starts left solved, each row appended to ``rows`` and ``log``, which a
+    rerun over a finished sweep moves in place of the finished one's only once all its starts are solved."""
+    folder = options.folder
+    staged = log.name != LOG_FILE
+    if options.resume:
+        _check_resume(folder, prepared, done, _staged(folder, DEFINITION_FILE) if staged else folder / DEFINITION_FILE)
         rows.extend(done.rows)
     else:
-        _check_fresh(folder, done)
+        _check_fresh(folder, read_log(folder / LOG_FILE), staged)
     finished = {row["start_id"] for row in rows}
     todo = [s for s in prepared.starts if s.start_id not in finished]
     echo(f"{options.task}: {len(prepared.starts)} starts, {len(finished)} already done")
@@ -370,19 +407,24 @@ def _run_locked(
                 _say_model(model_size, prepared.paper, echo)
             # the run is known to work: only now is the folder changed
             folder.mkdir(parents=True, exist_ok=True)
-            first: Callable[[dict], None] | None = None
             if options.resume:  # the same run goes on: its records are this run's already
                 for repair in done.repairs:
                     echo(f"{log}: {repair}")
                 if done.repairs:
                     rewrite_log(log, rows)
-                _write_records(folder, prepared)
-            else:  # a finished sweep's records stay until this one has a row to replace them with
-                first = lambda row: _start_afresh(folder, prepared, row)  # noqa: E731
+            _begin(folder, prepared, log, options.resume)
             if todo:  # a resumed sweep may have nothing left to solve
-                _solve(executor, todo, rows, log, options.task, len(prepared.starts), first, wall_start)
+                try:
+                    _solve(executor, todo, rows, log, options.task, len(prepared.starts), wall_start)
+                except BadInputError:
+                    if staged and not options.resume and not read_log(log).rows:  # nothing of it to resume
+                        _discard_rerun(folder, prepared)
+                    raise
         finally:
             executor.close()
+    if staged:  # all its starts solved: the rerun takes the finished sweep's place
+        for name in [LOG_FILE, *_records(folder, prepared)]:
+            os.replace(_staged(folder, name), folder / name)
     run = summarise(
         options,
         rows,
@@ -435,29 +477,28 @@ def _records(folder: Path, prepared: _Prepared) -> dict[str, str]:
     return records
 
 
-def _write_records(folder: Path, prepared: _Prepared) -> None:
-    for name, text in _records(folder, prepared).items():
-        write_text_atomic(folder / name, text)
+def _discard_rerun(folder: Path, prepared: _Prepared) -> None:
+    """A rerun's staged files, gone: it failed before it had a row to resume."""
+    for name in [LOG_FILE, *_records(folder, prepared)]:
+        _staged(folder, name).unlink(missing_ok=True)
 
 
-def _start_afresh(folder: Path, prepared: _Prepared, row: dict) -> None:
-    """A fresh sweep's records in place of a finished one's, once it has its first row: the records staged
-    beside, the log holding that row swapped in by one rename, then the records. A rerun that fails before (a
-    full disk, an early Ctrl-C) leaves the finished sweep as it was, and resumable."""
-    staged = {folder / name: folder / f".{name}.new" for name in _records(folder, prepared)}
+def _begin(folder: Path, prepared: _Prepared, log: Path, resume: bool) -> None:
+    """The run's records beside its log (staged beside a finished sweep's, for a rerun), and a fresh run's empty
+    log. A fresh run that cannot write them (a full disk) takes them back, and leaves the folder as it was."""
+    staged = log.name != LOG_FILE
+    paths = {(_staged(folder, n) if staged else folder / n): text for n, text in _records(folder, prepared).items()}
     try:
-        for path, text in zip(staged.values(), _records(folder, prepared).values(), strict=True):
+        for path, text in paths.items():
             write_text_atomic(path, text)
-        rewrite_log(folder / LOG_FILE, [row])
+        if not resume:
+            rewrite_log(log, [])
     except OSError as exc:
-        for path in staged.values():
-            path.unlink(missing_ok=True)
+        if staged and not resume:
+            _discard_rerun(folder, prepared)
         reason = "no space left on device" if exc.errno == errno.ENOSPC else (exc.strerror or str(exc))
-        raise BadInputError(
-            folder, f"{reason} writing start {row.get('start_id')}; the sweep that was here is kept as it was"
-        ) from exc
-    for final, path in staged.items():
-        os.replace(path, final)
+        kept = "; the sweep that was here is kept as it was" if staged else ""
+        raise BadInputError(folder, f"{reason} writing the run's records{kept}") from exc
 
 
 def _solve(
@@ -467,28 +508,20 @@ def _solve(
     log: Path,
     task: str,
     total: int,
-    first: Callable[[dict], None] | None,
     began: float,
 ) -> None:
-    """Run the executor over ``todo``, appending each row to the log (and ``rows``), with progress; the first
-    row goes to ``first`` when given, which starts the log afresh. Each row records when it came in, in seconds
-    from ``began`` (``found_after_s``): what a user waited for it."""
+    """Run the executor over ``todo``, appending each row to the log (and ``rows``), with progress. Each row
+    records when it came in, in seconds from ``began`` (``found_after_s``): what a user waited for it."""
     counts = {
         "verified": sum(bool(r.get("verified")) for r in rows),
         "failing": sum(not r.get("verified") for r in rows),
     }
-    writer = None if first is not None else LogWriter(log)
+    writer = LogWriter(log)
     with Progress(total, f"synthesize {task}", "starts", initial=len(rows)) as shown:
 
         def on_result(row: dict) -> None:
-            nonlocal writer
             row["found_after_s"] = time.perf_counter() - began
-            if writer is None:
-                assert first is not None
-                first(row)
-                writer = LogWriter(log)
-            else:
-                writer.append(row)
+            writer.append(row)
             rows.append(row)
             counts["verified" if row.get("verified") else "failing"] += 1
             shown.update(1, **counts)
@@ -496,8 +529,7 @@ def _solve(
         try:
             executor.run(todo, on_result)
         finally:
-            if writer is not None:
-                writer.close()
+            writer.close()
 
 
 def summarise(
