@@ -74,6 +74,9 @@ def test_a_pipeline_nested_thousands_deep_is_one_line(tmp_path, cli):
         ("--solver-config", "solver.yaml", "ipopt: {max_iter: 10000000}\n", "max_iter must be from 1 to 10000"),
         ("--solver-config", "solver.yaml", "feedback_rounds: 100000\n", "less than or equal to 10"),
         ("--solver-config", "solver.yaml", "geometric_iterations: 100000000\n", "less than or equal to 10000"),
+        # a hold that would run for ever on a grasp that holds (52 s a grasp that drops)
+        ("--physics-config", "physics.yaml", "hold_s: 1.0e6\n", "'hold_s': must be less than or equal to 10"),
+        ("--physics-config", "physics.yaml", "timestep_s: 1.0e-9\n", "'timestep_s': must be greater than or equal"),
     ],
 )  # fmt: skip
 def test_a_config_that_would_lie_or_hang_is_one_line(tasks, tmp_path, cli, option, name, text, expected):
@@ -118,6 +121,7 @@ def hand_case(case: str) -> str:
         "two links named alike": TWO_FINGERS.replace('<link name="l2"/>', '<link name="l2"/><link name="l2"/>'),
         "two joints named alike": TWO_FINGERS.replace('name="t2"', 'name="t1"'),
         "an origin at 1e30 m": TWO_FINGERS.replace('xyz="0.03 0 0.01"', 'xyz="1e30 0 0.01"'),
+        "an origin at 1e300 m": TWO_FINGERS.replace('xyz="0.03 0 0.01"', 'xyz="1e300 0 0.01"'),
         "an origin in millimetres": TWO_FINGERS.replace('xyz="0.03 0 0.01"', 'xyz="30 0 10"'),
         "a negative inertia": with_inertial(0.1, -1e-5),
         "a mass of NaN": with_inertial("nan", 1e-5),
@@ -129,7 +133,8 @@ def hand_case(case: str) -> str:
 HAND_CASES = {
     "two links named alike": "link 'l2' is defined twice",
     "two joints named alike": "joint 't1' is defined twice",
-    "an origin at 1e30 m": "joint 'j1': its origin lies 1e+30 m from link 'palm'",
+    "an origin at 1e30 m": "joint 'j1': its origin lies 1e+30 m along an axis from link 'palm'",
+    "an origin at 1e300 m": "joint 'j1': its origin lies 1e+300 m along an axis from link 'palm'",
     "an origin in millimetres": "is the file in millimetres?",
     "a negative inertia": "link 'l1': inertia has a negative principal moment",
     "a mass of NaN": "link 'l1': inertial mass nan is not a mass",

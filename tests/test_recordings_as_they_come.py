@@ -302,3 +302,50 @@ def test_resample_puts_an_uneven_recording_on_an_even_grid(tmp_path, cli):
     assert table["n_samples"].iloc[0] == int(np.floor(span * 50 + 1e-9)) + 1
     plain = cli("fit-task", path, "--out", tmp_path / "plain", "--lowpass", "5")
     assert "--lowpass 5 assumes even sampling" in plain.output
+
+
+# --- which task is like which ------------------------------------------------------------------------------------
+
+
+def test_distances_say_each_tasks_nearest_and_how_torque_weighs(simulated, cli, tmp_path):
+    root, _, _ = simulated
+    result = cli("distances", root / "tasks" / "ellipsoids.parquet", "--out", tmp_path)
+    assert result.exit_code == 0, result.output
+    summary = json.loads((tmp_path / "distance_summary.json").read_text())["tasks"]
+    assert summary["names"] == ["drawing", "cutting", "screwdriving"]
+    distances = np.array(summary["distances"])
+    np.testing.assert_allclose(distances, distances.T)
+    for k, task in enumerate(summary["names"]):
+        others = [j for j in range(3) if j != k]
+        nearest = summary["names"][min(others, key=lambda j: distances[k, j])]
+        assert summary["nearest"][task]["task"] == nearest
+        line = f"nearest task: {task} -> {nearest}, Log-Euclidean distance {distances[k, summary['names'].index(nearest)]:.3g}"
+        assert line in result.output
+    # the simulator's tools: torques of a few percent of the forces, and a unit that barely moves the distances
+    assert all(0.001 < r < 0.2 for r in summary["torque_to_force"].values())
+    assert 0 <= summary["change_with_torque_in_Ncm"] < 0.1
+    assert "weighed in SI units, N against N.m" in result.output
+
+
+def test_the_report_finds_task_models_wherever_fit_task_wrote_them(simulated, cli, tmp_path):
+    root, _, _ = simulated
+    deep = tmp_path / "out" / "all"
+    deep.mkdir(parents=True)
+    for name in ("task_models.json", "ellipsoids.parquet", "stats.csv", "distances.parquet", "distance_summary.json"):
+        (deep / name).write_bytes((root / "tasks" / name).read_bytes())
+    result = cli("report", "--results", tmp_path / "out", "--out", tmp_path / "report")
+    assert result.exit_code == 0, result.output
+    assert f"found task models: {deep / 'task_models.json'}" in result.output
+    tables = tmp_path / "report" / "tables"
+    task_table = (tables / "task_distances.md").read_text()
+    assert "nearest task" in task_table and "screwdriving" in task_table
+    axes = (tables / "axes_cutting.md").read_text()
+    assert "gamma (N, N.m)" in axes and "| u6 " in axes
+    page = (tmp_path / "report" / "index.html").read_text()
+    assert "weighed in SI units" in page
+    assert "task model's axes" in page or "task model&#x27;s axes" in page
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    nothing = cli("report", "--results", empty)
+    assert nothing.exit_code == 2 and "looked at any depth for a sweep" in nothing.output
+    assert "task models (task_models.json" in nothing.output

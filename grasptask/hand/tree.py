@@ -134,11 +134,11 @@ def _check_values(tree: Tree, source: Path) -> None:
         values: list[np.ndarray] = [joint.origin, joint.axis, np.array(scalars, dtype=float)]
         if not all(np.isfinite(v).all() for v in values):
             raise BadInputError(source, f"joint '{joint.name}': its origin, axis, limits or mimic are not finite")
-        reach = float(np.linalg.norm(joint.origin[:3, 3]))
+        reach = float(np.abs(joint.origin[:3, 3]).max())  # not its norm: 1e300 squared overflows, with a warning
         if reach > MAX_REACH_M:
             raise BadInputError(
                 source,
-                f"joint '{joint.name}': its origin lies {reach:.3g} m from link '{joint.parent}', beyond a hand's "
+                f"joint '{joint.name}': its origin lies {reach:.3g} m along an axis from link '{joint.parent}', beyond a hand's "
                 f"{MAX_REACH_M:g} m (is the file in millimetres?)",
             )
     for link in tree.links.values():
