@@ -319,8 +319,8 @@ def test_distances_say_each_tasks_nearest_and_how_torque_weighs(simulated, cli, 
         others = [j for j in range(3) if j != k]
         nearest = summary["names"][min(others, key=lambda j: distances[k, j])]
         assert summary["nearest"][task]["task"] == nearest
-        line = f"nearest task: {task} -> {nearest}, Log-Euclidean distance {distances[k, summary['names'].index(nearest)]:.3g}"
-        assert line in result.output
+        distance = distances[k, summary["names"].index(nearest)]
+        assert f"nearest task: {task} -> {nearest}, Log-Euclidean distance {distance:.3g}" in result.output
     # the simulator's tools: torques of a few percent of the forces, and a unit that barely moves the distances
     assert all(0.001 < r < 0.2 for r in summary["torque_to_force"].values())
     assert 0 <= summary["change_with_torque_in_Ncm"] < 0.1

@@ -138,8 +138,8 @@ def _check_values(tree: Tree, source: Path) -> None:
         if reach > MAX_REACH_M:
             raise BadInputError(
                 source,
-                f"joint '{joint.name}': its origin lies {reach:.3g} m along an axis from link '{joint.parent}', beyond a hand's "
-                f"{MAX_REACH_M:g} m (is the file in millimetres?)",
+                f"joint '{joint.name}': its origin lies {reach:.3g} m along an axis from link '{joint.parent}', "
+                f"beyond a hand's {MAX_REACH_M:g} m (is the file in millimetres?)",
             )
     for link in tree.links.values():
         shapes = [c for c, _ in link.spheres] + [np.array([r for _, r in link.spheres])] + link.skin
