@@ -42,7 +42,9 @@ def test_task_labels_never_become_paths_outside_out(simulated, tmp_path, cli):
     result = cli("report", "--results", tmp_path / "results", "--out", tmp_path / "results" / "report")
     assert result.exit_code == 0, result.output
     everything = {p.name for p in tmp_path.parent.rglob("*escaped*")}
-    assert everything <= {"ellipsoids_x_.._.._.._escaped.png"}, everything
+    # the report's own files for the task, their names made safe, inside the report's folder
+    assert everything <= {"ellipsoids_x_.._.._.._escaped.png", "axes_x_.._.._.._escaped.md"}, everything
+    assert all(p.is_relative_to(tmp_path / "results" / "report") for p in tmp_path.parent.rglob("*escaped*"))
     tasks = tmp_path / "results" / "tasks" / "task_models.json"
     line = one_line(cli("synthesize", "--tasks", tasks, "--task", escape, "--out", tmp_path / "grasps"))
     assert "cannot be a file or folder name" in line and not (tmp_path / "grasps").exists()

@@ -45,7 +45,9 @@ def test_report_from_task_results_only(simulated, tmp_path):
         "ellipsoids_drawing.png",
         "ellipsoids_screwdriving.png",
     ]
-    assert sorted(p.name for p in (out / "tables").iterdir()) == [f"table_{t.number:02d}.md" for t in PAPER_TABLES]
+    tables = [f"table_{t.number:02d}.md" for t in PAPER_TABLES] + ["task_distances.md"]
+    tables += [f"axes_{task}.md" for task in ("cutting", "drawing", "screwdriving")]
+    assert sorted(p.name for p in (out / "tables").iterdir()) == sorted(tables)
     page = (out / "index.html").read_text()
     # self-contained: every figure inline, nothing fetched from elsewhere
     assert len(re.findall(r'<img src="data:image/png;base64,', page)) == len(figures)

@@ -19,12 +19,13 @@ from grasptask.cli.options import (
     object_options,
     out_option,
     physics_config_option,
+    preprocess_options,
     scale_option,
     sweep_model_options,
     sweep_task_options,
     synthesis_options,
 )
-from grasptask.cli.summaries import fit_summary, number, physics_line, synthesis_line
+from grasptask.cli.summaries import finding_lines, fit_summary, nearest_lines, number, physics_line, synthesis_line
 from grasptask.stages import DEFAULT_SIMULATE_CONFIG, FORCE_UNITS, TIME_UNITS, TORQUE_UNITS
 
 
@@ -96,38 +97,7 @@ def _simulate_said(options, done) -> None:
 @main.command("fit-task")
 @click.argument("inputs", nargs=-1, required=True, type=click.Path(path_type=Path))
 @out_option
-@click.option(
-    "--bias-window",
-    type=click.FloatRange(min=0),
-    default=None,
-    help="Seconds of initial static data to subtract as bias, then drop (default: the manifest's "
-    "bias_window_s column, else none).",
-)
-@click.option(
-    "--trim-start", type=click.FloatRange(min=0), default=0.0, show_default=True, help="Seconds to drop at the start."
-)
-@click.option(
-    "--trim-end", type=click.FloatRange(min=0), default=0.0, show_default=True, help="Seconds to drop at the end."
-)
-@click.option(
-    "--lowpass",
-    type=click.FloatRange(min=0, min_open=True),
-    default=None,
-    help="Zero-phase Butterworth low-pass cutoff in Hz (default: no filtering).",
-)
-@click.option(
-    "--resample",
-    type=click.FloatRange(min=0, min_open=True),
-    default=None,
-    help="Put every recording on an even grid at this rate (Hz), by linear interpolation, before any other "
-    "step (default: as sampled; fit-task says where sampling is uneven).",
-)
-@click.option(
-    "--drop-spikes",
-    is_flag=True,
-    help="Leave out the samples fit-task finds to be spikes (default: kept, and said with their rows).",
-)
-@click.option("--centered", is_flag=True, help="Use the covariance instead of the second moment about the origin.")
+@preprocess_options
 @click.option("--skip-bad", is_flag=True, help="Set aside bad recordings, list them at the end, and go on.")
 @click.option("--task", default="unlabelled", show_default=True, help="Task label for plain recording files.")
 @click.option("--grasp", default="free", show_default=True, help="Grasp label for plain recording files.")
@@ -168,8 +138,8 @@ def _fit_options(
 
 def _fit_said(options, done) -> None:
     click.echo(fit_summary(done.ellipsoids, done.stats))
-    for finding in done.findings:
-        click.echo(f"check: {finding['file']} ({finding['id']}): {finding['message']}")
+    for line in finding_lines(done.findings):
+        click.echo(line)
     click.echo(f"wrote {done.out}/ellipsoids.parquet, task_models.json, stats.csv")
     if done.skipped:
         click.echo(f"skipped {len(done.skipped)} bad recording(s):", err=True)
@@ -196,12 +166,8 @@ def _distances_said(options, done) -> None:
         f"mean normalised distance within tasks {number(by_task.get('mean_within_normalised'))}"
         f" vs between {number(by_task.get('mean_between_normalised'))}"
     )
-    tasks = done.summary["tasks"]
-    for task, near in tasks["nearest"].items():
-        click.echo(
-            f"nearest task: {task} -> {near['task']}, Log-Euclidean distance {number(near['distance'])} between "
-            f"their models (normalised {number(near['distance_normalised'])})"
-        )
+    for line in nearest_lines(done.summary["tasks"]):
+        click.echo(line)
     click.echo(done.weighing)
     click.echo(
         f"wrote {done.out}/distances.parquet, distance_summary.json, distance_heatmap.png, distance_embedding.png"

@@ -188,3 +188,50 @@ _SYNTHESIS = [
     ),
     physics_config_option("With --physics: scene, controller, protocol and thresholds (YAML)."),
 ]
+
+
+def preprocess_options(f):
+    """fit-task's preprocessing: bias removal, trimming, low-pass filtering, resampling, spikes, centring."""
+    for option in reversed(_PREPROCESS):
+        f = option(f)
+    return f
+
+
+_PREPROCESS = [
+    click.option(
+        "--bias-window",
+        type=click.FloatRange(min=0),
+        default=None,
+        help="Seconds of initial static data to subtract as bias, then drop (default: the manifest's "
+        "bias_window_s column, else none).",
+    ),
+    click.option(
+        "--trim-start",
+        type=click.FloatRange(min=0),
+        default=0.0,
+        show_default=True,
+        help="Seconds to drop at the start.",
+    ),
+    click.option(
+        "--trim-end", type=click.FloatRange(min=0), default=0.0, show_default=True, help="Seconds to drop at the end."
+    ),
+    click.option(
+        "--lowpass",
+        type=click.FloatRange(min=0, min_open=True),
+        default=None,
+        help="Zero-phase Butterworth low-pass cutoff in Hz (default: no filtering).",
+    ),
+    click.option(
+        "--resample",
+        type=click.FloatRange(min=0, min_open=True),
+        default=None,
+        help="Put every recording on an even grid at this rate (Hz), by linear interpolation, before any other "
+        "step (default: as sampled; fit-task says where sampling is uneven).",
+    ),
+    click.option(
+        "--drop-spikes",
+        is_flag=True,
+        help="Leave out the samples fit-task finds to be spikes (default: kept, and said with their rows).",
+    ),
+    click.option("--centered", is_flag=True, help="Use the covariance instead of the second moment about the origin."),
+]

@@ -16,6 +16,20 @@ def fit_summary(ellipsoids, stats) -> str:
     return "\n".join(lines)
 
 
+def finding_lines(findings: list[dict]) -> list[str]:
+    """What fit-task's checks found, a line each: the file, the recording's id, and what was found."""
+    return [f"check: {f['file']} ({f['id']}): {f['message']}" for f in findings]
+
+
+def nearest_lines(tasks: dict) -> list[str]:
+    """Each task's nearest task and the Log-Euclidean distance between their models, raw and normalised."""
+    return [
+        f"nearest task: {task} -> {near['task']}, Log-Euclidean distance {number(near['distance'])} between their "
+        f"models (normalised {number(near['distance_normalised'])})"
+        for task, near in tasks["nearest"].items()
+    ]
+
+
 def number(value) -> str:
     """Three significant digits: a Q of 0.00074 is not 0.001."""
     return "n/a" if value is None else f"{value:.3g}"

@@ -374,6 +374,22 @@ def _log_to_write(options: SynthesisOptions, prepared: _Prepared) -> Path:
     return staged if read_log(main).rows else main
 
 
+def _go_on_from(options: SynthesisOptions, prepared: _Prepared, done: LogContents, rows: list[dict], staged: bool):
+    """The run checked against what the folder holds, and the rows it goes on from put in ``rows``."""
+    folder = options.folder
+    if options.resume:
+        _check_resume(folder, prepared, done, _staged(folder, DEFINITION_FILE) if staged else folder / DEFINITION_FILE)
+        rows.extend(done.rows)
+    else:
+        _check_fresh(folder, read_log(folder / LOG_FILE), staged)
+
+
+def _take_place(folder: Path, prepared: _Prepared) -> None:
+    """A finished rerun's log and records in place of the sweep that was there."""
+    for name in [LOG_FILE, *_records(folder, prepared)]:
+        os.replace(_staged(folder, name), folder / name)
+
+
 def _run_locked(
     options: SynthesisOptions,
     prepared: _Prepared,
@@ -386,11 +402,7 @@ def _run_locked(
     rerun over a finished sweep moves in place of the finished one's only once all its starts are solved."""
     folder = options.folder
     staged = log.name != LOG_FILE
-    if options.resume:
-        _check_resume(folder, prepared, done, _staged(folder, DEFINITION_FILE) if staged else folder / DEFINITION_FILE)
-        rows.extend(done.rows)
-    else:
-        _check_fresh(folder, read_log(folder / LOG_FILE), staged)
+    _go_on_from(options, prepared, done, rows, staged)
     finished = {row["start_id"] for row in rows}
     todo = [s for s in prepared.starts if s.start_id not in finished]
     echo(f"{options.task}: {len(prepared.starts)} starts, {len(finished)} already done")
@@ -406,13 +418,7 @@ def _run_locked(
                 model_size = executor.start()
                 _say_model(model_size, prepared.paper, echo)
             # the run is known to work: only now is the folder changed
-            folder.mkdir(parents=True, exist_ok=True)
-            if options.resume:  # the same run goes on: its records are this run's already
-                for repair in done.repairs:
-                    echo(f"{log}: {repair}")
-                if done.repairs:
-                    rewrite_log(log, rows)
-            _begin(folder, prepared, log, options.resume)
+            _begin(folder, prepared, log, options.resume, done, rows, echo)
             if todo:  # a resumed sweep may have nothing left to solve
                 try:
                     _solve(executor, todo, rows, log, options.task, len(prepared.starts), wall_start)
@@ -423,8 +429,7 @@ def _run_locked(
         finally:
             executor.close()
     if staged:  # all its starts solved: the rerun takes the finished sweep's place
-        for name in [LOG_FILE, *_records(folder, prepared)]:
-            os.replace(_staged(folder, name), folder / name)
+        _take_place(folder, prepared)
     run = summarise(
         options,
         rows,
@@ -483,9 +488,23 @@ def _discard_rerun(folder: Path, prepared: _Prepared) -> None:
         _staged(folder, name).unlink(missing_ok=True)
 
 
-def _begin(folder: Path, prepared: _Prepared, log: Path, resume: bool) -> None:
-    """The run's records beside its log (staged beside a finished sweep's, for a rerun), and a fresh run's empty
-    log. A fresh run that cannot write them (a full disk) takes them back, and leaves the folder as it was."""
+def _begin(
+    folder: Path,
+    prepared: _Prepared,
+    log: Path,
+    resume: bool,
+    done: LogContents,
+    rows: list[dict],
+    echo: Callable[[str], Any],
+) -> None:
+    """The run's folder, its records beside its log (staged beside a finished sweep's, for a rerun), and a fresh
+    run's empty log or a resumed one's repairs. A fresh run that cannot write them (a full disk) takes them back,
+    and leaves the folder as it was."""
+    folder.mkdir(parents=True, exist_ok=True)
+    if resume and done.repairs:  # the same run goes on: its records are this run's already
+        for repair in done.repairs:
+            echo(f"{log}: {repair}")
+        rewrite_log(log, rows)
     staged = log.name != LOG_FILE
     paths = {(_staged(folder, n) if staged else folder / n): text for n, text in _records(folder, prepared).items()}
     try:

@@ -65,7 +65,9 @@ def load_wrenches(entry: RecordingEntry, tool: ToolConfig | None = None, options
     findings = [
         checks.uneven_sampling(t, steps.resample_hz, steps.lowpass_hz),
         checks.too_short(t, tool.plausible.min_duration_s),
-        checks.implausible(wrenches[~spiky], tool.plausible.force_n, tool.plausible.torque_nm),
+        checks.implausible(
+            wrenches[~spiky] if spiky.any() else wrenches, tool.plausible.force_n, tool.plausible.torque_nm
+        ),
         checks.spikes(wrenches, spiky, rows, steps.drop_spikes),
     ]
     if steps.drop_spikes and spiky.any():

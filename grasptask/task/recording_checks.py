@@ -175,7 +175,7 @@ def implausible(wrenches: np.ndarray, force_n: float, torque_nm: float) -> Findi
         ("force", wrenches[:, :3], force_n, "N", "force_unit"),
         ("torque", wrenches[:, 3:], torque_nm, "N.m", "torque_unit"),
     ):
-        largest = float(np.sqrt((block**2).sum(axis=1)).max()) if len(block) else 0.0
+        largest = float(np.sqrt(np.einsum("ij,ij->i", block, block).max())) if len(block) else 0.0
         if largest <= bound:
             continue
         figures[f"{domain}_max"] = largest
@@ -201,8 +201,9 @@ def offset(wrenches: np.ndarray) -> Finding | None:
     """A channel whose mean is :data:`OFFSET_RATIO` standard deviations off zero and makes most of its domain's
     second moment: the ellipsoid is then the offset's (an untared sensor, or the tool's weight), not the task's.
     The default keeps it, as a task's steady push is a mean too."""
-    mean, sd = wrenches.mean(axis=0), wrenches.std(axis=0)
-    moment = mean**2 + sd**2
+    n = len(wrenches)  # the second moment in one pass, with no copy of a long recording
+    mean, moment = wrenches.mean(axis=0), np.einsum("ij,ij->j", wrenches, wrenches) / n
+    sd = np.sqrt(np.clip(moment - mean**2, 0.0, None))
     said, figures = [], {}
     for c, name in enumerate(CHANNELS):
         domain = moment[:3] if c < 3 else moment[3:]

@@ -163,10 +163,13 @@ def _missing(name: str, wanted: str, names: list[str]) -> str:
         )
     shown = ", ".join(names[:12]) + (f", ... ({len(names)} in all)" if len(names) > 12 else "")
     rate = "; a file without time stamps gives rate_hz instead" if name == "t" else ""
-    return (
-        f"missing column (the file has: {shown}); map the file's columns in a tool config (--tool, or the "
-        f"manifest's tool column): columns: {{{name}: COLUMN}}{rate}"
+    setting = (
+        f"the tool config's columns map {name} to it: name the file's own column there"
+        if wanted != name
+        else f"map the file's columns in a tool config (--tool, or the manifest's tool column): columns: {{{name}: "
+        "COLUMN}"
     )
+    return f"missing column (the file has: {shown}); {setting}{rate}"
 
 
 def _read_table(path: Path, suffix: str, wanted: list[str], file_columns: list[str]) -> pa.Table:
