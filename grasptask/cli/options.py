@@ -121,11 +121,16 @@ def sweep_task_options(f):
     )(f)  # fmt: skip
 
 
-def synthesis_options(f):
-    """Everything ``synthesize`` takes: the task, the models, the solver, the starts and where they run."""
-    for option in reversed(_SYNTHESIS):
+def _with(options: list, f):
+    """``f`` with each of ``options`` (Click decorators), the first listed the first in ``--help``."""
+    for option in reversed(options):
         f = option(f)
     return f
+
+
+def synthesis_options(f):
+    """Everything ``synthesize`` takes: the task, the models, the solver, the starts and where they run."""
+    return _with(_SYNTHESIS, f)
 
 
 _SYNTHESIS = [
@@ -192,9 +197,7 @@ _SYNTHESIS = [
 
 def preprocess_options(f):
     """fit-task's preprocessing: bias removal, trimming, low-pass filtering, resampling, spikes, centring."""
-    for option in reversed(_PREPROCESS):
-        f = option(f)
-    return f
+    return _with(_PREPROCESS, f)
 
 
 _PREPROCESS = [
