@@ -33,7 +33,7 @@ class FitOptions:
 @dataclass(frozen=True)
 class Samples:
     """A recording as fitted: time (s) and ``(n, 6)`` wrenches (N, N.m) in the object frame, preprocessed, and
-    what the checks found in it."""
+    what the checks found in it (the offset's, a check of the fitted second moment, only from :func:`fit_entry`)."""
 
     t: np.ndarray
     wrenches: np.ndarray
@@ -61,12 +61,16 @@ def load_wrenches(entry: RecordingEntry, tool: ToolConfig | None = None, options
         keep = window_mask(entry.source or entry.path, t, *entry.window_s)
         t, wrenches, rows = t[keep], wrenches[keep], rows[keep]
     steps = options.preprocess
-    spiky = checks.spike_rows(wrenches)
+    bounds = checks.extremes(wrenches)
+    spiky = checks.spike_rows(wrenches, bounds)
     findings = [
         checks.uneven_sampling(t, steps.resample_hz, steps.lowpass_hz),
         checks.too_short(t, tool.plausible.min_duration_s),
         checks.implausible(
-            wrenches[~spiky] if spiky.any() else wrenches, tool.plausible.force_n, tool.plausible.torque_nm
+            wrenches[~spiky] if spiky.any() else wrenches,
+            tool.plausible.force_n,
+            tool.plausible.torque_nm,
+            None if spiky.any() else bounds,
         ),
         checks.spikes(wrenches, spiky, rows, steps.drop_spikes),
     ]
@@ -78,8 +82,6 @@ def load_wrenches(entry: RecordingEntry, tool: ToolConfig | None = None, options
         raise BadInputError(entry.path, str(exc)) from exc
     if len(t) < MIN_SAMPLES:
         raise BadInputError(entry.path, f"only {len(t)} samples left after preprocessing (at least {MIN_SAMPLES})")
-    if not options.centered:
-        findings.append(checks.offset(wrenches))
     return Samples(t, wrenches, [f for f in findings if f is not None])
 
 
@@ -118,6 +120,9 @@ def fit_entry(
         raise BadInputError(
             entry.path, f"wrench samples span only {rank} of 6 dimensions, so the ellipsoid is singular"
         )
+    if not options.centered:  # the mean, against the spread that the second moment holds
+        found = checks.offset(wrenches.mean(axis=0), np.diag(matrix))
+        samples = replace(samples, findings=samples.findings + ([found] if found else []))
     return Ellipsoid.from_matrix(matrix), samples
 
 

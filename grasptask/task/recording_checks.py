@@ -105,19 +105,29 @@ def too_short(t: np.ndarray, min_duration_s: float) -> Finding | None:
     )
 
 
-def spike_rows(wrenches: np.ndarray) -> np.ndarray:
+def extremes(wrenches: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Each channel's smallest and largest value: a column at a time, faster than numpy's reduction along rows
+    of a long ``(n, 6)`` array, and shared by the checks that look at every sample only where these say so."""
+    columns = [wrenches[:, c] for c in range(wrenches.shape[1])]
+    return np.array([x.min() for x in columns]), np.array([x.max() for x in columns])
+
+
+def spike_rows(wrenches: np.ndarray, bounds: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
     """The samples (a boolean mask) that stand far off their channel's robust spread and off the samples on
     both sides of them, each side judged by its own median and spread: a sensor glitch, not a task. Computed
-    only where the first test holds, so a clean channel costs one comparison a sample."""
+    only where the first test holds, and only on channels whose :func:`extremes` (``bounds``) reach past it."""
     n = len(wrenches)
     flagged = np.zeros(n, dtype=bool)
     if n < 2 * SPIKE_SIDE + 1:
         return flagged
     centre, spread = _robust_spread(wrenches)
-    for c in range(wrenches.shape[1]):
+    low, high = centre - SPIKE_SPREADS * spread, centre + SPIKE_SPREADS * spread
+    smallest, largest = bounds if bounds is not None else extremes(wrenches)
+    outside = (smallest < low) | (largest > high)  # a channel with nothing outside needs no look at its samples
+    for c in np.flatnonzero(outside):
         x = wrenches[:, c]
-        far = np.abs(x - centre[c]) > SPIKE_SPREADS * spread[c]
-        if not far.any() or far.mean() > SPIKE_MAX_SHARE:
+        far = (x < low[c]) | (x > high[c])
+        if far.mean() > SPIKE_MAX_SHARE:
             continue
         # a floor on the sides' spread: a quantised channel's neighbours can agree to the last bit
         floor = max(1e-3 * float(np.max(np.abs(x - centre[c]))), 1e-12)
@@ -166,16 +176,23 @@ def _rows(rows: np.ndarray) -> str:
     return ", ".join(runs[:5]) + (f" and {len(runs) - 5} more runs" if len(runs) > 5 else "")
 
 
-def implausible(wrenches: np.ndarray, force_n: float, torque_nm: float) -> Finding | None:
+def implausible(
+    wrenches: np.ndarray, force_n: float, torque_nm: float, bounds: tuple[np.ndarray, np.ndarray] | None = None
+) -> Finding | None:
     """A force or torque magnitude beyond the tool config's plausible range: the likeliest cause is a unit (a
     torque in N.mm read as N.m is 1,000 times too large), which the line names where one fits."""
     found = []
     figures: dict[str, Any] = {}
-    for domain, block, bound, unit, key in (
-        ("force", wrenches[:, :3], force_n, "N", "force_unit"),
-        ("torque", wrenches[:, 3:], torque_nm, "N.m", "torque_unit"),
+    smallest, largest_value = bounds if bounds is not None else extremes(wrenches)
+    reach = np.maximum(-smallest, largest_value)
+    for domain, block, bound, unit, key, channels in (
+        ("force", wrenches[:, :3], force_n, "N", "force_unit", slice(0, 3)),
+        ("torque", wrenches[:, 3:], torque_nm, "N.m", "torque_unit", slice(3, 6)),
     ):
-        largest = float(np.sqrt(np.einsum("ij,ij->i", block, block).max())) if len(block) else 0.0
+        # the channels' extremes bound the magnitude from above: most recordings are judged by them alone
+        if not len(block) or np.linalg.norm(reach[channels]) <= bound:
+            continue
+        largest = float(np.sqrt(np.einsum("ij,ij->i", block, block).max()))
         if largest <= bound:
             continue
         figures[f"{domain}_max"] = largest
@@ -197,12 +214,11 @@ def _smaller_unit(unit: str, factor: float) -> str:
     return {("N", 1e3): "mN", ("N.m", 1e3): "N.mm", ("N.m", 1e2): "N.cm"}.get((unit, factor), f"1/{factor:g} {unit}")
 
 
-def offset(wrenches: np.ndarray) -> Finding | None:
+def offset(mean: np.ndarray, moment: np.ndarray) -> Finding | None:
     """A channel whose mean is :data:`OFFSET_RATIO` standard deviations off zero and makes most of its domain's
     second moment: the ellipsoid is then the offset's (an untared sensor, or the tool's weight), not the task's.
-    The default keeps it, as a task's steady push is a mean too."""
-    n = len(wrenches)  # the second moment in one pass, with no copy of a long recording
-    mean, moment = wrenches.mean(axis=0), np.einsum("ij,ij->j", wrenches, wrenches) / n
+    The default keeps it, as a task's steady push is a mean too. ``mean`` and ``moment`` are the channels' means
+    and mean squares (the diagonal of the fitted second moment ``S``)."""
     sd = np.sqrt(np.clip(moment - mean**2, 0.0, None))
     said, figures = [], {}
     for c, name in enumerate(CHANNELS):
