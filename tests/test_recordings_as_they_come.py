@@ -196,6 +196,10 @@ def test_a_window_beyond_the_recording_is_one_line(tmp_path, cli):
     assert result.exit_code == 2
     assert "no samples in the window 5.0 .. None s (the recording spans 0 .. 1.99 s)" in result.output
     assert not (tmp_path / "o" / "ellipsoids.parquet").exists()
+    narrow = cli(
+        "fit-task", manifest(tmp_path, [{"path": "log.csv", "start_s": 1.0, "end_s": 1.005}]), "--out", tmp_path / "o"
+    )
+    assert narrow.exit_code == 2 and "row 1: only 1 samples in its time window (at least 10)" in narrow.output
 
 
 # --- said, not silent --------------------------------------------------------------------------------------------

@@ -60,6 +60,10 @@ def load_wrenches(entry: RecordingEntry, tool: ToolConfig | None = None, options
     if not entry.topic and entry.window_s != (None, None):  # a bag's own reader cuts its window
         keep = window_mask(entry.source or entry.path, t, *entry.window_s)
         t, wrenches, rows = t[keep], wrenches[keep], rows[keep]
+        if len(t) < MIN_SAMPLES:
+            raise BadInputError(
+                entry.source or entry.path, f"only {len(t)} samples in its time window (at least {MIN_SAMPLES})"
+            )
     steps = options.preprocess
     bounds = checks.extremes(wrenches)
     spiky = checks.spike_rows(wrenches, bounds)
