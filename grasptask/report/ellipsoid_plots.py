@@ -13,7 +13,7 @@ import pandas as pd
 
 from grasptask.errors import BadInputError
 from grasptask.report.style import apply_style, save_figure, task_colour
-from grasptask.task.ellipsoid import FORCE, TORQUE, principal_axes
+from grasptask.task.ellipsoid import FORCE, TORQUE, semi_axes
 from grasptask.task.fit import ellipsoid_matrices, entry_tool, load_wrenches
 from grasptask.task.manifest import read_manifest
 from grasptask.task.units import PAPER_TORQUE_UNIT, TORQUE_UNITS
@@ -53,13 +53,6 @@ def _ellipse(block2: np.ndarray, n: int = 100) -> np.ndarray:
     return (vectors @ (np.sqrt(np.clip(values, 0, None))[:, None] * circle)).T
 
 
-def _semi_axes(block3: np.ndarray) -> np.ndarray:
-    """The three semi-axes of a 3D ellipsoid as the rows of a matrix, the longest first, each signed as the
-    task model's axes are."""
-    lengths, axes = principal_axes(block3)
-    return (axes * lengths).T
-
-
 def plot_task_ellipsoids(
     task: str,
     ellipsoids: pd.DataFrame,
@@ -79,7 +72,7 @@ def plot_task_ellipsoids(
         if samples:
             points = np.vstack([samples[i] for i in ellipsoids["id"] if i in samples])[:, block] * factor
         model_block = model_matrix[block, block] * scale2
-        model_axes = _semi_axes(model_block)
+        model_axes = semi_axes(model_block)
         for col, (i, j) in enumerate(PLANES):
             ax = axes[row, col]
             if points is not None:
@@ -88,7 +81,7 @@ def plot_task_ellipsoids(
                 block3 = matrix[block, block] * scale2
                 outline = _ellipse(block3[np.ix_([i, j], [i, j])])
                 ax.plot(*outline.T, color=colour, lw=0.6, alpha=0.45, label="trial ellipsoids" if k == 0 else None)
-                axis = _semi_axes(block3)[0]
+                axis = semi_axes(block3)[0]
                 ax.plot([-axis[i], axis[i]], [-axis[j], axis[j]], color=MAIN_AXIS, lw=0.6, alpha=0.6,
                         label="trial main axes" if k == 0 else None)  # fmt: skip
             outline = _ellipse(model_block[np.ix_([i, j], [i, j])])

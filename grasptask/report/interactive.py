@@ -15,7 +15,7 @@ from plotly.io.json import to_json_plotly
 from plotly.subplots import make_subplots
 
 from grasptask.exports.scene_meshes import CONTACT_COLOUR, OBJECT_COLOUR, PALM_COLOUR, GraspScene, icosphere_copies
-from grasptask.task.ellipsoid import FORCE, TORQUE, principal_axes
+from grasptask.task.ellipsoid import FORCE, TORQUE, semi_axes
 from grasptask.task.units import PAPER_TORQUE_UNIT, TORQUE_UNITS
 from grasptask.verifier.mechanics import friction_cone_edges
 from grasptask.verifier.verification import Verification
@@ -182,8 +182,7 @@ def ellipsoid_view(task: str, model: np.ndarray, recordings: list[np.ndarray], c
         trials = ellipsoid_mesh([m[block, block] * scale for m in recordings], subdivisions=1)
         cameras["scene" if col == 1 else "scene2"] = fitted_camera(trials.vertices, SUBPLOT_EYE_SCALE)
         model_block = model[block, block] * scale
-        lengths, directions = principal_axes(model_block)
-        semi = (directions * lengths).T  # the model's semi-axes, longest first
+        semi = semi_axes(model_block)  # the model's, longest first
         tips = go.Cone(x=semi[:, 0], y=semi[:, 1], z=semi[:, 2], u=semi[:, 0], v=semi[:, 1], w=semi[:, 2],
                        sizemode="absolute", sizeref=0.15 * float(np.linalg.norm(semi[0])), anchor="tip",
                        colorscale=[[0, "black"], [1, "black"]], showscale=False, hoverinfo="skip",

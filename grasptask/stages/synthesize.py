@@ -312,11 +312,10 @@ def _check_resume(folder: Path, prepared: _Prepared, done: LogContents, definiti
         )
 
 
-def _check_fresh(folder: Path, done: LogContents, staged: bool) -> None:
-    """A run without --resume replaces a finished sweep's log, but never an unfinished one's rows (nor those of
-    an unfinished rerun, staged beside a finished sweep)."""
-    rerun = read_log(_staged(folder, LOG_FILE))
-    if staged and rerun.rows:
+def _check_fresh(folder: Path, done: LogContents, rerun: LogContents | None) -> None:
+    """A run without --resume replaces a finished sweep's log (``done``), but never an unfinished one's rows, nor
+    those of an unfinished rerun staged beside a finished sweep (``rerun``)."""
+    if rerun is not None and rerun.rows:
         raise BadInputError(
             folder,
             f"holds an unfinished rerun ({len(rerun.rows)} starts done, in {_staged(folder, LOG_FILE).name}) beside "
@@ -381,7 +380,7 @@ def _go_on_from(options: SynthesisOptions, prepared: _Prepared, done: LogContent
         _check_resume(folder, prepared, done, _staged(folder, DEFINITION_FILE) if staged else folder / DEFINITION_FILE)
         rows.extend(done.rows)
     else:
-        _check_fresh(folder, read_log(folder / LOG_FILE), staged)
+        _check_fresh(folder, read_log(folder / LOG_FILE) if staged else done, done if staged else None)
 
 
 def _take_place(folder: Path, prepared: _Prepared) -> None:

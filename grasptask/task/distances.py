@@ -128,23 +128,22 @@ class Distances:
         )
 
 
-def task_model_distances(ellipsoids: pd.DataFrame, torque_factor: float = 1.0) -> pd.DataFrame:
-    """The Log-Euclidean distances between the task models (each task's mean ellipsoid), tasks by tasks;
-    ``torque_factor`` rescales the torques first (100: torques in N.cm), to show what the unit weighs."""
-    models = mean_models(ellipsoids, "task")
-    scale = np.diag([1.0, 1.0, 1.0, torque_factor, torque_factor, torque_factor])
-    matrices = np.stack([scale @ m.ellipsoid.S @ scale for m in models.values()])
-    return pd.DataFrame(distance_matrix(matrices), index=list(models), columns=list(models))
+def torque_scaled(matrices: np.ndarray, factor: float) -> np.ndarray:
+    """``D S D`` for each ``S``, ``D = diag(1, 1, 1, f, f, f)``: the ellipsoids with torques in another unit
+    (``factor`` 100: N.cm)."""
+    scale = np.array([1.0, 1.0, 1.0, factor, factor, factor])
+    return matrices * scale[:, None] * scale[None, :]
 
 
 def task_comparison(ellipsoids: pd.DataFrame, largest: float) -> dict:
-    """Which task is like which: the task models' distances (raw, and normalised by ``largest``, the largest
-    distance between two recordings), each task's nearest, and how force and torque are weighed (SI units:
-    each task's RMS torque over its RMS force, the share of eq. 12's weights its torque axes hold, and how much
-    the task distances change with torques in N.cm)."""
-    table = task_model_distances(ellipsoids)
-    names = list(table.index)
-    raw = table.to_numpy()
+    """Which task is like which: the Log-Euclidean distances between the task models (each task's mean
+    ellipsoid; raw, and normalised by ``largest``, the largest distance between two recordings), each task's
+    nearest, and how force and torque are weighed (SI units: each task's RMS torque over its RMS force, the share
+    of eq. 12's weights its torque axes hold, and how much the task distances change with torques in N.cm)."""
+    models = mean_models(ellipsoids, "task")
+    names = list(models)
+    matrices = np.stack([m.ellipsoid.S for m in models.values()])
+    raw = distance_matrix(matrices)
     nearest = {}
     if len(names) > 1:
         masked = raw + np.diag(np.full(len(names), np.inf))
@@ -155,10 +154,9 @@ def task_comparison(ellipsoids: pd.DataFrame, largest: float) -> dict:
                 "distance": float(raw[k, other]),
                 "distance_normalised": float(raw[k, other] / largest) if largest > 0 else 0.0,
             }
-    in_cm = task_model_distances(ellipsoids, 100.0).to_numpy()
+    in_cm = distance_matrix(torque_scaled(matrices, 100.0))
     off = ~np.eye(len(names), dtype=bool)
     change = float(np.max(np.abs(in_cm[off] / raw[off] - 1.0))) if off.any() and (raw[off] > 0).all() else 0.0
-    models = mean_models(ellipsoids, "task")
     return {
         "names": names,
         "distances": raw.tolist(),

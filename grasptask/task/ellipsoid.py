@@ -42,6 +42,13 @@ def principal_axes(matrix: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.sqrt(np.clip(values, 0.0, None)), vectors
 
 
+def semi_axes(matrix: np.ndarray) -> np.ndarray:
+    """The ellipsoid's semi-axes ``gamma_i u_i`` as the rows of a matrix, the longest first, signed as
+    :func:`principal_axes` signs them."""
+    lengths, axes = principal_axes(matrix)
+    return (axes * lengths).T
+
+
 def is_singular(matrix: np.ndarray) -> bool:
     values = np.linalg.eigvalsh(matrix)
     return bool(values[-1] <= 0 or values[0] <= SINGULAR_RATIO * values[-1])

@@ -50,9 +50,9 @@ def _flatten(name: str, value: Any, into: dict[str, Any]) -> None:
         for field, inner in value.items():
             _flatten(f"{name}.{field}", inner, into)
     elif isinstance(value, np.ndarray) and (value.dtype.kind in "fiub"):
-        into[name] = value if value.ndim >= 2 else value.reshape(1, -1) if value.ndim == 1 else value.reshape(1, 1)
+        into[name] = np.atleast_2d(value)  # loadmat squeezed a vector to 1D and a scalar to 0D: MATLAB's 1 x n
     elif isinstance(value, (int, float, bool, np.number)) and not isinstance(value, complex):
-        into[name] = np.array([[value]], dtype=float)
+        into[name] = np.atleast_2d(np.asarray(value, dtype=float))
     else:
         into[name] = "char" if isinstance(value, str) else "cell" if isinstance(value, (list, np.ndarray)) else "other"
 
@@ -69,8 +69,7 @@ def _hdf5_variables(path: Path) -> dict[str, Any]:
                 if kind in ("char", "cell", "string") or item.dtype.kind not in "fiub":
                     variables[name] = kind or "other"
                 else:  # HDF5 keeps MATLAB's column-major arrays with their dimensions reversed
-                    data = np.asarray(item[()])
-                    variables[name] = data.T if data.ndim >= 2 else data.reshape(1, -1)
+                    variables[name] = np.atleast_2d(np.asarray(item[()]).T)
     except OSError as exc:
         raise BadInputError(path, f"not a readable MAT-file (v7.3, HDF5: {exc})") from None
     return variables

@@ -77,7 +77,9 @@ def read_recording(path: str | Path, layout: Layout = Layout()) -> np.ndarray:
         wanted = _check_columns(path, file_columns, rename, layout)
         names = [rename.get(c, c) for c in wanted]
         table = _read_table(path, suffix, wanted, file_columns)
-        data = _to_float(path, table, wanted, names, layout.rate_hz)
+        data = _to_float(path, table, wanted, names)
+    if layout.rate_hz:  # the readers left the time column for the rate to fill
+        data[:, 0] = np.arange(len(data)) / layout.rate_hz
     check_values(path, data)
     return data
 
@@ -100,8 +102,7 @@ def _read_mat(path: Path, layout: Layout) -> np.ndarray:
         "4, 5, 6], time: 7}, or rate_hz) or in the manifest's variable column"
     )
     found = matlab.channels(path, variables, references, layout.samples, hint)
-    n = len(next(iter(found.values())))
-    time = found["t"] if "t" in found else np.arange(n) / float(layout.rate_hz or 1.0)
+    time = found.get("t", np.zeros(len(found["fx"])))
     return np.column_stack([time, *(found[name] for name in _WRENCH)])
 
 
@@ -206,16 +207,15 @@ def _locate_non_numeric(path: Path, wanted: list[str]) -> None:
             raise BadInputError(path, f"non-numeric value {frame[column].iloc[row]!r}", row=row + 1, column=column)
 
 
-def _to_float(
-    path: Path, table: pa.Table, wanted: list[str], names: list[str], rate_hz: float | None = None
-) -> np.ndarray:
+def _to_float(path: Path, table: pa.Table, wanted: list[str], names: list[str]) -> np.ndarray:
+    """The table's canonical columns as ``(n, 7)`` floats; a time column it does not have is left as zeros."""
     if table.num_rows == 0:
         raise BadInputError(path, f"no samples (at least {MIN_SAMPLES} are needed)")
     order = {name: file_name for file_name, name in zip(wanted, names, strict=True)}
     # column-major, so that each column is copied in one contiguous run
     data = np.empty((table.num_rows, len(CANONICAL_COLUMNS)), order="F")
-    if rate_hz:
-        data[:, 0] = np.arange(table.num_rows) / rate_hz
+    if "t" not in order:
+        data[:, 0] = 0.0
     for k, name in enumerate(CANONICAL_COLUMNS):
         if name not in order:
             continue
