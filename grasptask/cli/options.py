@@ -171,6 +171,15 @@ _SYNTHESIS = [
     ),
     click.option("--scheduler", default=None, help="Dask scheduler address, e.g. tcp://10.0.0.5:8786."),
     click.option(
+        "--route",
+        type=click.Choice(["paper", "search"]),
+        default="paper",
+        show_default=True,
+        help="paper: every start solved to its end by the Section 6 NLP (the paper's route); search: the geometry "
+        "searched with the force problem as its objective, end points grouped into basins, one per basin polished "
+        "by the same NLP (docs/guide/search.md).",
+    ),
+    click.option(
         "--solver",
         "backend",
         type=click.Choice(["casadi", "cyipopt"]),

@@ -39,8 +39,17 @@ def synthesis_line(task: str, run: dict) -> str:
     """The sweep's summary line: verified starts, distinct optima, the best Q, time per start, statuses, what the
     user waited for and where the object's task frame is."""
     seconds = run["seconds_per_start"]
+    route = run.get("route")
+    if route:
+        verified = (
+            f"{route['polished']} of {run['starts']} starts polished ({route['basins']} basins, "
+            f"{route['polished_verified']} verified, {route['same_basin']} joined a basin, "
+            f"{route['search_failed']} searches failed), "
+        )
+    else:
+        verified = f"{run['verified']}/{run['starts']} starts verified ({run['verified_on_retry']} on a retry), "
     return (
-        f"{task}: {run['verified']}/{run['starts']} starts verified ({run['verified_on_retry']} on a retry), "
+        f"{task}: {verified}"
         f"{run['distinct_optima']} distinct optima, "
         f"best Q {number(run['best_Q'])}{verifier_said(run)}; {seconds['median']:.2f} s per start (median), "
         f"statuses {', '.join(f'{k} {v}' for k, v in run['status_counts'].items() if v)}"

@@ -19,8 +19,9 @@ import numpy as np
 
 from grasptask.grasp.grasp_pose import Grasp
 
-#: how a start ends: IPOPT's outcomes, then the sweep's own (a solver error, a worker that died or hung)
-STATUSES = ("optimal", "acceptable", "infeasible", "max-iter", "time-limit", "error", "crashed", "hung")
+#: how a start ends: IPOPT's outcomes, then the sweep's own (a solver error, a worker that died or hung), then the
+#: search route's start whose end point joined a basin another start's polish stands for
+STATUSES = ("optimal", "acceptable", "infeasible", "max-iter", "time-limit", "error", "crashed", "hung", "same-basin")
 AXES = "xyz"
 
 Row = Mapping[str, Any]

@@ -63,6 +63,7 @@ from grasptask.task.task_model import TaskModel, load_task_model
 
 EXECUTORS = ("pool", "serial", "dask")
 BACKENDS = ("casadi", "cyipopt")
+ROUTES = ("paper", "search")
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -83,6 +84,8 @@ class SynthesisOptions(BareObjectFacts):
     executor: str = "pool"
     scheduler: str | None = None
     backend: str = "casadi"
+    #: paper: every start solved to its end by the Section 6 NLP; search: search, basins, then polish
+    route: str = "paper"
     resume: bool = False
     #: the grasping fingers; None: the hand file's choice (the human hand's thumb, index and middle)
     fingers: tuple[str, ...] | None = None
@@ -98,6 +101,8 @@ class SynthesisOptions(BareObjectFacts):
         )
         if self.executor not in EXECUTORS:
             raise BadInputError("synthesize", f"unknown executor '{self.executor}' (known: {', '.join(EXECUTORS)})")
+        if self.route not in ROUTES:
+            raise BadInputError("synthesize", f"unknown route '{self.route}' (known: {', '.join(ROUTES)})")
         if self.backend not in BACKENDS:
             raise BadInputError("synthesize", f"unknown solver '{self.backend}' (known: {', '.join(BACKENDS)})")
         if not 1 <= self.workers <= MAX_WORKERS:
@@ -251,6 +256,8 @@ def _prepare(options: SynthesisOptions) -> _Prepared:
     }
     if options.physics is not None:  # a sweep with the physics check is another run than one without
         definition["physics config"] = path_hash(options.physics)
+    if options.route != "paper":  # the paper route's definition is as it always was: its sweeps still resume
+        definition["route"] = options.route
     library = _library(options, definition, model, hand)
     # the workers get the hand, the object and the task model as loaded here, by value; a mesh's or cloud's
     # signed-distance grid (3.3 s for a YCB mug) is made here once, not once in every worker
@@ -420,7 +427,8 @@ def _run_locked(
             _begin(folder, prepared, log, options.resume, done, rows, echo)
             if todo:  # a resumed sweep may have nothing left to solve
                 try:
-                    _solve(executor, todo, rows, log, options.task, len(prepared.starts), wall_start)
+                    solve = _solve if options.route == "paper" else _solve_by_search
+                    solve(executor, todo, rows, log, options.task, len(prepared.starts), wall_start, prepared)
                 except BadInputError:
                     if staged and not options.resume and not read_log(log).rows:  # nothing of it to resume
                         _discard_rerun(folder, prepared)
@@ -527,6 +535,7 @@ def _solve(
     task: str,
     total: int,
     began: float,
+    prepared: _Prepared,
 ) -> None:
     """Run the executor over ``todo``, appending each row to the log (and ``rows``), with progress. Each row
     records when it came in, in seconds from ``began`` (``found_after_s``): what a user waited for it."""
@@ -548,6 +557,43 @@ def _solve(
             executor.run(todo, on_result)
         finally:
             writer.close()
+
+
+def _solve_by_search(
+    executor: Any,
+    todo: list,
+    rows: list[dict],
+    log: Path,
+    task: str,
+    total: int,
+    began: float,
+    prepared: _Prepared,
+) -> None:
+    """The search route over ``todo`` (:class:`~grasptask.synthesis.rounds.Route`), each round's rows appended
+    to the log (and ``rows``) as the round ends; a resumed sweep's basins read back from its rows."""
+    from grasptask.synthesis.rounds import Route, known_basins
+
+    solver = prepared.job.solver
+    route = Route(
+        executor,
+        prepared.job.hand.grasping_hand().joint_names,
+        prepared.fingers,
+        prepared.symmetry,
+        solver.search_round,
+        solver.polish_per_basin,
+        known_basins(rows),
+    )
+    writer = LogWriter(log)
+
+    def on_row(row: dict) -> None:
+        row["found_after_s"] = time.perf_counter() - began
+        writer.append(row)
+        rows.append(row)
+
+    try:
+        route.run(todo, on_row)
+    finally:
+        writer.close()
 
 
 def summarise(
@@ -656,6 +702,24 @@ def _run_outcome(solutions: pd.DataFrame, optima: pd.DataFrame, task: str, log_r
         # the verifier's own Q of that optimum, which the report shows: the two differ where the NLP's contact
         # model is not the verifier's (a fitted pad sphere against the fingertip's mesh)
         "best_Q_verifier": _verifier_q_of_best(optima),
+        # the search route's starts: polished, joined a basin without a polish, or a search that failed
+        "route": _route_outcome(solutions),
+    }
+
+
+def _route_outcome(solutions: pd.DataFrame) -> dict | None:
+    """What became of the search route's starts (None: the paper's route)."""
+    if "outcome" not in solutions:
+        return None
+    outcome = solutions["outcome"].fillna("search-failed")
+    polished = solutions[outcome == "polished"]
+    return {
+        "name": "search",
+        "polished": int(len(polished)),
+        "polished_verified": int(polished["verified"].sum()),
+        "same_basin": int((outcome == "same-basin").sum()),
+        "search_failed": int((outcome == "search-failed").sum()),
+        "basins": int(solutions["basin"].nunique()) if "basin" in solutions else 0,
     }
 
 

@@ -8,6 +8,7 @@ from __future__ import annotations
 import time
 import traceback
 from dataclasses import dataclass, field, replace
+from functools import cached_property
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -30,6 +31,13 @@ from grasptask.task.task_model import TaskModel, load_task_models
 
 if TYPE_CHECKING:  # the solver stack loads in the workers, not where a Job is made
     from grasptask.synthesis.backends import SolveResult
+    from grasptask.synthesis.force_problem import ForceProblem, ForceSolution
+    from grasptask.synthesis.polish import Polish
+    from grasptask.synthesis.search import SearchEnd, SearchTask
+    from grasptask.synthesis.solvers import Solver
+
+#: IPOPT's outcomes from which a search's end point is grouped and polished
+CONVERGED = ("optimal", "acceptable")
 
 
 @dataclass(frozen=True)
@@ -99,6 +107,87 @@ class SolverContext:
         self.bounds = self.obj.bounds()
         self.anchors = Anchors(self.bounds, self.nlp.surrogate.grid if self.nlp.surrogate is not None else None)
         self.approach = self.hand.approach
+        #: the force problem's solution and eq. 4's weights a polish's first attempt starts from (None: defaults)
+        self._warm_forces: tuple[ForceSolution, np.ndarray | None] | None = None
+
+    @cached_property
+    def search_model(self) -> Solver:
+        """The search's model (route search), built on first use: the paper's route never needs it."""
+        from grasptask.synthesis.search import build_search
+
+        job = self.job
+        return build_search(self.hand, self.obj, self.task, self.settings, job.solver, job.backend)
+
+    @cached_property
+    def force_problem(self) -> ForceProblem:
+        from grasptask.synthesis.force_problem import ForceProblem
+
+        hand, solver = self.nlp.hand, self.job.solver
+        joints = tuple(f.n_joints for f in hand.fingers.values())
+        return ForceProblem(
+            hand.capability,
+            joints,
+            self.task,
+            self.settings,
+            solver.force_slack_weight,
+            solver.search_bounds,
+            solver.regularisation,
+        )
+
+    def _facing(self, start: Start) -> Start:
+        """A start from afar with its palm normal turned to the hand's approach direction (warm starts are not)."""
+        if self.approach is not None and start.joints is None:
+            return replace(start, palm_rotation=start.palm_rotation @ self.approach.T)
+        return start
+
+    def search(self, task: SearchTask) -> SearchEnd:
+        """The search from a start: placed in each posture in turn (the solver config's first, then its retry
+        postures) until IPOPT converges; the force problem at the end point."""
+        from grasptask.synthesis.placement import place
+        from grasptask.synthesis.search import SearchEnd, end_point
+
+        search, start = self.search_model, self._facing(task.start)
+        seconds, iterations, attempt = 0.0, 0, 0
+        for fraction in self.job.solver.postures:
+            attempt += 1
+            began = time.perf_counter()
+            joints = self.nlp.hand.posture(fraction)
+            if self.job.solver.placement:
+                place(search.nlp, start, self.anchors, joints)
+            else:
+                search.nlp.initialise(start.palm_rotation, start.palm_position, joints)
+            result = search.solve(values(search.order))
+            seconds, iterations = seconds + time.perf_counter() - began, iterations + result.iterations
+            if result.status in CONVERGED and result.x is not None:
+                break
+        if result.status not in CONVERGED or result.x is None:
+            return SearchEnd(task.start_id, result.status, iterations, seconds, attempt, result.message)
+        began = time.perf_counter()
+        grasp = end_point(search, result.x)
+        self.nlp.initialise(grasp.palm_rotation, grasp.palm_position, grasp.joint_angles)
+        forces = self.force_problem.solve(self.nlp.geometry())
+        seconds += time.perf_counter() - began
+        return SearchEnd(task.start_id, result.status, iterations, seconds, attempt, result.message, grasp, forces)
+
+    def polish(self, task: Polish) -> dict:
+        """A basin's end point solved by the paper's NLP from it, forces and all (:mod:`.polish`)."""
+        end = task.end
+        self._warm_forces = (end.forces, end.grasp.phi) if end.forces is not None and end.grasp is not None else None
+        try:
+            return self.solve(task.warm_start())
+        finally:
+            self._warm_forces = None
+
+    def run(self, task: Start | SearchTask | Polish) -> dict | SearchEnd:
+        """A worker's job: a start of the paper's route, a search, or a polish."""
+        from grasptask.synthesis.polish import Polish
+        from grasptask.synthesis.search import SearchTask
+
+        if isinstance(task, SearchTask):
+            return self.search(task)
+        if isinstance(task, Polish):
+            return self.polish(task)
+        return self.solve(task)
 
     def solve(self, start: Start) -> dict:
         """One start: solved from the solver config's first posture (mid-range joints are Section 7.3's) and,
@@ -106,8 +195,7 @@ class SolverContext:
         attempt's; its seconds, iterations, placement seconds and feedback rounds are those of every attempt
         together, and ``first_attempt_*`` say how the first did."""
         warm = start.joints is not None  # an optimum's palm turned with the hand already
-        if self.approach is not None and not warm:  # the start's palm normal is the hand's approach direction
-            start = replace(start, palm_rotation=start.palm_rotation @ self.approach.T)
+        start = self._facing(start)
         postures = [self.nlp.hand.posture(f) for f in self.job.solver.postures]
         if start.joints is not None:  # a warm start's first attempt is its own grasp, then the retries as any
             postures[0] = np.asarray(start.joints, dtype=float)
@@ -134,6 +222,8 @@ class SolverContext:
         began = time.perf_counter()
         if as_it_is:
             self.nlp.initialise(start.palm_rotation, start.palm_position, joints)
+            if self._warm_forces is not None:  # a polish: the force problem's forces at this geometry
+                self.nlp.set_forces(*self._warm_forces)
             row["placement_seconds"] = seconds = time.perf_counter() - began
             return values(models.first.order), seconds, 0
         if self.job.solver.placement:
@@ -211,15 +301,16 @@ def _solved_but(result: SolveResult, judged: tuple | None, failure: str | None =
     return failure is None or failure in judged[1].failures
 
 
-def failed_row(start: Start, status: str, seconds: float, message: str) -> dict:
+def failed_row(start: Any, status: str, seconds: float, message: str) -> dict:
     return schema.failed_row(start.start_id, start.orientation, start.position_name, status, seconds, message)
 
 
-def solve_guarded(context: SolverContext, start: Start) -> dict:
-    """``context.solve(start)``, with any exception a recorded ``error`` row: never a crashed sweep."""
+def solve_guarded(context: SolverContext, start: Any) -> Any:
+    """``context.run(start)`` (a start, a search or a polish), with any exception a recorded ``error`` row:
+    never a crashed sweep."""
     began = time.perf_counter()
     try:
-        return context.solve(start)
+        return context.run(start)
     except Exception as exc:  # noqa: BLE001 - a failed start is a recorded status, never a crashed sweep
         return failed_row(start, "error", time.perf_counter() - began, f"{type(exc).__name__}: {exc}"[:300])
 

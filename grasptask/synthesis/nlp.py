@@ -12,13 +12,17 @@ family of variables and constraints, in this order, and the component names carr
                                         the cone tangent along the pad's own tangent (App. 10.3); pads facing it;
                                         a rolling contact one offset from its sphere's centre along the normal
     cones_and_wrenches       eq. 24, 5  friction cone edges and the torque parts of the primitive wrenches
-    jacobians                eq. 7      finger Jacobian columns and the joint torques of each unit cone edge
+    jacobians                eq. 7      finger Jacobian columns
+    edge_torques             eq. 7      the joint torques of each unit cone edge (for eq. 10)
     force_closure            eq. 4      phi >= eps, sum phi = 1, sum phi w = 0
     task_forces_and_quality  eq. 8, 12  G f_i = u_i and Q = sum_i gamma_i tau_i^T tau_i, tau_i = J^T f_i (eq. 13)
     torque_feasibility       eq. 1, 10  every +-gamma_i u_i applied with cone forces, the joint torques carried by
                                         the finger's tendons or motors with activations in [0, cap] (for the
                                         task's longest axes only when asked: :func:`build_model`)
     objective                eq. 12     Q plus the small terms of :class:`Regularisation`
+
+:data:`SEARCH_EQUATIONS` is the search's model (SPEC section 12): the same geometry without eq. 8, 10 and 12,
+whose forces the force problem (:mod:`grasptask.synthesis.force_problem`) holds.
 
 Every quantity that several constraints share (frames, contacts, normals, cone edges, wrenches, Jacobians, edge
 torques) is a variable defined once by an equality, so that eq. 4, 10 and 12 are bilinear in them and the
@@ -41,6 +45,7 @@ from grasptask.hand.hand_model import Finger, GraspingHand, Hand, Pad, Sphere
 from grasptask.objects.surface import ImplicitObject
 from grasptask.synthesis.algebra import XYZ, axis_rotation, constant_times, cross, cross_matrix, dot
 from grasptask.synthesis.compiled import CompiledExpressions
+from grasptask.synthesis.force_problem import ForceSolution, GraspGeometry
 from grasptask.synthesis.solver_config import Regularisation, SearchBounds
 from grasptask.synthesis.spline import SurrogateSpec
 from grasptask.synthesis.surfaces import GridSurface, NLPSurface, surface_for
@@ -343,8 +348,7 @@ def cones_and_wrenches(nlp: NLPBuilder) -> None:
 
 
 def jacobians(nlp: NLPBuilder) -> None:
-    """Eq. 7: the finger Jacobians J^j, columns a_k x (p^j - P_k), and the joint torques J^j^T l_i^j of a unit
-    force along each cone edge, of which eq. 10's torques are linear combinations."""
+    """Eq. 7: the finger Jacobians J^j, columns a_k x (p^j - P_k)."""
     m, fingers, p = nlp.model, nlp.fingers, nlp.contacts
     joints = [(j, k) for j in range(nlp.b) for k in range(fingers[j].n_joints)]
     m.J = pyo.Var(joints, XYZ, doc="finger Jacobian columns a_k x (p^j - P_k) (eq. 7)")
@@ -353,6 +357,12 @@ def jacobians(nlp: NLPBuilder) -> None:
         column = cross(nlp.joint_axes[j][k], [p[j][i] - nlp.joint_positions[j][k][i] for i in XYZ])
         for i in XYZ:
             nlp.define(m.eq7_jacobian, m.J[j, k, i], column[i])
+
+
+def edge_torques(nlp: NLPBuilder) -> None:
+    """Eq. 7: the joint torques J^j^T l_i^j of a unit force along each cone edge, of which eq. 10's torques are
+    linear combinations."""
+    m, fingers = nlp.model, nlp.fingers
     m.edge_torque = pyo.Var(
         [(j, e, k) for j, e in nlp.cells for k in range(fingers[j].n_joints)], doc="J^j^T l_i^j (eq. 1, 7)"
     )
@@ -460,10 +470,33 @@ EQUATIONS: tuple[Callable[[NLPBuilder], None], ...] = (
     contacts_and_collisions,
     cones_and_wrenches,
     jacobians,
+    edge_torques,
     force_closure,
     task_forces_and_quality,
     torque_feasibility,
     objective,
+)
+
+
+def search_objective(nlp: NLPBuilder) -> None:
+    """The search's Pyomo objective: only eq. 4's regularising term. The force problem's value, the search's
+    objective proper, is added where the model is imported into CasADi (:mod:`grasptask.synthesis.search`),
+    a closed form Pyomo cannot write."""
+    m, weight = nlp.model, nlp.regularisation.closure_weight
+    m.eq12_objective = pyo.Objective(expr=weight * sum((v - 1.0 / len(m.phi)) ** 2 for v in m.phi.values()))
+
+
+#: the search's equation families (SPEC section 12): the geometry alone, eqs. 2-5, 7, 14 and 16-23, without the
+#: task forces (eq. 8, 12) and eq. 10, whose rows the force problem holds
+SEARCH_EQUATIONS: tuple[Callable[[NLPBuilder], None], ...] = (
+    palm_and_joints,
+    held_axis_rotation,
+    kinematics,
+    contacts_and_collisions,
+    cones_and_wrenches,
+    jacobians,
+    force_closure,
+    search_objective,
 )
 
 
@@ -521,8 +554,9 @@ class GraspNLP:
         column = {id(v): k for k, v in enumerate(variables)}
         row = {id(c): k for k, c in enumerate(constraints)}
         m = self.model
+        activations = m.act.values() if m.component("act") is not None else []  # none in the search's model
         return (
-            np.array([column[id(v)] for v in m.act.values()], dtype=int),
+            np.array([column[id(v)] for v in activations], dtype=int),
             np.array([row[id(m.pad_facing[j])] for j in m.pad_facing], dtype=int),
         )
 
@@ -557,12 +591,28 @@ class GraspNLP:
         m = self.model
         for var in m.phi.values():
             var.set_value(1.0 / len(m.phi))
+        if m.component("force") is None:  # the search's model has no forces
+            return
         for var in m.force.values():
             var.set_value(0.0)
         for var in m.lam.values():
             var.set_value(0.1)
         for var in m.act.values():
             var.set_value(0.2)
+
+    def set_forces(self, forces: ForceSolution, phi: np.ndarray | None = None) -> None:
+        """The task forces, eq. 10's cone-edge forces and activations at the force problem's solution for this
+        geometry, and the force-closure weights at ``phi`` (cell order): a polish's warm start."""
+        m = self.model
+        if phi is not None:
+            for var, value in zip(m.phi.values(), phi, strict=True):
+                var.set_value(float(value), skip_validation=True)  # IPOPT's point may sit a hair past a bound
+        for (a, j, i), var in m.force.items():
+            var.set_value(float(forces.forces[a, j, i]), skip_validation=True)
+        for (a, s, j, e), var in m.lam.items():
+            var.set_value(float(forces.edge_forces[a, s, j, e]), skip_validation=True)
+        for (a, s, q), var in m.act.items():
+            var.set_value(float(forces.activations[a, s, q]), skip_validation=True)
 
     def min_clearance(self, palm_position: np.ndarray | None = None) -> float:
         """The smallest eq. 14 margin (negative: a hand point is inside the object) at the current palm pose and
@@ -572,6 +622,25 @@ class GraspNLP:
             for i in XYZ:
                 self.model.d_h[i].set_value(float(palm_position[i]))
         return float(self._compiled.extra(self._compiled.input_values()).min())
+
+    def geometry(self) -> GraspGeometry:
+        """The contacts, cone edges and Jacobians at the current values: what the force problem holds fixed."""
+        m, fingers = self.model, list(self.hand.fingers.values())
+        b, edges = len(fingers), 1 + max(e for _, e, _ in m.l.index_set())
+        return GraspGeometry(
+            np.array([[pyo.value(m.p[j, i]) for i in XYZ] for j in range(b)]),
+            np.array([[[pyo.value(m.l[j, e, i]) for i in XYZ] for e in range(edges)] for j in range(b)]),
+            tuple(
+                np.array([[pyo.value(m.J[j, k, i]) for i in XYZ] for k in range(f.n_joints)])
+                for j, f in enumerate(fingers)
+            ),
+        )
+
+    def columns(self, variables: list, names: tuple[str, ...] = ("p", "J")) -> dict[str, dict]:
+        """Where each of the components ``names`` has its variables in ``variables`` (the NL file's order), by
+        index: for the search's closed-form objective."""
+        column = {id(v): k for k, v in enumerate(variables)}
+        return {name: {i: column[id(v)] for i, v in self.model.component(name).items()} for name in names}
 
     def read(self) -> dict[str, Any]:
         """The current variable values as arrays: palm pose, joints, contacts and outward normals, and Q."""
@@ -583,7 +652,7 @@ class GraspNLP:
             "joint_angles": np.array([pyo.value(m.theta[k]) for k in m.theta]),
             "contacts": np.array([[pyo.value(m.p[j, i]) for i in XYZ] for j in range(b)]),
             "normals": -np.array([[pyo.value(m.n[j, i]) for i in XYZ] for j in range(b)]),
-            "Q": pyo.value(m.eq12_Q),
+            "Q": pyo.value(m.eq12_Q) if m.component("eq12_Q") is not None else float("nan"),
         }
 
 
@@ -596,6 +665,7 @@ def build_model(
     regularisation: Regularisation = Regularisation(),
     torque_axes: int | None = None,
     held_axis: tuple[np.ndarray, np.ndarray] | None = None,
+    equations: tuple[Callable[[NLPBuilder], None], ...] = EQUATIONS,
 ) -> GraspNLP:
     """The NLP for ``hand``'s grasping fingers on ``obj`` for ``task``: :data:`EQUATIONS` in order, its forces
     searched within ``bounds``, its objective eq. 12 plus the small terms of ``regularisation``.
@@ -606,7 +676,9 @@ def build_model(
     (:class:`~grasptask.synthesis.context.SolverContext`).
 
     ``held_axis``: the object's axis of revolution (direction, point) about which the grasp's turn is held at
-    each start's (:func:`held_axis_rotation`); None leaves it free, as the paper does."""
+    each start's (:func:`held_axis_rotation`); None leaves it free, as the paper does.
+
+    ``equations``: the families to build, :data:`EQUATIONS` (the paper's model) or :data:`SEARCH_EQUATIONS`."""
     grasping = hand.grasping_hand()
     n_axes = len(task.weights)
     builder = NLPBuilder(
@@ -622,7 +694,7 @@ def build_model(
         contact_offsets=grasping.contact_offsets(settings.rolling_contacts),
     )
     builder.surface.attach(builder.model, builder.definitions)
-    for equation in EQUATIONS:
+    for equation in equations:
         equation(builder)
     surrogate = builder.surface if isinstance(builder.surface, GridSurface) else None
     return GraspNLP(builder.model, grasping, builder.definitions, surrogate)

@@ -121,6 +121,16 @@ class SolverConfig:
     geometric_iterations: Iterations = 20
     #: that cap instead where the turn about the object's axis is held; null: the same cap
     held_geometric_iterations: Iterations | None = 30
+    #: rho, the weight of the force problem's penalised slacks (rho |s|^2 on G f = u_i, and on eq. 10's wrench
+    #: rows): large enough that a grasp that closes has s ~ 0 and Q the NLP's, finite where it cannot close
+    force_slack_weight: Positive = 1.0e7
+    #: the search's IPOPT iterations per attempt (route search)
+    search_iterations: Iterations = 500
+    #: route search: starts searched in rounds of this many, each round's basins polished before the next round;
+    #: the rows depend on it, not on the workers
+    search_round: Annotated[int, Strict(), Field(ge=1, le=1000)] = 42
+    #: route search: a basin's end points polished, best first, until one is verified
+    polish_per_basin: Annotated[int, Strict(), Field(ge=1, le=MAX_ROUNDS)] = 2
 
     @field_validator("ipopt", mode="before")
     @classmethod

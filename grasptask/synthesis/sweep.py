@@ -196,7 +196,8 @@ class PoolExecutor:
                 kind = None
             if kind == "failed":
                 raise BadInputError("synthesize", f"a solver worker could not build the model: {payload[0]}")
-            if kind == "ready":
+            if kind == "ready":  # a worker that built its model after start(): it serves later runs too
+                self.ready.append(worker_id)
                 assign(worker_id)
             elif kind == "done" and worker_id in holding:
                 holding.pop(worker_id)

@@ -1,0 +1,321 @@
+"""The force problem of a fixed grasp (SPEC section 12): with the contacts, cone edges and Jacobians held, eqs.
+6-13's forces and Q as one small convex QP per task axis, kept feasible by penalised slacks.
+
+For each unit task axis u_i, with weight gamma_i and length L_i:
+
+    min  gamma_i (f^T W f + rho |s|^2)  +  rho (|r+-|^2 + |t+-|^2)  +  e_l |lam|^2 + e_a |a|^2
+    s.t. G f - s = u_i                                        eq. 8 (W = blockdiag J^j J^j^T, so f^T W f = |J^T f|^2)
+         sum_e lam+-_e w_e - r+- = +-L_i u_i,  lam >= 0        eq. 6, 10: cone-edge forces apply the real wrench
+         T (J^T l) lam+- - t+- = A a+-,  0 <= a <= cap - margin  eq. 1, 10: the hand's strength, the shipped margin
+         each contact presses with the margin's least normal force
+
+Q is sum_i gamma_i |J^T f_i|^2 (eq. 12); ``value`` adds the slack penalties. The task forces' slack is weighed
+by the axis's own weight, so that the six axes' closed form shares one matrix (:func:`symbolic_quality`).
+Where the task forces can balance every axis (s = 0) Q is the Section 6 NLP's at the same geometry; where a
+grasp cannot close, the slacks keep the problem feasible and the value finite, falling as the contacts move
+toward closure. The task forces and
+eq. 10's cone forces share no variable, so the two parts of each QP are independent; they are one QP so that the
+polish gets every force of the NLP from one solve.
+
+:func:`symbolic_quality` is the eq. 8 part in closed form, a CasADi expression of the contacts and Jacobians,
+which the search (:mod:`grasptask.synthesis.search`) minimises with exact derivatives: its gradient is the
+envelope gradient that :meth:`ForceSolution.gradient` computes from the QP's solution and multipliers.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import cached_property
+from typing import Any
+
+import casadi
+import numpy as np
+
+from grasptask.grasp.grasp_settings import GraspSettings
+from grasptask.hand.hand_model import Capability
+from grasptask.synthesis.solver_config import Regularisation, SearchBounds
+from grasptask.task.task_model import TaskModel
+
+#: CasADi's conic plugin for the QPs, chosen by measurement (docs/design/synthesis.md)
+QP_SOLVER = "daqp"
+
+
+@dataclass(frozen=True)
+class GraspGeometry:
+    """What the force problem holds fixed, in the object frame: ``contacts`` (b, 3); ``edges`` (b, m, 3), the
+    friction cones' unit edges; ``jacobians``, per finger (n_j, 3), row k the Jacobian's column a_k x (p - P_k)."""
+
+    contacts: np.ndarray
+    edges: np.ndarray
+    jacobians: tuple[np.ndarray, ...]
+
+    @property
+    def b(self) -> int:
+        return len(self.contacts)
+
+    def grasp_matrix(self) -> np.ndarray:
+        """G (6 x 3b): a contact force's total force and its torque about the object frame's origin."""
+        blocks = [np.vstack([np.eye(3), _cross_matrix(p)]) for p in self.contacts]
+        return np.hstack(blocks)
+
+    def torque_weights(self) -> np.ndarray:
+        """W = blockdiag(J^j J^j^T), so that f^T W f = |J^T f|^2 (eq. 13 with M_tau = I)."""
+        n = 3 * self.b
+        W = np.zeros((n, n))
+        for j, J in enumerate(self.jacobians):
+            W[3 * j : 3 * j + 3, 3 * j : 3 * j + 3] = J.T @ J
+        return W
+
+    def edge_wrenches(self) -> np.ndarray:
+        """Primitive wrenches (6, b m): (l, p x l) per contact and edge (eq. 5)."""
+        pairs = zip(self.contacts, self.edges, strict=True)
+        columns = [np.concatenate([edge, np.cross(p, edge)]) for p, edges in pairs for edge in edges]
+        return np.array(columns).T
+
+    def edge_joint_torques(self) -> np.ndarray:
+        """(joints, b m): the joint torques J^T l of a unit force along each edge (eq. 7)."""
+        m = self.edges.shape[1]
+        sizes = [len(J) for J in self.jacobians]
+        out = np.zeros((sum(sizes), self.b * m))
+        row = 0
+        for j, J in enumerate(self.jacobians):
+            out[row : row + len(J), j * m : (j + 1) * m] = J @ self.edges[j].T
+            row += len(J)
+        return out
+
+
+@dataclass(frozen=True)
+class ForceSolution:
+    """The force problem's solution: Q (eq. 12 alone), ``value`` (Q plus the slack penalties), per axis the task
+    forces ``forces`` (6, b, 3) and slacks, eq. 10's cone-edge forces ``edge_forces`` (6, 2, b, m), activations
+    ``activations`` (6, 2, actuators) and residuals (wrench rows, then torque rows, per sign);
+    ``multipliers`` (6, 6) of G f - s = u_i, for the envelope gradient."""
+
+    Q: float
+    value: float
+    forces: np.ndarray
+    slacks: np.ndarray
+    edge_forces: np.ndarray
+    activations: np.ndarray
+    wrench_residuals: np.ndarray
+    multipliers: np.ndarray
+    weights: np.ndarray
+
+    @property
+    def closes(self) -> bool:
+        """Every axis balanced by the task forces, and every real task wrench applied within the hand's
+        strength, to 1e-5 (N, N m)."""
+        return max(float(np.abs(self.slacks).max()), float(np.abs(self.wrench_residuals).max())) <= 1e-5
+
+    def gradient(self, geometry: GraspGeometry) -> tuple[np.ndarray, tuple[np.ndarray, ...]]:
+        """dQ-part/d(contacts) (b, 3) and dQ-part/d(Jacobian rows), per finger (n_j, 3): the envelope theorem's
+        gradient of eq. 8's part of ``value``, read off the solution (forces, multipliers y of G f - s = u) with
+        them held fixed: d/dJ_k gamma |J^T f|^2 = 2 gamma (J_k . f) f, and d/dp (y_tau . p x f) = f x y_tau."""
+        d_contacts = np.zeros_like(geometry.contacts)
+        d_jacobians = [np.zeros_like(J) for J in geometry.jacobians]
+        for i, gamma in enumerate(self.weights):
+            y_torque = self.multipliers[i, 3:]
+            for j, J in enumerate(geometry.jacobians):
+                f = self.forces[i, j]
+                d_jacobians[j] += 2 * gamma * np.outer(J @ f, f)
+                d_contacts[j] += np.cross(f, y_torque)
+        return d_contacts, tuple(d_jacobians)
+
+
+class ForceProblem:
+    """The force problem of one hand, task and settings; :meth:`solve` for a grasp's geometry.
+
+    Each axis's QP falls into independent parts, solved apart (an active-set method's cost grows with the cube of
+    the variables): the task forces, a linear KKT system whenever eq. 8's force bound is inactive (else a QP), and
+    eq. 10 for each sign of the real task wrench, a QP whose sparsity the hand fixes, so one CasADi conic solver
+    serves every grasp."""
+
+    def __init__(
+        self,
+        capability: Capability,
+        joints_per_finger: tuple[int, ...],
+        task: TaskModel,
+        settings: GraspSettings,
+        rho: float,
+        bounds: SearchBounds = SearchBounds(),
+        regularisation: Regularisation = Regularisation(),
+    ):
+        self.capability, self.joints = capability, joints_per_finger
+        self.task, self.settings, self.rho = task, settings, float(rho)
+        self.bounds, self.regularisation = bounds, regularisation
+        self.b, self.m = len(joints_per_finger), settings.cone_edges
+        self.n_act = len(capability.actuators)
+        self.cap = settings.activation_cap(capability.kind) - settings.activation_margin
+
+    @property
+    def _strength_size(self) -> tuple[int, int]:
+        """Eq. 10's QP for one sign: variables (edge forces, activations, the wrench rows' and the torque rows'
+        residuals) and rows."""
+        floor = self.b if self.settings.min_normal_force_n > 0 else 0
+        n_t = len(self.capability.transmission)
+        return self.b * self.m + self.n_act + 6 + n_t, 6 + n_t + floor
+
+    @cached_property
+    def _strength_solver(self) -> casadi.Function:
+        n, rows = self._strength_size
+        H, A = casadi.Sparsity.diag(n), casadi.Sparsity.dense(rows, n)
+        return casadi.conic("strength", QP_SOLVER, {"h": H, "a": A}, {"print_time": False, "error_on_fail": False})
+
+    @cached_property
+    def _task_solver(self) -> casadi.Function:
+        n = 3 * self.b
+        H, A = casadi.Sparsity.dense(n, n), casadi.Sparsity(0, n)
+        return casadi.conic("task_forces", QP_SOLVER, {"h": H, "a": A}, {"print_time": False, "error_on_fail": False})
+
+    def _task_forces(self, G: np.ndarray, W: np.ndarray, gamma: float, u: np.ndarray) -> np.ndarray:
+        """argmin_f gamma (f^T W f + rho |G f - u|^2) within eq. 8's force bound: the KKT system
+        [[W, G^T], [G, -I/rho]] [f; z] = [0; u] (z = rho s), or the QP where the bound binds."""
+        n = 3 * self.b
+        kkt = np.block([[W, G.T], [G, -np.eye(6) / self.rho]])
+        f = np.linalg.solve(kkt, np.concatenate([np.zeros(n), u]))[:n]
+        f_max = self.bounds.task_force_n
+        if f_max is None or np.abs(f).max() <= f_max:
+            return f
+        H = 2 * gamma * (W + self.rho * G.T @ G)
+        solved = self._task_solver(h=H, g=-2 * gamma * self.rho * G.T @ u, lbx=-f_max, ubx=f_max)
+        return np.asarray(solved["x"]).ravel()
+
+    def _strength_rows(self, geometry: GraspGeometry) -> tuple[np.ndarray, np.ndarray]:
+        """Eq. 10's rows for one sign (wrench, transmission, least normal force) and their lower bounds, but for
+        the wrench rows' targets."""
+        n_edges, cap = self.b * self.m, self.capability
+        n, rows = self._strength_size
+        A, lower = np.zeros((rows, n)), np.zeros(rows)
+        A[:6, :n_edges], A[:6, n_edges + self.n_act : n_edges + self.n_act + 6] = geometry.edge_wrenches(), -np.eye(6)
+        n_t = len(cap.transmission)
+        A[6 : 6 + n_t, :n_edges] = cap.transmission @ geometry.edge_joint_torques()
+        A[6 : 6 + n_t, n_edges : n_edges + self.n_act] = -cap.torque_map
+        A[6 : 6 + n_t, n_edges + self.n_act + 6 :] = -np.eye(n_t)  # what the hand's strength falls short by
+        if self.settings.min_normal_force_n > 0:
+            mu = self.settings.friction_scale * self.settings.friction_coefficient
+            for j in range(self.b):
+                A[6 + n_t + j, j * self.m : (j + 1) * self.m] = 1.0 / np.sqrt(1.0 + mu**2)
+            lower[6 + n_t :] = self.settings.min_normal_force_n
+        return A, lower
+
+    def _strength(self, A: np.ndarray, lower: np.ndarray, target: np.ndarray) -> np.ndarray:
+        """Eq. 10 for one real task wrench ``target``: edge forces, activations and the wrench rows' residual."""
+        n_edges = self.b * self.m
+        n, _ = self._strength_size
+        upper = np.zeros(len(lower))
+        upper[6 + len(self.capability.transmission) :] = np.inf
+        lba, uba = lower.copy(), upper
+        lba[:6] = uba[:6] = target
+        n_residuals = n - n_edges - self.n_act
+        weights = np.concatenate(
+            [
+                np.full(n_edges, max(self.regularisation.edge_force, 1e-12)),
+                np.full(self.n_act, max(self.regularisation.activation, 1e-12)),
+                np.full(n_residuals, self.rho),
+            ]
+        )
+        edge_max = np.inf if self.bounds.edge_force_n is None else self.bounds.edge_force_n
+        lbx = np.concatenate([np.zeros(n_edges + self.n_act), np.full(n_residuals, -np.inf)])
+        ubx = np.concatenate([np.full(n_edges, edge_max), np.full(self.n_act, self.cap), np.full(n_residuals, np.inf)])
+        solved = self._strength_solver(
+            h=casadi.DM(casadi.Sparsity.diag(n), 2 * weights), a=A, lba=lba, uba=uba, lbx=lbx, ubx=ubx
+        )
+        return np.asarray(solved["x"]).ravel()
+
+    def solve(self, geometry: GraspGeometry) -> ForceSolution:
+        """The six QPs at ``geometry``; any non-finite input is refused (no NaN reaches the solver)."""
+        arrays = [geometry.contacts, geometry.edges, *geometry.jacobians]
+        if not all(np.isfinite(a).all() for a in arrays):
+            raise ValueError("the force problem's geometry is not finite")
+        G, W = geometry.grasp_matrix(), geometry.torque_weights()
+        A, lower = self._strength_rows(geometry)
+        weights = np.asarray(self.task.weights, dtype=float)
+        n_edges = self.b * self.m
+        forces, slacks, edge, act, residuals = [], [], [], [], []
+        for gamma, u, length in zip(weights, self.task.axes, self.task.lengths, strict=True):
+            f = self._task_forces(G, W, float(gamma), u)
+            forces.append(f.reshape(self.b, 3))
+            slacks.append(G @ f - u)
+            signs = [self._strength(A, lower, sign * length * u) for sign in (1.0, -1.0)]
+            edge.append([x[:n_edges].reshape(self.b, self.m) for x in signs])
+            act.append([x[n_edges : n_edges + self.n_act] for x in signs])
+            residuals.append([x[n_edges + self.n_act :] for x in signs])
+        forces_a, slacks_a, residuals_a = np.array(forces), np.array(slacks), np.array(residuals)
+        Q = quality(geometry, forces_a, weights)
+        slack_penalty = float(weights @ (slacks_a**2).sum(axis=1))
+        value = Q + self.rho * (slack_penalty + float((residuals_a**2).sum()))
+        # the multipliers of G f - s = u: stationarity in s makes them 2 gamma_i rho s
+        multipliers = 2 * self.rho * weights[:, None] * slacks_a
+        return ForceSolution(
+            Q, value, forces_a, slacks_a, np.array(edge), np.array(act), residuals_a, multipliers, weights
+        )
+
+
+def quality(geometry: GraspGeometry, forces: np.ndarray, weights: np.ndarray) -> float:
+    """Eq. 12: sum_i gamma_i sum_j |J^j^T f_i^j|^2 for task forces ``forces`` (axes, b, 3)."""
+    total = 0.0
+    for gamma, per_axis in zip(weights, forces, strict=True):
+        torques = [J @ f for J, f in zip(geometry.jacobians, per_axis, strict=True)]
+        total += float(gamma) * sum(float(t @ t) for t in torques)
+    return total
+
+
+def _cross_matrix(v: np.ndarray) -> np.ndarray:
+    return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
+
+
+def symbolic_quality(contacts: Any, jacobians: list[Any], task: TaskModel, rho: float, floor: float = 1e-10) -> Any:
+    """Eq. 8's part of the force problem's value in closed form, as a CasADi expression of the contacts (b x 3)
+    and each finger's Jacobian rows (n_j x 3): the sum over the axes of min_f gamma_i (f^T W f + rho |G f - u_i|^2),
+    which is tr((G W^-1 G^T + I / rho)^-1 U Gamma U^T), one 6 x 6 solve for the six axes. ``floor`` m^2 on W's
+    diagonal keeps a finger with fewer than three joints (whose W is singular: forces along its structure cost
+    no torque) invertible."""
+    blocks = []
+    for J in jacobians:
+        W = casadi.mtimes(J.T, J) + floor * casadi.DM.eye(3)
+        blocks.append(_inverse3(W))
+    G = casadi.horzcat(
+        *[casadi.vertcat(casadi.DM.eye(3), casadi.skew(contacts[j, :].T)) for j in range(len(jacobians))]
+    )
+    K = casadi.mtimes([G, casadi.diagcat(*blocks), G.T]) + casadi.DM.eye(6) / rho
+    B = np.asarray(task.axes, dtype=float).T * np.sqrt(np.asarray(task.weights, dtype=float))
+    # tr(B^T K^-1 B) = |L^-1 B|^2 with K = L L^T: a Cholesky factor written out is a far smaller expression, and
+    # so a far cheaper Hessian, than CasADi's symbolic solve (docs/design/synthesis.md)
+    L = _cholesky(K)
+    total = 0
+    for column in B.T:
+        y = _forward(L, column)
+        total += sum(v * v for v in y)
+    return total
+
+
+def _cholesky(K: Any) -> list[list[Any]]:
+    """The lower Cholesky factor of a symmetric positive definite CasADi matrix, entry by entry."""
+    n = K.shape[0]
+    L: list[list[Any]] = [[0] * n for _ in range(n)]
+    for i in range(n):
+        for j in range(i + 1):
+            rest = K[i, j] - sum(L[i][k] * L[j][k] for k in range(j))
+            L[i][j] = casadi.sqrt(rest) if i == j else rest / L[j][j]
+    return L
+
+
+def _forward(L: list[list[Any]], b: np.ndarray) -> list[Any]:
+    """y with L y = b, for a lower-triangular L."""
+    y: list[Any] = []
+    for i, value in enumerate(b):
+        y.append((float(value) - sum(L[i][k] * y[k] for k in range(i))) / L[i][i])
+    return y
+
+
+def _inverse3(M: Any) -> Any:
+    """A 3 x 3 symmetric matrix's inverse by its adjugate (a fixed expression, no pivoting)."""
+    a, b, c, e, f, i = M[0, 0], M[0, 1], M[0, 2], M[1, 1], M[1, 2], M[2, 2]
+    A, B, C = e * i - f * f, c * f - b * i, b * f - c * e
+    det = a * A + b * B + c * C
+    adjugate = casadi.vertcat(
+        casadi.horzcat(A, B, C),
+        casadi.horzcat(B, a * i - c * c, b * c - a * f),
+        casadi.horzcat(C, b * c - a * f, a * e - b * b),
+    )
+    return adjugate / det
