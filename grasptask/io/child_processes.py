@@ -84,3 +84,19 @@ class Reaper:
             self._process.stdin.close()
             self._process.wait(timeout=30)
             self._process = None
+
+
+#: the exit code of a spawned worker process that, while importing the user's script, reached a sweep in it: the
+#: script starts the sweep at import, without an ``if __name__ == "__main__":`` guard
+UNGUARDED_SCRIPT_EXIT = 86
+
+
+def refuse_in_worker_import() -> None:
+    """Called where a sweep begins. A solver worker is a spawned process, which first imports the script that
+    started the sweep; a script that starts it at import (no ``if __name__ == "__main__":`` guard) would start
+    a sweep in every worker, each on the folder the first one holds. The worker ends at once with
+    :data:`UNGUARDED_SCRIPT_EXIT`, which the sweep turns into one line naming the fix."""
+    import multiprocessing
+
+    if getattr(multiprocessing.current_process(), "_inheriting", False):  # multiprocessing's flag for that import
+        os._exit(UNGUARDED_SCRIPT_EXIT)

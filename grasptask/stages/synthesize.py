@@ -33,6 +33,7 @@ from grasptask.io.artifacts import (
     plain_name,
     write_text_atomic,
 )
+from grasptask.io.child_processes import refuse_in_worker_import
 from grasptask.io.config_schema import MAX_WORKERS, read_json
 from grasptask.io.locking import folder_lock
 from grasptask.io.sweep_log import LogContents, LogWriter, read_log, rewrite_log
@@ -346,6 +347,7 @@ def run_synthesize(options: SynthesisOptions, echo: Callable[[str], Any] = print
 
     Every input is checked, and a worker has built the model, before anything of an earlier sweep in the
     folder is touched; the folder is locked for the run."""
+    refuse_in_worker_import()  # a script without a __main__ guard, re-imported by a solver worker: ends it
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # inherited by the solver processes
     prepared = _prepare(options)
     with folder_lock(options.folder, f"synthesize {options.task}"):

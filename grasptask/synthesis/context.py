@@ -25,7 +25,7 @@ from grasptask.records import solutions as schema
 from grasptask.synthesis.feedback import Limits, tightened
 from grasptask.synthesis.judging import Judges
 from grasptask.synthesis.solver_config import SolverConfig
-from grasptask.synthesis.solvers import assign, build_models, values
+from grasptask.synthesis.solvers import assign, build_models, positions, values
 from grasptask.synthesis.starts import Start
 from grasptask.task.task_model import TaskModel, load_task_models
 
@@ -107,8 +107,9 @@ class SolverContext:
         self.bounds = self.obj.bounds()
         self.anchors = Anchors(self.bounds, self.nlp.surrogate.grid if self.nlp.surrogate is not None else None)
         self.approach = self.hand.approach
-        #: the force problem's solution and eq. 4's weights a polish's first attempt starts from (None: defaults)
-        self._warm_forces: tuple[ForceSolution, np.ndarray | None] | None = None
+        #: the force problem's solution, eq. 4's weights and the search's point a polish's first attempt starts
+        #: from (None: a start of the paper's route)
+        self._warm_forces: tuple[ForceSolution, np.ndarray, np.ndarray | None] | None = None
 
     @cached_property
     def search_model(self) -> Solver:
@@ -163,16 +164,23 @@ class SolverContext:
         if result.status not in CONVERGED or result.x is None:
             return SearchEnd(task.start_id, result.status, iterations, seconds, attempt, result.message)
         began = time.perf_counter()
-        grasp = end_point(search, result.x)
-        self.nlp.initialise(grasp.palm_rotation, grasp.palm_position, grasp.joint_angles)
-        forces = self.force_problem.solve(self.nlp.geometry())
+        grasp = end_point(search, result.x)  # the search model now holds the end point's contacts, cones, Jacobians
+        forces = self.force_problem.solve(search.nlp.geometry())
         seconds += time.perf_counter() - began
-        return SearchEnd(task.start_id, result.status, iterations, seconds, attempt, result.message, grasp, forces)
+        return SearchEnd(
+            task.start_id, result.status, iterations, seconds, attempt, result.message, grasp, forces, result.x
+        )
+
+    @cached_property
+    def _from_search(self) -> np.ndarray:
+        """Where each of the first model's variables is in the search model's order (-1: not there)."""
+        return positions(self.search_model, self.models.first)
 
     def polish(self, task: Polish) -> dict:
         """A basin's end point solved by the paper's NLP from it, forces and all (:mod:`.polish`)."""
         end = task.end
-        self._warm_forces = (end.forces, end.grasp.phi) if end.forces is not None and end.grasp is not None else None
+        if end.forces is not None and end.grasp is not None:
+            self._warm_forces = (end.forces, end.grasp.phi, end.x)
         try:
             return self.solve(task.warm_start())
         finally:
@@ -222,10 +230,16 @@ class SolverContext:
         began = time.perf_counter()
         if as_it_is:
             self.nlp.initialise(start.palm_rotation, start.palm_position, joints)
-            if self._warm_forces is not None:  # a polish: the force problem's forces at this geometry
-                self.nlp.set_forces(*self._warm_forces)
+            x0 = values(models.first.order)
+            if self._warm_forces is not None:  # a polish: the search's point, and the force problem's forces there
+                forces, phi, searched = self._warm_forces
+                self.nlp.set_forces(forces, phi)
+                x0 = values(models.first.order)
+                if searched is not None:  # contacts, normals, cones, Jacobians as the search left them
+                    shared = self._from_search >= 0
+                    x0[shared] = searched[self._from_search[shared]]
             row["placement_seconds"] = seconds = time.perf_counter() - began
-            return values(models.first.order), seconds, 0
+            return x0, seconds, 0
         if self.job.solver.placement:
             row["placement_backoff_m"] = place(self.nlp, start, self.anchors, joints)
         else:

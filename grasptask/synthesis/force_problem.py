@@ -38,6 +38,8 @@ from grasptask.task.task_model import TaskModel
 
 #: CasADi's conic plugin for the QPs, chosen by measurement (docs/design/synthesis.md)
 QP_SOLVER = "daqp"
+#: the least weight of eq. 10's small terms on the edge forces and activations, relative to its residuals'
+STRENGTH_FLOOR = 1e-9
 
 
 @dataclass(frozen=True)
@@ -207,11 +209,13 @@ class ForceProblem:
         lba, uba = lower.copy(), upper
         lba[:6] = uba[:6] = target
         n_residuals = n - n_edges - self.n_act
+        # the objective divided by rho: the residuals' weight 1, the small terms' at least STRENGTH_FLOOR, for with
+        # the NLP's 1e-7 against a rho of 1e7 the QP's condition (1e14) left DAQP's residuals 1e3 off their least
         weights = np.concatenate(
             [
-                np.full(n_edges, max(self.regularisation.edge_force, 1e-12)),
-                np.full(self.n_act, max(self.regularisation.activation, 1e-12)),
-                np.full(n_residuals, self.rho),
+                np.full(n_edges, max(self.regularisation.edge_force / self.rho, STRENGTH_FLOOR)),
+                np.full(self.n_act, max(self.regularisation.activation / self.rho, STRENGTH_FLOOR)),
+                np.ones(n_residuals),
             ]
         )
         edge_max = np.inf if self.bounds.edge_force_n is None else self.bounds.edge_force_n

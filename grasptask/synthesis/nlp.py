@@ -589,7 +589,7 @@ class GraspNLP:
         """The force-closure weights, task forces, eq. 10's cone-edge forces and activations at their initial
         values, which depend on no pose."""
         m = self.model
-        for var in m.phi.values():
+        for var in m.phi.values() if m.component("phi") is not None else []:
             var.set_value(1.0 / len(m.phi))
         if m.component("force") is None:  # the search's model has no forces
             return

@@ -97,6 +97,8 @@ class SearchEnd:
     message: str
     grasp: EndGrasp | None = None
     forces: ForceSolution | None = None
+    #: the search model's point, which the polish carries into the paper's model by variable name
+    x: np.ndarray | None = None
 
     @property
     def converged(self) -> bool:

@@ -26,11 +26,27 @@ from contextlib import contextmanager
 from typing import Any, Protocol
 
 from grasptask.errors import BadInputError
-from grasptask.io.child_processes import die_with_parent
+from grasptask.io.child_processes import UNGUARDED_SCRIPT_EXIT, die_with_parent
 from grasptask.synthesis.context import Job, SolverContext, build_failure, failed_row, solve_guarded
 from grasptask.synthesis.starts import Start
 
-OnResult = Callable[[dict], None]
+OnResult = Callable[[Any], None]
+
+
+def _unguarded(procs: Any) -> BadInputError | None:
+    """The one-line refusal when a worker ended on the user's unguarded script (None: none did)."""
+    if not any(proc.exitcode == UNGUARDED_SCRIPT_EXIT for proc, _ in procs):
+        return None
+    import __main__
+
+    script = getattr(__main__, "__file__", None) or "your script"
+    return BadInputError(
+        script,
+        "the sweep runs at import, and every solver worker re-imports the script: put it under `if __name__ == "
+        '"__main__":`, or use executor="serial"',
+    )
+
+
 #: set by the first SIGINT or SIGTERM: hand out no more starts, finish the ones in progress
 STOP = threading.Event()
 #: set by the second: stop now
@@ -104,14 +120,17 @@ class SerialExecutor:
         self.context = None
 
 
-def _worker(job: Job, tasks: Any, results: Any, worker_id: int) -> None:
-
+def _worker(tasks: Any, results: Any, worker_id: int) -> None:
+    """A pool worker: its job (the first item on its queue), its models built, then its starts one by one."""
     die_with_parent()  # at once, rather than at its next poll of the parent (_next_start)
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     # the parent decides when to stop and ends its workers: a Ctrl-C or SIGTERM to the process group must not
     # kill a start half-way (it would be recorded as crashed)
     for s in (signal.SIGINT, signal.SIGTERM):
         signal.signal(s, signal.SIG_IGN)
+    job = _next_start(tasks, mp.parent_process())
+    if job is None:
+        return
     try:
         context = SolverContext(job)
     except Exception as exc:  # noqa: BLE001
@@ -123,7 +142,7 @@ def _worker(job: Job, tasks: Any, results: Any, worker_id: int) -> None:
         results.put(("done", worker_id, solve_guarded(context, start)))
 
 
-def _next_start(tasks: Any, parent: Any, poll_s: float = 1.0) -> Start | None:
+def _next_start(tasks: Any, parent: Any, poll_s: float = 1.0) -> Any:
     """The worker's next start, or None when the parent says stop or has died: a sweep killed outright
     (SIGKILL) cannot end its workers, which would otherwise wait on their queues for ever."""
     while True:
@@ -149,10 +168,16 @@ class PoolExecutor:
         self._restarts = 0
 
     def _spawn(self) -> None:
+        """A worker, handed its job through its queue. Not as the process's argument: that is written to the new
+        process in one go while it imports the user's script, and a script that ends it there (a sweep at import,
+        :func:`~grasptask.io.child_processes.refuse_in_worker_import`) left this process blocked on the write for
+        ever. The queue's feeder thread writes instead, and is not waited for at exit."""
         worker_id = next(self._ids)
         tasks = self.ctx.Queue()
-        proc = self.ctx.Process(target=_worker, args=(self.job, tasks, self.results, worker_id), daemon=True)
+        tasks.cancel_join_thread()
+        proc = self.ctx.Process(target=_worker, args=(tasks, self.results, worker_id), daemon=True)
         proc.start()
+        tasks.put(self.job)
         self.procs[worker_id] = (proc, tasks)
 
     def start(self) -> dict[str, int]:
@@ -164,6 +189,9 @@ class PoolExecutor:
             try:
                 kind, worker_id, payload = self.results.get(timeout=0.5)
             except queue.Empty:
+                refusal = _unguarded(self.procs.values())
+                if refusal is not None:
+                    raise refusal from None
                 if not any(proc.is_alive() for proc, _ in self.procs.values()):
                     raise BadInputError("synthesize", "every solver worker died while building the model") from None
                 continue

@@ -1,0 +1,267 @@
+"""Search, then polish (SPEC section 12): the force problem on its own, the basins, the search route's sweep, and
+sweeps started from a script."""
+
+from __future__ import annotations
+
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+from pathlib import Path
+
+import casadi
+import numpy as np
+import pandas as pd
+import pytest
+
+from grasptask.grasp.grasp_settings import GraspSettings
+from grasptask.hand.hand_model import Capability
+from grasptask.synthesis.basins import EndPoint, group, joins
+from grasptask.synthesis.clustering import THRESHOLD
+from grasptask.synthesis.force_problem import ForceProblem, GraspGeometry, symbolic_quality
+from grasptask.task.ellipsoid import Ellipsoid
+from grasptask.task.task_model import TaskModel
+
+ROOT = Path(__file__).resolve().parents[1]
+RHO = 1e7
+
+
+def _task() -> TaskModel:
+    """A task whose ellipsoid is long along fz and short in torque, as drawing's is."""
+    rng = np.random.default_rng(3)
+    turn, _ = np.linalg.qr(rng.normal(size=(6, 6)))
+    lengths = np.array([1.5, 0.6, 0.4, 0.01, 0.008, 0.004])
+    return TaskModel("t", 1, Ellipsoid.from_matrix(turn @ np.diag(lengths**2) @ turn.T))
+
+
+def _cone(normal: np.ndarray, settings: GraspSettings) -> np.ndarray:
+    """The linearised friction cone's unit edges about an inward ``normal`` (eq. 24)."""
+    mu = settings.friction_scale * settings.friction_coefficient
+    t1 = np.cross(normal, [0.3, 0.5, 0.8])
+    t1 /= np.linalg.norm(t1)
+    t2 = np.cross(normal, t1)
+    angles = 2 * np.pi * np.arange(1, settings.cone_edges + 1) / settings.cone_edges
+    edges = [normal + mu * (np.cos(a) * t1 + np.sin(a) * t2) for a in angles]
+    return np.array(edges) / np.sqrt(1 + mu**2)
+
+
+def _sphere_grasp(polar_deg: float, settings: GraspSettings, seed: int = 0) -> GraspGeometry:
+    """Three contacts on a 3 cm sphere, 120 degrees apart about z, ``polar_deg`` from its top; each finger's
+    Jacobian a fixed full-rank 3 x 3."""
+    rng = np.random.default_rng(seed)
+    polar = np.radians(polar_deg)
+    contacts, edges = [], []
+    for azimuth in np.radians([0.0, 120.0, 240.0]):
+        outward = np.array([np.sin(polar) * np.cos(azimuth), np.sin(polar) * np.sin(azimuth), np.cos(polar)])
+        contacts.append(0.03 * outward)
+        edges.append(_cone(-outward, settings))
+    jacobians = tuple(0.05 * (np.eye(3) + 0.3 * rng.normal(size=(3, 3))) for _ in range(3))
+    return GraspGeometry(np.array(contacts), np.array(edges), jacobians)
+
+
+def _problem(settings: GraspSettings, effort: float = 5.0) -> ForceProblem:
+    names = tuple(f"j{k}" for k in range(9))
+    capability = Capability.motors(names, np.full(9, effort), np.eye(9))
+    return ForceProblem(capability, (3, 3, 3), _task(), settings, RHO)
+
+
+def _task_value(problem: ForceProblem, geometry: GraspGeometry) -> float:
+    solution = problem.solve(geometry)
+    return solution.Q + RHO * float(solution.weights @ (solution.slacks**2).sum(axis=1))
+
+
+def test_the_force_problems_gradient_is_its_finite_differences():
+    settings = GraspSettings()
+    problem, geometry = _problem(settings), _sphere_grasp(75.0, settings)
+    d_contacts, d_jacobians = problem.solve(geometry).gradient(geometry)
+    step = 1e-6
+    for j in range(3):
+        for i in range(3):
+            moved = [geometry.contacts.copy(), geometry.contacts.copy()]
+            moved[0][j, i] += step
+            moved[1][j, i] -= step
+            values = [_task_value(problem, GraspGeometry(c, geometry.edges, geometry.jacobians)) for c in moved]
+            assert (values[0] - values[1]) / (2 * step) == pytest.approx(d_contacts[j, i], rel=1e-4, abs=1e-9)
+            for k in range(3):
+                plus, minus = list(geometry.jacobians), list(geometry.jacobians)
+                plus[j], minus[j] = plus[j].copy(), minus[j].copy()
+                plus[j][k, i] += step
+                minus[j][k, i] -= step
+                values = [
+                    _task_value(problem, GraspGeometry(geometry.contacts, geometry.edges, tuple(J)))
+                    for J in (plus, minus)
+                ]
+                assert (values[0] - values[1]) / (2 * step) == pytest.approx(d_jacobians[j][k, i], rel=1e-4, abs=1e-9)
+
+
+def test_the_search_objective_is_the_force_problems_task_part():
+    """The closed form the search minimises equals the QP's eq. 8 part (Q and its penalised slack)."""
+    settings = GraspSettings()
+    problem, geometry = _problem(settings), _sphere_grasp(80.0, settings, seed=1)
+    closed = symbolic_quality(
+        casadi.DM(geometry.contacts), [casadi.DM(J) for J in geometry.jacobians], problem.task, RHO, floor=0.0
+    )
+    assert float(closed) == pytest.approx(_task_value(problem, geometry), rel=1e-8)
+
+
+def test_a_grasp_that_cannot_close_gets_a_finite_value_that_falls_toward_closure():
+    """Three contacts bunched on top of a sphere cannot push it up: eq. 10's slack takes the rest, and the value
+    falls as the contacts spread toward the equator, where the grasp closes."""
+    settings = GraspSettings()
+    problem = _problem(settings)
+    solutions = [problem.solve(_sphere_grasp(polar, settings)) for polar in (10.0, 25.0, 40.0, 55.0, 70.0, 90.0)]
+    values = [s.value for s in solutions]
+    assert np.isfinite(values).all()
+    assert [s.closes for s in solutions] == [False] * 5 + [True]
+    assert all(later < earlier for earlier, later in zip(values, values[1:], strict=False))
+    # closed, the slacks are spent: the value is Q's
+    assert values[-1] == pytest.approx(solutions[-1].Q, rel=0.01) and values[0] > 1e6 * values[-1]
+
+
+def test_the_force_problem_refuses_a_geometry_that_is_not_finite():
+    settings = GraspSettings()
+    geometry = _sphere_grasp(60.0, settings)
+    contacts = geometry.contacts.copy()
+    contacts[1, 2] = np.nan
+    with pytest.raises(ValueError, match="not finite"):
+        _problem(settings).solve(GraspGeometry(contacts, geometry.edges, geometry.jacobians))
+
+
+def test_at_an_optimum_of_the_paper_nlp_the_force_problems_q_is_the_nlps(tasks):
+    from grasptask.paths import DEFAULT_HAND
+    from grasptask.synthesis.context import Job, SolverContext
+    from grasptask.synthesis.starts import make_starts
+
+    job = Job.from_files(
+        str(DEFAULT_HAND), ROOT / "configs/objects/tool.yaml", tasks, "drawing", settings=GraspSettings()
+    )
+    context = SolverContext(job)
+    row = context.solve(make_starts(context.obj.bounds(), 0)[3])
+    assert row["status"] == "optimal" and row["verified"]
+    # the model that solved it holds its point: contacts, cone edges and Jacobians as IPOPT left them
+    solved = next(m.nlp for m in (context.models.first, context.models.whole) if m.nlp.read()["Q"] == row["Q"])
+    solution = context.force_problem.solve(solved.geometry())
+    assert solution.closes
+    assert solution.Q == pytest.approx(row["Q"], abs=1e-6, rel=1e-4)
+
+
+def _point(start_id: int, x: float, Q: float = 1.0, value: float | None = None) -> EndPoint:
+    return EndPoint(start_id, np.array([x, 0.0, 0.0]), Q, Q if value is None else value)
+
+
+def test_two_distinct_optima_whose_basins_lie_close_are_both_kept():
+    """A chain of end points 0.8 thresholds apart spans two optima 1.6 thresholds apart: complete linkage
+    never puts the chain's ends in one basin, as single or average linkage would."""
+    step = 0.8 * THRESHOLD
+    ends = [_point(0, 0.0), _point(1, step), _point(2, 2 * step), _point(3, 0.0, Q=1.2), _point(4, 0.1 * step)]
+    basins = group(ends)
+    together = {frozenset(e.start_id for e in b) for b in basins}
+    assert not any({0, 2} <= members for members in together)
+    # the same place but a Q 20% apart: another optimum
+    assert not any({0, 3} <= members for members in together)
+    assert any({0, 4} <= members for members in together)
+    assert joins(_point(9, 0.2 * step), next(b for b in basins if any(e.start_id == 0 for e in b)))
+
+
+def test_a_basin_polishes_its_best_end_point_first():
+    ends = [_point(5, 0.0, value=3.0), _point(2, 0.1 * THRESHOLD, value=1.0), _point(7, 0.0, value=1.0)]
+    (basin,) = group(ends)
+    assert [e.start_id for e in basin] == [2, 7, 5]
+
+
+@pytest.fixture(scope="module")
+def search_config(tmp_path_factory) -> Path:
+    path = tmp_path_factory.mktemp("search") / "solver.yaml"
+    path.write_text("search_round: 2\n")
+    return path
+
+
+def _sweep(tasks: Path, out: Path, config: Path, workers: int) -> pd.DataFrame:
+    from grasptask.stages import SynthesisOptions, run_synthesize
+
+    options = SynthesisOptions(
+        tasks=tasks, task="drawing", out=out, solver_config=config, starts=4, workers=workers, route="search"
+    )
+    run_synthesize(options, echo=lambda _: None)
+    return pd.read_parquet(out / "drawing" / "solutions.parquet")
+
+
+def test_the_search_routes_rows_are_the_same_with_one_worker_and_two(tasks, tmp_path, search_config):
+    one = _sweep(tasks, tmp_path / "one", search_config, 1)
+    two = _sweep(tasks, tmp_path / "two", search_config, 2)
+    columns = ["start_id", "status", "outcome", "basin", "polished_start", "search_iterations", "iterations", "Q"]
+    pd.testing.assert_frame_equal(one[columns], two[columns])
+    assert set(one["outcome"]) <= {"polished", "same-basin", "search-failed"}
+    polished = one[one["outcome"] == "polished"]
+    assert len(polished) >= 1 and polished["verified"].any()
+    # every start is accounted for: a same-basin start names its basin's polished start
+    joined = one[one["outcome"] == "same-basin"]
+    assert set(joined["polished_start"]) <= set(polished["start_id"])
+    run = __import__("json").loads((tmp_path / "one" / "drawing" / "run.json").read_text())
+    assert run["route"]["polished"] == len(polished)
+
+
+def test_the_search_route_refuses_to_resume_a_paper_sweep(tasks, tmp_path, search_config):
+    from grasptask.errors import BadInputError
+    from grasptask.stages import SynthesisOptions, run_synthesize
+
+    folder = tmp_path / "out"
+    (folder / "drawing").mkdir(parents=True)
+    common = {"tasks": tasks, "task": "drawing", "out": folder, "starts": 1, "executor": "serial"}
+    run_synthesize(SynthesisOptions(**common), echo=lambda _: None)
+    with pytest.raises(BadInputError):
+        run_synthesize(SynthesisOptions(**common, route="search", resume=True), echo=lambda _: None)
+
+
+SCRIPT = """
+from pathlib import Path
+from grasptask.stages import SynthesisOptions, run_synthesize
+
+run = run_synthesize(SynthesisOptions(tasks=Path({tasks!r}), task="drawing", out=Path({out!r}), starts={starts},
+                                      workers=2, route={route!r}, solver_config=Path({config!r})))
+print("finished", run.run["starts"])
+"""
+
+
+def _script(tmp_path: Path, tasks: Path, route: str, guarded: bool, starts: int = 2) -> Path:
+    config = tmp_path / "solver.yaml"
+    config.write_text("search_round: 2\n")
+    body = SCRIPT.format(tasks=str(tasks), out=str(tmp_path / "out"), route=route, starts=starts, config=str(config))
+    if guarded:
+        body = "if __name__ == '__main__':\n" + textwrap.indent(body, "    ")
+    path = tmp_path / "sweep_script.py"
+    path.write_text(body)
+    return path
+
+
+def test_a_sweep_in_a_script_without_a_main_guard_is_refused_at_once(tasks, tmp_path):
+    script = _script(tmp_path, tasks, "paper", guarded=False)
+    began = time.monotonic()
+    done = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=120, cwd=ROOT)
+    assert time.monotonic() - began < 60
+    assert done.returncode != 0
+    last = done.stderr.strip().splitlines()[-1]
+    assert "__main__" in last and "sweep_script.py" in last
+
+
+def test_a_sweep_stops_on_sigterm_keeping_what_is_finished(tasks, tmp_path):
+    """SIGTERM once the first round's rows are in: the sweep ends within seconds, those rows kept."""
+    script = _script(tmp_path, tasks, "search", guarded=True, starts=12)
+    log = tmp_path / "out" / "drawing" / "solutions.jsonl"
+    process = subprocess.Popen([sys.executable, str(script)], stderr=subprocess.PIPE, text=True, cwd=ROOT)
+    try:
+        deadline = time.monotonic() + 240
+        while not (log.exists() and len(log.read_text().splitlines()) >= 2) and time.monotonic() < deadline:
+            time.sleep(0.2)
+        assert process.poll() is None, "the sweep ended before it could be stopped"
+        process.send_signal(signal.SIGTERM)
+        stopped = time.monotonic()
+        process.wait(timeout=60)
+        assert time.monotonic() - stopped < 30
+    finally:
+        process.kill()
+    assert process.returncode != 0
+    assert process.stderr is not None and "--resume" in process.stderr.read()
+    assert 2 <= len(log.read_text().splitlines()) < 12
+    assert not (tmp_path / "out" / "drawing" / "solutions.parquet").exists()
