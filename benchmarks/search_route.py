@@ -5,7 +5,7 @@ cylinder, drawing, cutting and screw driving, 126 starts each on 2 workers.
 Per hand and task, each route's whole-sweep wall time (what a user waits for), distinct verified optima, best Q
 and time to it; the search route's starts polished, its basins and where its time went (search, polish); and
 ratios in the same run: the sweep's speed-up over ``--route paper``, distinct optima and best Q against it. The
-physics check then holds the search route's verified grasps (not timed with the sweep).
+physics check then holds each route's verified grasps (not timed with the sweep).
 
     python benchmarks/search_route.py [--starts N] [--hands human3,allegro,mesh_allegro] [--tasks drawing,...]
     python benchmarks/search_route.py --table      # the saved results as a table
@@ -126,7 +126,10 @@ def main(hands: list[str], tasks: list[str], starts: int | None) -> dict:
                     )  # fmt: skip
                     figures[route] = route_figures(out / task, sweep(options))
                     print(f"{hand} {task} {route}: {figures[route]}", flush=True)
-                figures["search"]["physics"] = held(folder / hand / "search" / task, models, task, folder / "held")
+                for route in ("paper", "search"):  # both routes' grasps, so the shares compare on one contact model
+                    figures[route]["physics"] = held(
+                        folder / hand / route / task, models, task, folder / "held" / route
+                    )
                 figures["against_paper"] = compare(figures["paper"], figures["search"], TARGET_SPEEDUP[hand])
                 entry["tasks"][task] = figures
                 print(f"{hand} {task}: {figures['against_paper']}", flush=True)
@@ -138,19 +141,30 @@ def main(hands: list[str], tasks: list[str], starts: int | None) -> dict:
     return results
 
 
-def table(results: dict) -> str:
+def _share(value: float | None) -> str:
+    return "-" if value is None else f"{value:.0%}"
+
+
+def _q(value: float | None) -> str:
+    return "-" if value is None else f"{value:.4g}"
+
+
+def markdown_table(results: dict) -> str:
+    """The saved results as the results page's table: per hand and task, both routes' sweep seconds and their
+    ratio, distinct optima, best Q, the search route's polished starts and the share physics held."""
     lines = [
-        "| hand | task | paper s | search s | x | optima paper / search | best Q paper / search | polished | held |",
+        "| hand | task | paper s | search s | x | optima paper / search | best Q paper / search | polished "
+        "| held paper / search |",
         "|---|---|---|---|---|---|---|---|---|",
     ]
     for hand, entry in results["hands"].items():
         for task, f in entry["tasks"].items():
             p, s, a = f["paper"], f["search"], f["against_paper"]
-            held_share = s.get("physics", {}).get("held_of_verified")
+            held_share = " / ".join(_share(r.get("physics", {}).get("held_of_verified")) for r in (p, s))
             lines.append(
                 f"| {hand} | {task} | {p['sweep_wall_s']:.0f} | {s['sweep_wall_s']:.0f} | {a['sweep_speedup']:.2f} | "
-                f"{p['distinct_optima']} / {s['distinct_optima']} | {p['best_Q']:.4g} / {s['best_Q']:.4g} | "
-                f"{s['route']['polished']} | {'-' if held_share is None else f'{held_share:.0%}'} |"
+                f"{p['distinct_optima']} / {s['distinct_optima']} | {_q(p['best_Q'])} / {_q(s['best_Q'])} | "
+                f"{s['route']['polished']} | {held_share} |"
             )
     return "\n".join(lines)
 
@@ -163,8 +177,8 @@ if __name__ == "__main__":
     if args.table:
         import json
 
-        print(table(json.loads((ROOT / "benchmarks" / "results" / f"{NAME}.json").read_text())))
+        print(markdown_table(json.loads((ROOT / "benchmarks" / "results" / f"{NAME}.json").read_text())))
         sys.exit(0)
     chosen_hands, chosen_tasks = args.hands.split(","), args.tasks.split(",")
     check_prerequisites(chosen_hands, chosen_tasks)
-    print(table(main(chosen_hands, chosen_tasks, args.starts)))
+    print(markdown_table(main(chosen_hands, chosen_tasks, args.starts)))

@@ -177,21 +177,26 @@ def search_config(tmp_path_factory) -> Path:
     return path
 
 
-def _sweep(tasks: Path, out: Path, config: Path, workers: int) -> pd.DataFrame:
+def _sweep(tasks: Path, out: Path, config: Path, workers: int, **executor: str) -> pd.DataFrame:
     from grasptask.stages import SynthesisOptions, run_synthesize
 
     options = SynthesisOptions(
-        tasks=tasks, task="drawing", out=out, solver_config=config, starts=4, workers=workers, route="search"
+        tasks=tasks, task="drawing", out=out, solver_config=config, starts=4, workers=workers, route="search", **executor
     )
     run_synthesize(options, echo=lambda _: None)
     return pd.read_parquet(out / "drawing" / "solutions.parquet")
 
 
-def test_the_search_routes_rows_are_the_same_with_one_worker_and_two(tasks, tmp_path, search_config):
+def test_the_search_routes_rows_are_the_same_with_one_worker_two_and_dask(tasks, tmp_path, search_config):
+    from dask.distributed import LocalCluster
+
     one = _sweep(tasks, tmp_path / "one", search_config, 1)
     two = _sweep(tasks, tmp_path / "two", search_config, 2)
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+        dask = _sweep(tasks, tmp_path / "dask", search_config, 1, executor="dask", scheduler=cluster.scheduler_address)
     columns = ["start_id", "status", "outcome", "basin", "polished_start", "search_iterations", "iterations", "Q"]
     pd.testing.assert_frame_equal(one[columns], two[columns])
+    pd.testing.assert_frame_equal(one[columns], dask[columns])
     assert set(one["outcome"]) <= {"polished", "same-basin", "search-failed"}
     polished = one[one["outcome"] == "polished"]
     assert len(polished) >= 1 and polished["verified"].any()

@@ -52,6 +52,7 @@ def test_the_equation_families_create_their_components_in_the_paper_s_order(simu
         "contacts_and_collisions",
         "cones_and_wrenches",
         "jacobians",
+        "edge_torques",
         "force_closure",
         "task_forces_and_quality",
         "torque_feasibility",

@@ -9,8 +9,12 @@ import json
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+import pandas as pd
+
 from grasptask.errors import BadInputError
 from grasptask.io.config_schema import read_json
+from grasptask.records.solutions import STATUSES, retried, solved_with_all_axes, why_few_verified
 
 RUN_FILE = "run.json"
 
@@ -57,3 +61,68 @@ def summarised_rows(folder: str | Path) -> int | None:
     except (OSError, ValueError, AttributeError):
         return None
     return rows if isinstance(rows, int) else None
+
+
+def run_outcome(solutions: pd.DataFrame, optima: pd.DataFrame, task: str, log_rows: int) -> dict:
+    """What the sweep found, for run.json: statuses, verified starts, retries and the distinct optima. On the
+    search route the verified fraction and why few verified are those of the polished starts, the ones the
+    Section 6 NLP solved (a start that joined a basin was not)."""
+    again = retried(solutions)
+    judged = solutions[solutions["outcome"] == "polished"] if "outcome" in solutions else solutions
+    return {
+        "starts": int(len(solutions)),
+        "log_rows": log_rows,
+        "status_counts": {s: int((solutions["status"] == s).sum()) for s in STATUSES},
+        "verified": int(solutions["verified"].sum()),
+        "verified_fraction": float(judged["verified"].mean()) if len(judged) else 0.0,
+        # where few starts verified, why: the hand's strength, or the checks most starts failed (None: most did)
+        "why_few_verified": why_few_verified(judged, task),
+        # starts solved again from the solver config's retry postures, and those of them the verifier accepted
+        "retried_starts": int(again.sum()),
+        "verified_on_retry": int((again & solutions["verified"]).sum()),
+        # starts with an attempt solved again with eq. 10 for all six task axes (solver config torque_axes)
+        "all_axes_starts": int(solved_with_all_axes(solutions).sum()),
+        "distinct_optima": int(len(optima)),
+        "best_Q": float(optima["Q"].min()) if len(optima) else None,
+        # the verifier's own Q of that optimum, which the report shows: the two differ where the NLP's contact
+        # model is not the verifier's (a fitted pad sphere against the fingertip's mesh)
+        "best_Q_verifier": verifier_q_of_best(optima),
+        # the search route's starts: polished, joined a basin without a polish, or a search that failed
+        "route": route_outcome(solutions),
+    }
+
+
+def route_outcome(solutions: pd.DataFrame) -> dict | None:
+    """What became of the search route's starts (None: the paper's route)."""
+    if "outcome" not in solutions:
+        return None
+    outcome = solutions["outcome"].fillna("search-failed")
+    polished = solutions[outcome == "polished"]
+    return {
+        "name": "search",
+        "polished": int(len(polished)),
+        "polished_verified": int(polished["verified"].sum()),
+        "same_basin": int((outcome == "same-basin").sum()),
+        "search_failed": int((outcome == "search-failed").sum()),
+        "basins": int(solutions["basin"].nunique()) if "basin" in solutions else 0,
+    }
+
+
+def throughput(solutions: pd.DataFrame, optima: pd.DataFrame, solved: int, wall_seconds: float) -> dict:
+    per_second = 1.0 / wall_seconds if wall_seconds > 0 else float("nan")
+    best_after = None
+    if len(optima) and "found_after_s" in optima:
+        value = float(optima.loc[optima["Q"].idxmin(), "found_after_s"])
+        best_after = value if np.isfinite(value) else None
+    return {
+        "starts_per_s": solved * per_second,
+        "optima_per_s": len(optima) * per_second,
+        "best_Q_after_s": best_after,
+    }
+
+
+def verifier_q_of_best(optima: pd.DataFrame) -> float | None:
+    if not len(optima) or "verify_Q" not in optima:
+        return None
+    value = float(optima.loc[optima["Q"].idxmin(), "verify_Q"])
+    return value if np.isfinite(value) else None

@@ -21,6 +21,7 @@ STATUS_COLOURS = {
     "error": "#7f7f7f",
     "crashed": "#4d4d4d",
     "hung": "#000000",
+    "same-basin": "#74add1",  # the search route: joined a basin another start's polish stands for
 }
 
 

@@ -52,8 +52,7 @@ from grasptask.physics.physics_settings import load_physics_settings
 from grasptask.progress import Progress
 from grasptask.records.grasp_library import LibraryEntry, add_to_library, nearest_entry, setup_key
 from grasptask.records.reference import PaperSynthesis, read_paper_synthesis
-from grasptask.records.run_record import RUN_FILE, read_run
-from grasptask.records.solutions import STATUSES, retried, solved_with_all_axes, why_few_verified
+from grasptask.records.run_record import RUN_FILE, read_run, run_outcome, throughput
 from grasptask.records.sweeps import SolvedGrasps
 from grasptask.synthesis.clustering import cluster
 from grasptask.synthesis.context import Job
@@ -624,7 +623,7 @@ def summarise(
     seconds = solutions["seconds"].astype(float)
     run = {
         **_run_inputs(options, fingers, object_facts, library),
-        **_run_outcome(solutions, optima, options.task, len(rows)),
+        **run_outcome(solutions, optima, options.task, len(rows)),
         "seconds_per_start": {
             "median": float(seconds.median()),
             "p90": float(np.percentile(seconds, 90)),
@@ -634,7 +633,7 @@ def summarise(
         "sweep_wall_seconds_this_run": wall_seconds,
         # what a user waits for: starts resolved and distinct verified optima a second of this run's wall time,
         # and when the best optimum's start came in (from its run's start)
-        "throughput": _throughput(solutions, optima, len(solutions) if solved is None else solved, wall_seconds),
+        "throughput": throughput(solutions, optima, len(solutions) if solved is None else solved, wall_seconds),
         "model_size": model_size,
         "paper": paper.figures_for(options.task),
         "versions": {"casadi": casadi.CasadiMeta.version(), "pyomo": pyomo.version.version},
@@ -681,68 +680,6 @@ def _run_inputs(
         "executor": options.executor,
         "workers": options.workers,
     }
-
-
-def _run_outcome(solutions: pd.DataFrame, optima: pd.DataFrame, task: str, log_rows: int) -> dict:
-    """What the sweep found, for run.json: statuses, verified starts, retries and the distinct optima."""
-    again = retried(solutions)
-    return {
-        "starts": int(len(solutions)),
-        "log_rows": log_rows,
-        "status_counts": {s: int((solutions["status"] == s).sum()) for s in STATUSES},
-        "verified": int(solutions["verified"].sum()),
-        "verified_fraction": float(solutions["verified"].mean()) if len(solutions) else 0.0,
-        # where few starts verified, why: the hand's strength, or the checks most starts failed (None: most did)
-        "why_few_verified": why_few_verified(solutions, task),
-        # starts solved again from the solver config's retry postures, and those of them the verifier accepted
-        "retried_starts": int(again.sum()),
-        "verified_on_retry": int((again & solutions["verified"]).sum()),
-        # starts with an attempt solved again with eq. 10 for all six task axes (solver config torque_axes)
-        "all_axes_starts": int(solved_with_all_axes(solutions).sum()),
-        "distinct_optima": int(len(optima)),
-        "best_Q": float(optima["Q"].min()) if len(optima) else None,
-        # the verifier's own Q of that optimum, which the report shows: the two differ where the NLP's contact
-        # model is not the verifier's (a fitted pad sphere against the fingertip's mesh)
-        "best_Q_verifier": _verifier_q_of_best(optima),
-        # the search route's starts: polished, joined a basin without a polish, or a search that failed
-        "route": _route_outcome(solutions),
-    }
-
-
-def _route_outcome(solutions: pd.DataFrame) -> dict | None:
-    """What became of the search route's starts (None: the paper's route)."""
-    if "outcome" not in solutions:
-        return None
-    outcome = solutions["outcome"].fillna("search-failed")
-    polished = solutions[outcome == "polished"]
-    return {
-        "name": "search",
-        "polished": int(len(polished)),
-        "polished_verified": int(polished["verified"].sum()),
-        "same_basin": int((outcome == "same-basin").sum()),
-        "search_failed": int((outcome == "search-failed").sum()),
-        "basins": int(solutions["basin"].nunique()) if "basin" in solutions else 0,
-    }
-
-
-def _throughput(solutions: pd.DataFrame, optima: pd.DataFrame, solved: int, wall_seconds: float) -> dict:
-    per_second = 1.0 / wall_seconds if wall_seconds > 0 else float("nan")
-    best_after = None
-    if len(optima) and "found_after_s" in optima:
-        value = float(optima.loc[optima["Q"].idxmin(), "found_after_s"])
-        best_after = value if np.isfinite(value) else None
-    return {
-        "starts_per_s": solved * per_second,
-        "optima_per_s": len(optima) * per_second,
-        "best_Q_after_s": best_after,
-    }
-
-
-def _verifier_q_of_best(optima: pd.DataFrame) -> float | None:
-    if not len(optima) or "verify_Q" not in optima:
-        return None
-    value = float(optima.loc[optima["Q"].idxmin(), "verify_Q"])
-    return value if np.isfinite(value) else None
 
 
 def _physics_judge(solutions: pd.DataFrame, job: Job) -> Any:

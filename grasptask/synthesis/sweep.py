@@ -86,9 +86,12 @@ def graceful_stop(notify: Callable[[str], Any] = print) -> Iterator[None]:
 
 
 class Executor(Protocol):
+    """Runs a worker's jobs (starts of the paper's route, searches, polishes: anything with a ``start_id``) and
+    hands each result to ``on_result`` as it comes in."""
+
     def start(self) -> dict[str, int]: ...
 
-    def run(self, starts: list[Start], on_result: OnResult) -> None: ...
+    def run(self, starts: list[Any], on_result: OnResult) -> None: ...
 
     def close(self) -> None: ...
 
