@@ -180,9 +180,8 @@ def search_config(tmp_path_factory) -> Path:
 def _sweep(tasks: Path, out: Path, config: Path, workers: int, **executor: str) -> pd.DataFrame:
     from grasptask.stages import SynthesisOptions, run_synthesize
 
-    options = SynthesisOptions(
-        tasks=tasks, task="drawing", out=out, solver_config=config, starts=4, workers=workers, route="search", **executor
-    )
+    given = {"solver_config": config, "starts": 4, "workers": workers, "route": "search", **executor}
+    options = SynthesisOptions(tasks=tasks, task="drawing", out=out, **given)
     run_synthesize(options, echo=lambda _: None)
     return pd.read_parquet(out / "drawing" / "solutions.parquet")
 
