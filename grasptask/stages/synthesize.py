@@ -428,8 +428,10 @@ def _run_locked(
             _begin(folder, prepared, log, options.resume, done, rows, echo)
             if todo:  # a resumed sweep may have nothing left to solve
                 try:
-                    solve = _solve if options.route == "paper" else _solve_by_search
-                    solve(executor, todo, rows, log, options.task, len(prepared.starts), wall_start, prepared)
+                    if options.route == "paper":
+                        _solve(executor, todo, rows, log, options.task, len(prepared.starts), wall_start)
+                    else:
+                        _solve_by_search(executor, todo, rows, log, wall_start, prepared)
                 except BadInputError:
                     if staged and not options.resume and not read_log(log).rows:  # nothing of it to resume
                         _discard_rerun(folder, prepared)
@@ -536,7 +538,6 @@ def _solve(
     task: str,
     total: int,
     began: float,
-    prepared: _Prepared,
 ) -> None:
     """Run the executor over ``todo``, appending each row to the log (and ``rows``), with progress. Each row
     records when it came in, in seconds from ``began`` (``found_after_s``): what a user waited for it."""
@@ -560,16 +561,7 @@ def _solve(
             writer.close()
 
 
-def _solve_by_search(
-    executor: Any,
-    todo: list,
-    rows: list[dict],
-    log: Path,
-    task: str,
-    total: int,
-    began: float,
-    prepared: _Prepared,
-) -> None:
+def _solve_by_search(executor: Any, todo: list, rows: list[dict], log: Path, began: float, prepared: _Prepared) -> None:
     """The search route over ``todo`` (:class:`~grasptask.synthesis.rounds.Route`), each round's rows appended
     to the log (and ``rows``) as the round ends; a resumed sweep's basins read back from its rows."""
     from grasptask.synthesis.rounds import Route, known_basins

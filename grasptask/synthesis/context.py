@@ -114,10 +114,13 @@ class SolverContext:
     @cached_property
     def search_model(self) -> Solver:
         """The search's model (route search), built on first use: the paper's route never needs it."""
-        from grasptask.synthesis.search import build_search
+        from grasptask.synthesis.solvers import build_solver
 
         job = self.job
-        return build_search(self.hand, self.obj, self.task, self.settings, job.solver, job.backend)
+        solver = job.solver
+        return build_solver(
+            self.hand, self.obj, self.task, self.settings, solver, job.backend, None, solver.search_iterations, True
+        )
 
     @cached_property
     def force_problem(self) -> ForceProblem:

@@ -488,16 +488,9 @@ def search_objective(nlp: NLPBuilder) -> None:
 
 #: the search's equation families (SPEC section 12): the geometry alone, eqs. 2-5, 7, 14 and 16-23, without the
 #: task forces (eq. 8, 12) and eq. 10, whose rows the force problem holds
-SEARCH_EQUATIONS: tuple[Callable[[NLPBuilder], None], ...] = (
-    palm_and_joints,
-    held_axis_rotation,
-    kinematics,
-    contacts_and_collisions,
-    cones_and_wrenches,
-    jacobians,
-    force_closure,
-    search_objective,
-)
+SEARCH_EQUATIONS: tuple[Callable[[NLPBuilder], None], ...] = tuple(
+    f for f in EQUATIONS if f not in (edge_torques, task_forces_and_quality, torque_feasibility, objective)
+) + (search_objective,)
 
 
 @dataclass

@@ -12,27 +12,14 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from grasptask.synthesis.search import SearchEnd
-from grasptask.synthesis.starts import Start
+from grasptask.synthesis.starts import Start, StartJob
 
 
 @dataclass(frozen=True)
-class Polish:
+class Polish(StartJob):
     """A worker's job: polish the search's ``end`` of ``start``."""
 
-    start: Start
     end: SearchEnd
-
-    @property
-    def start_id(self) -> int:
-        return self.start.start_id
-
-    @property
-    def orientation(self) -> int:
-        return self.start.orientation
-
-    @property
-    def position_name(self) -> str:
-        return self.start.position_name
 
     def warm_start(self) -> Start:
         """The start the polish solves: the end point's grasp, as a warm start is."""

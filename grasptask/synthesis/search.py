@@ -16,15 +16,13 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from grasptask.synthesis.solver_config import SolverConfig
-from grasptask.synthesis.solvers import Solver, assign, held_axis
-from grasptask.synthesis.starts import Start
+from grasptask.synthesis.solvers import Solver, assign
+from grasptask.synthesis.starts import StartJob
 
 if TYPE_CHECKING:
-    from grasptask.grasp.grasp_settings import GraspSettings
-    from grasptask.hand.hand_model import Hand
-    from grasptask.objects.surface import ImplicitObject
+    from grasptask.synthesis.backends import Objective
     from grasptask.synthesis.force_problem import ForceSolution
+    from grasptask.synthesis.nlp import GraspNLP
     from grasptask.task.task_model import TaskModel
 
 #: IPOPT's options for the search, over the solver config's: the search ends where a basin is told apart, not at
@@ -32,28 +30,13 @@ if TYPE_CHECKING:
 SEARCH_IPOPT: dict[str, Any] = {"tol": 1e-3, "acceptable_tol": 1e-1, "acceptable_iter": 5}
 
 
-def build_search(
-    hand: Hand,
-    obj: ImplicitObject,
-    task: TaskModel,
-    settings: GraspSettings,
-    config: SolverConfig,
-    backend: str = "casadi",
-) -> Solver:
-    """The search's model, written, imported into the ``backend`` with the force problem's closed form added to
-    its objective, and compiled for placement."""
+def search_objective(nlp: GraspNLP, order: list, task: TaskModel, rho: float) -> Objective:
+    """The search's objective as CasADi sees the model: the force problem's eq. 8 part in closed form, of the
+    contacts' and Jacobians' columns in the NL file's ``order``."""
     import casadi  # the solver stack, in the workers
 
-    from grasptask.synthesis.backends import BACKENDS, write_nl_rows
     from grasptask.synthesis.force_problem import symbolic_quality
-    from grasptask.synthesis.nlp import SEARCH_EQUATIONS, build_model
 
-    held = held_axis(obj, task, config.hold_axis_rotation)
-    nlp = build_model(
-        hand, obj, task, settings, config.search_bounds, config.regularisation, None, held, SEARCH_EQUATIONS
-    )
-    text, order, rows = write_nl_rows(nlp.model)
-    nlp.compile()
     where = nlp.columns(order)
     joints = [f.n_joints for f in nlp.hand.fingers.values()]
 
@@ -65,11 +48,9 @@ def build_search(
             casadi.vertcat(*[casadi.horzcat(*[x[where["J"][j, k, i]] for i in range(3)]) for k in range(n)])
             for j, n in enumerate(joints)
         ]
-        return symbolic_quality(contacts, jacobians, task, config.force_slack_weight)
+        return symbolic_quality(contacts, jacobians, task, rho)
 
-    options = {**config.ipopt, **SEARCH_IPOPT, "max_iter": config.search_iterations}
-    solver = BACKENDS[backend](text, options, nlp.surrogate_spec(order, rows), quality)
-    return Solver(nlp, order, solver, nlp.limit_positions(order, rows), nlp.held_positions(order))
+    return quality
 
 
 @dataclass(frozen=True)
@@ -115,19 +96,5 @@ def end_point(search: Solver, x: np.ndarray) -> EndGrasp:
 
 
 @dataclass(frozen=True)
-class SearchTask:
+class SearchTask(StartJob):
     """A worker's job: search from ``start``."""
-
-    start: Start
-
-    @property
-    def start_id(self) -> int:
-        return self.start.start_id
-
-    @property
-    def orientation(self) -> int:
-        return self.start.orientation
-
-    @property
-    def position_name(self) -> str:
-        return self.start.position_name

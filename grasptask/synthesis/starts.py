@@ -35,6 +35,25 @@ class Start:
     joints: np.ndarray | None = None
 
 
+@dataclass(frozen=True)
+class StartJob:
+    """A worker's job on one start (a search, a polish): it answers for the start, as a failed row names it."""
+
+    start: Start
+
+    @property
+    def start_id(self) -> int:
+        return self.start.start_id
+
+    @property
+    def orientation(self) -> int:
+        return self.start.orientation
+
+    @property
+    def position_name(self) -> str:
+        return self.start.position_name
+
+
 #: the first id of the warm starts, apart from the 126
 WARM_FIRST_ID = 1000
 WARM_POSITION = "library"
