@@ -59,6 +59,8 @@ class Route:
                 on_row(row)
 
     def round(self, starts: list[Start], name: str) -> list[dict]:
+        """One round: its starts searched, their end points grouped (joining earlier rounds' basins where they lie
+        within them), the new basins polished; a row per start, in start order."""
         ends = self._search(starts, name)
         rows: dict[int, dict] = {}
         points: dict[int, EndPoint] = {}
