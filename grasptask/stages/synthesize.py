@@ -11,7 +11,8 @@ from __future__ import annotations
 import errno
 import os
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
@@ -545,20 +546,34 @@ def _solve(
         "verified": sum(bool(r.get("verified")) for r in rows),
         "failing": sum(not r.get("verified") for r in rows),
     }
-    writer = LogWriter(log)
-    with Progress(total, f"synthesize {task}", "starts", initial=len(rows)) as shown:
+    with (
+        _recorded(log, rows, began) as record,
+        Progress(total, f"synthesize {task}", "starts", initial=len(rows)) as shown,
+    ):
 
         def on_result(row: dict) -> None:
-            row["found_after_s"] = time.perf_counter() - began
-            writer.append(row)
-            rows.append(row)
+            record(row)
             counts["verified" if row.get("verified") else "failing"] += 1
             shown.update(1, **counts)
 
-        try:
-            executor.run(todo, on_result)
-        finally:
-            writer.close()
+        executor.run(todo, on_result)
+
+
+@contextmanager
+def _recorded(log: Path, rows: list[dict], began: float) -> Iterator[Callable[[dict], None]]:
+    """What takes each finished row: stamped with when it came in, in seconds from ``began`` (``found_after_s``:
+    what a user waited for it), appended to the log and to ``rows``."""
+    writer = LogWriter(log)
+
+    def record(row: dict) -> None:
+        row["found_after_s"] = time.perf_counter() - began
+        writer.append(row)
+        rows.append(row)
+
+    try:
+        yield record
+    finally:
+        writer.close()
 
 
 def _solve_by_search(executor: Any, todo: list, rows: list[dict], log: Path, began: float, prepared: _Prepared) -> None:
@@ -576,17 +591,8 @@ def _solve_by_search(executor: Any, todo: list, rows: list[dict], log: Path, beg
         solver.polish_per_basin,
         known_basins(rows),
     )
-    writer = LogWriter(log)
-
-    def on_row(row: dict) -> None:
-        row["found_after_s"] = time.perf_counter() - began
-        writer.append(row)
-        rows.append(row)
-
-    try:
-        route.run(todo, on_row)
-    finally:
-        writer.close()
+    with _recorded(log, rows, began) as record:
+        route.run(todo, record)
 
 
 def summarise(

@@ -31,7 +31,8 @@ from grasptask.task.task_model import TaskModel, load_task_models
 
 if TYPE_CHECKING:  # the solver stack loads in the workers, not where a Job is made
     from grasptask.synthesis.backends import SolveResult
-    from grasptask.synthesis.force_problem import ForceProblem, ForceSolution
+    from grasptask.synthesis.force_problem import ForceProblem
+    from grasptask.synthesis.nlp import GraspNLP
     from grasptask.synthesis.polish import Polish
     from grasptask.synthesis.search import SearchEnd, SearchTask
     from grasptask.synthesis.solvers import Solver
@@ -107,9 +108,6 @@ class SolverContext:
         self.bounds = self.obj.bounds()
         self.anchors = Anchors(self.bounds, self.nlp.surrogate.grid if self.nlp.surrogate is not None else None)
         self.approach = self.hand.approach
-        #: the force problem's solution, eq. 4's weights and the search's point a polish's first attempt starts
-        #: from (None: a start of the paper's route)
-        self._warm_forces: tuple[ForceSolution, np.ndarray, np.ndarray | None] | None = None
 
     @cached_property
     def search_model(self) -> Solver:
@@ -147,7 +145,6 @@ class SolverContext:
     def search(self, task: SearchTask) -> SearchEnd:
         """The search from a start: placed in each posture in turn (the solver config's first, then its retry
         postures) until IPOPT converges; the force problem at the end point."""
-        from grasptask.synthesis.placement import place
         from grasptask.synthesis.search import SearchEnd, end_point
 
         search, start = self.search_model, self._facing(task.start)
@@ -156,10 +153,7 @@ class SolverContext:
             attempt += 1
             began = time.perf_counter()
             joints = self.nlp.hand.posture(fraction)
-            if self.job.solver.placement:
-                place(search.nlp, start, self.anchors, joints)
-            else:
-                search.nlp.initialise(start.palm_rotation, start.palm_position, joints)
+            self._place(search.nlp, start, joints)
             result = search.solve(values(search.order))
             seconds, iterations = seconds + time.perf_counter() - began, iterations + result.iterations
             if result.status in CONVERGED and result.x is not None:
@@ -181,13 +175,28 @@ class SolverContext:
 
     def polish(self, task: Polish) -> dict:
         """A basin's end point solved by the paper's NLP from it, forces and all (:mod:`.polish`)."""
-        end = task.end
-        if end.forces is not None and end.grasp is not None:
-            self._warm_forces = (end.forces, end.grasp.phi, end.x)
-        try:
-            return self.solve(task.warm_start())
-        finally:
-            self._warm_forces = None
+        return self.solve(task.warm_start(), task.end)
+
+    def _polish_point(self, end: SearchEnd) -> np.ndarray:
+        """The first model's initial point at a search's end point (the model initialised there already): the
+        force problem's forces and the search's eq. 4 weights, then every variable the search model shares with
+        it (contacts, normals, cones, Jacobians) as the search left them."""
+        assert end.forces is not None and end.grasp is not None and end.x is not None, "a polish of a failed search"
+        self.nlp.set_forces(end.forces, end.grasp.phi)
+        x0 = values(self.models.first.order)
+        shared = self._from_search >= 0
+        x0[shared] = end.x[self._from_search[shared]]
+        return x0
+
+    def _place(self, nlp: GraspNLP, start: Start, joints: np.ndarray) -> float | None:
+        """``nlp`` initialised at ``start`` in the posture ``joints``: placed at the object (the solver config's
+        ``placement``; how far the palm backed away, m) or where the start is (None)."""
+        from grasptask.synthesis.placement import place  # Pyomo, loaded in the workers
+
+        if self.job.solver.placement:
+            return place(nlp, start, self.anchors, joints)
+        nlp.initialise(start.palm_rotation, start.palm_position, joints)
+        return None
 
     def run(self, task: Start | SearchTask | Polish) -> dict | SearchEnd:
         """A worker's job: a start of the paper's route, a search, or a polish."""
@@ -200,11 +209,12 @@ class SolverContext:
             return self.polish(task)
         return self.solve(task)
 
-    def solve(self, start: Start) -> dict:
+    def solve(self, start: Start, end: SearchEnd | None = None) -> dict:
         """One start: solved from the solver config's first posture (mid-range joints are Section 7.3's) and,
         while the verifier rejects the result, again from each of its retry postures. The row is the last
         attempt's; its seconds, iterations, placement seconds and feedback rounds are those of every attempt
-        together, and ``first_attempt_*`` say how the first did."""
+        together, and ``first_attempt_*`` say how the first did. ``end``: a polish's, whose first attempt starts
+        from the search's whole point there (``start`` is its grasp)."""
         warm = start.joints is not None  # an optimum's palm turned with the hand already
         start = self._facing(start)
         postures = [self.nlp.hand.posture(f) for f in self.job.solver.postures]
@@ -212,7 +222,7 @@ class SolverContext:
             postures[0] = np.asarray(start.joints, dtype=float)
         spent = {"seconds": 0.0, "iterations": 0, "placement_seconds": 0.0, "feedback_rounds": 0, "all_axes_solves": 0}
         for attempt, joints in enumerate(postures, 1):
-            row = self._attempt(start, joints, as_it_is=warm and attempt == 1)
+            row = self._attempt(start, joints, warm and attempt == 1, end if attempt == 1 else None)
             if attempt == 1:
                 first = {"first_attempt_seconds": row["seconds"], "first_attempt_verified": row["verified"]}
             for key in spent:
@@ -222,31 +232,27 @@ class SolverContext:
         return {**row, **spent, **first, "attempts": attempt}
 
     def _initial_point(
-        self, start: Start, joints: np.ndarray, row: dict[str, Any], as_it_is: bool = False
+        self,
+        start: Start,
+        joints: np.ndarray,
+        row: dict[str, Any],
+        as_it_is: bool = False,
+        end: SearchEnd | None = None,
     ) -> tuple[np.ndarray, float, int]:
         """The first model's initial point from ``start`` in the posture ``joints``: placed (or initialised),
         then moved by the geometric phase where there is one; its seconds and iterations. The placement's
-        figures go into ``row``. ``as_it_is``: a warm start's grasp, initialised where it is and not moved."""
-        from grasptask.synthesis.placement import place  # Pyomo, loaded in the workers
-
+        figures go into ``row``. ``as_it_is``: a warm start's grasp, initialised where it is and not moved;
+        with a polish's ``end``, the search's point there (:meth:`_polish_point`)."""
         models = self.models
         began = time.perf_counter()
         if as_it_is:
             self.nlp.initialise(start.palm_rotation, start.palm_position, joints)
-            x0 = values(models.first.order)
-            if self._warm_forces is not None:  # a polish: the search's point, and the force problem's forces there
-                forces, phi, searched = self._warm_forces
-                self.nlp.set_forces(forces, phi)
-                x0 = values(models.first.order)
-                if searched is not None:  # contacts, normals, cones, Jacobians as the search left them
-                    shared = self._from_search >= 0
-                    x0[shared] = searched[self._from_search[shared]]
+            x0 = values(models.first.order) if end is None else self._polish_point(end)
             row["placement_seconds"] = seconds = time.perf_counter() - began
             return x0, seconds, 0
-        if self.job.solver.placement:
-            row["placement_backoff_m"] = place(self.nlp, start, self.anchors, joints)
-        else:
-            self.nlp.initialise(start.palm_rotation, start.palm_position, joints)
+        backoff = self._place(self.nlp, start, joints)
+        if backoff is not None:
+            row["placement_backoff_m"] = backoff
         row["placement_seconds"] = seconds = time.perf_counter() - began
         x0, iterations = values(models.first.order), 0
         if models.geometric is not None:  # the first iterations without eq. 10, carried into the first model
@@ -256,7 +262,7 @@ class SolverContext:
                 x0[models.geometric_positions] = phase.x
         return x0, seconds, iterations
 
-    def _attempt(self, start: Start, joints: np.ndarray, as_it_is: bool = False) -> dict:
+    def _attempt(self, start: Start, joints: np.ndarray, as_it_is: bool = False, end: SearchEnd | None = None) -> dict:
         """Placement, IPOPT and the verifier from one posture; the whole model's solve when the first model left
         out an axis the grasp cannot hold; the verifier's feedback rounds."""
         models = self.models
@@ -266,7 +272,7 @@ class SolverContext:
             "position": start.position_name,
         }
         solver = models.first
-        x0, seconds, iterations = self._initial_point(start, joints, row, as_it_is)
+        x0, seconds, iterations = self._initial_point(start, joints, row, as_it_is, end)
         rounds, whole = 0, 0
         result = solver.solve(x0)
         seconds, iterations = seconds + result.seconds, iterations + result.iterations

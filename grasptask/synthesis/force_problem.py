@@ -33,6 +33,7 @@ import numpy as np
 
 from grasptask.grasp.grasp_settings import GraspSettings
 from grasptask.hand.hand_model import Capability
+from grasptask.synthesis.algebra import cross_matrix
 from grasptask.synthesis.solver_config import Regularisation, SearchBounds
 from grasptask.task.task_model import TaskModel
 
@@ -57,7 +58,7 @@ class GraspGeometry:
 
     def grasp_matrix(self) -> np.ndarray:
         """G (6 x 3b): a contact force's total force and its torque about the object frame's origin."""
-        blocks = [np.vstack([np.eye(3), _cross_matrix(p)]) for p in self.contacts]
+        blocks = [np.vstack([np.eye(3), cross_matrix(p)]) for p in self.contacts]
         return np.hstack(blocks)
 
     def torque_weights(self) -> np.ndarray:
@@ -182,35 +183,15 @@ class ForceProblem:
         solved = self._task_solver(h=H, g=-2 * gamma * self.rho * G.T @ u, lbx=-f_max, ubx=f_max)
         return np.asarray(solved["x"]).ravel()
 
-    def _strength_rows(self, geometry: GraspGeometry) -> tuple[np.ndarray, np.ndarray]:
-        """Eq. 10's rows for one sign (wrench, transmission, least normal force) and their lower bounds, but for
-        the wrench rows' targets."""
-        n_edges, cap = self.b * self.m, self.capability
-        n, rows = self._strength_size
-        A, lower = np.zeros((rows, n)), np.zeros(rows)
-        A[:6, :n_edges], A[:6, n_edges + self.n_act : n_edges + self.n_act + 6] = geometry.edge_wrenches(), -np.eye(6)
-        n_t = len(cap.transmission)
-        A[6 : 6 + n_t, :n_edges] = cap.transmission @ geometry.edge_joint_torques()
-        A[6 : 6 + n_t, n_edges : n_edges + self.n_act] = -cap.torque_map
-        A[6 : 6 + n_t, n_edges + self.n_act + 6 :] = -np.eye(n_t)  # what the hand's strength falls short by
-        if self.settings.min_normal_force_n > 0:
-            mu = self.settings.friction_scale * self.settings.friction_coefficient
-            for j in range(self.b):
-                A[6 + n_t + j, j * self.m : (j + 1) * self.m] = 1.0 / np.sqrt(1.0 + mu**2)
-            lower[6 + n_t :] = self.settings.min_normal_force_n
-        return A, lower
-
-    def _strength(self, A: np.ndarray, lower: np.ndarray, target: np.ndarray) -> np.ndarray:
-        """Eq. 10 for one real task wrench ``target``: edge forces, activations and the wrench rows' residual."""
+    @cached_property
+    def _strength_bounds(self) -> tuple[casadi.DM, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """What eq. 10's QP keeps from grasp to grasp: its Hessian, its variables' bounds and its rows' (the
+        wrench rows' targets are set per wrench). The objective is divided by rho: the residuals' weight 1, the
+        small terms' at least STRENGTH_FLOOR, for with the NLP's 1e-7 against a rho of 1e7 the QP's condition
+        (1e14) left DAQP's residuals 1e3 off their least."""
         n_edges = self.b * self.m
-        n, _ = self._strength_size
-        upper = np.zeros(len(lower))
-        upper[6 + len(self.capability.transmission) :] = np.inf
-        lba, uba = lower.copy(), upper
-        lba[:6] = uba[:6] = target
-        n_residuals = n - n_edges - self.n_act
-        # the objective divided by rho: the residuals' weight 1, the small terms' at least STRENGTH_FLOOR, for with
-        # the NLP's 1e-7 against a rho of 1e7 the QP's condition (1e14) left DAQP's residuals 1e3 off their least
+        n, rows = self._strength_size
+        n_residuals, n_t = n - n_edges - self.n_act, len(self.capability.transmission)
         weights = np.concatenate(
             [
                 np.full(n_edges, max(self.regularisation.edge_force / self.rho, STRENGTH_FLOOR)),
@@ -221,9 +202,32 @@ class ForceProblem:
         edge_max = np.inf if self.bounds.edge_force_n is None else self.bounds.edge_force_n
         lbx = np.concatenate([np.zeros(n_edges + self.n_act), np.full(n_residuals, -np.inf)])
         ubx = np.concatenate([np.full(n_edges, edge_max), np.full(self.n_act, self.cap), np.full(n_residuals, np.inf)])
-        solved = self._strength_solver(
-            h=casadi.DM(casadi.Sparsity.diag(n), 2 * weights), a=A, lba=lba, uba=uba, lbx=lbx, ubx=ubx
-        )
+        lower, upper = np.zeros(rows), np.zeros(rows)
+        lower[6 + n_t :], upper[6 + n_t :] = self.settings.min_normal_force_n, np.inf  # the least normal force
+        return casadi.DM(casadi.Sparsity.diag(n), 2 * weights), lbx, ubx, lower, upper
+
+    def _strength_rows(self, geometry: GraspGeometry) -> np.ndarray:
+        """Eq. 10's rows for one sign at ``geometry``: wrench, transmission, least normal force."""
+        n_edges, cap = self.b * self.m, self.capability
+        n, rows = self._strength_size
+        A = np.zeros((rows, n))
+        A[:6, :n_edges], A[:6, n_edges + self.n_act : n_edges + self.n_act + 6] = geometry.edge_wrenches(), -np.eye(6)
+        n_t = len(cap.transmission)
+        A[6 : 6 + n_t, :n_edges] = cap.transmission @ geometry.edge_joint_torques()
+        A[6 : 6 + n_t, n_edges : n_edges + self.n_act] = -cap.torque_map
+        A[6 : 6 + n_t, n_edges + self.n_act + 6 :] = -np.eye(n_t)  # what the hand's strength falls short by
+        if self.settings.min_normal_force_n > 0:
+            mu = self.settings.friction_scale * self.settings.friction_coefficient
+            for j in range(self.b):
+                A[6 + n_t + j, j * self.m : (j + 1) * self.m] = 1.0 / np.sqrt(1.0 + mu**2)
+        return A
+
+    def _strength(self, A: np.ndarray, target: np.ndarray) -> np.ndarray:
+        """Eq. 10 for one real task wrench ``target``: edge forces, activations and the rows' residuals."""
+        h, lbx, ubx, lower, upper = self._strength_bounds
+        lba, uba = lower.copy(), upper.copy()
+        lba[:6] = uba[:6] = target
+        solved = self._strength_solver(h=h, a=A, lba=lba, uba=uba, lbx=lbx, ubx=ubx)
         return np.asarray(solved["x"]).ravel()
 
     def solve(self, geometry: GraspGeometry) -> ForceSolution:
@@ -232,7 +236,7 @@ class ForceProblem:
         if not all(np.isfinite(a).all() for a in arrays):
             raise ValueError("the force problem's geometry is not finite")
         G, W = geometry.grasp_matrix(), geometry.torque_weights()
-        A, lower = self._strength_rows(geometry)
+        A = self._strength_rows(geometry)
         weights = np.asarray(self.task.weights, dtype=float)
         n_edges = self.b * self.m
         forces, slacks, edge, act, residuals = [], [], [], [], []
@@ -240,7 +244,7 @@ class ForceProblem:
             f = self._task_forces(G, W, float(gamma), u)
             forces.append(f.reshape(self.b, 3))
             slacks.append(G @ f - u)
-            signs = [self._strength(A, lower, sign * length * u) for sign in (1.0, -1.0)]
+            signs = [self._strength(A, sign * length * u) for sign in (1.0, -1.0)]
             edge.append([x[:n_edges].reshape(self.b, self.m) for x in signs])
             act.append([x[n_edges : n_edges + self.n_act] for x in signs])
             residuals.append([x[n_edges + self.n_act :] for x in signs])
@@ -262,10 +266,6 @@ def quality(geometry: GraspGeometry, forces: np.ndarray, weights: np.ndarray) ->
         torques = [J @ f for J, f in zip(geometry.jacobians, per_axis, strict=True)]
         total += float(gamma) * sum(float(t @ t) for t in torques)
     return total
-
-
-def _cross_matrix(v: np.ndarray) -> np.ndarray:
-    return np.array([[0.0, -v[2], v[1]], [v[2], 0.0, -v[0]], [-v[1], v[0], 0.0]])
 
 
 def symbolic_quality(contacts: Any, jacobians: list[Any], task: TaskModel, rho: float, floor: float = 1e-10) -> Any:

@@ -18,7 +18,7 @@ import numpy as np
 
 from grasptask.grasp.grasp_pose import Grasp
 from grasptask.progress import Progress
-from grasptask.records.solutions import grasp_columns
+from grasptask.records.solutions import failed_row, grasp_columns
 from grasptask.synthesis.basins import EndPoint, group, joins
 from grasptask.synthesis.clustering import descriptor
 from grasptask.synthesis.polish import Polish
@@ -75,9 +75,9 @@ class Route:
         fresh = self._assign(group(list(points.values())))
         by_id = {s.start_id: s for s in starts}
         polished = self._polish(fresh, by_id, ends, name)
+        basin_of = {m.start_id: b for b in self.basins for m in b.members}
         for start_id, point in points.items():
-            basin = next(b for b in self.basins if any(m.start_id == start_id for m in b.members))
-            end = ends[start_id]
+            basin, end = basin_of[start_id], ends[start_id]
             assert isinstance(end, SearchEnd)
             if start_id in polished:  # its seconds and iterations: the search's and the polish's
                 row = polished[start_id]
@@ -175,36 +175,23 @@ class Route:
         }
 
     def _joined(self, start: Start, end: SearchEnd, point: EndPoint, basin: Basin) -> dict:
+        """A start whose end point joined a basin another start's polish stands for: its own Q and end point."""
         assert end.forces is not None
-        polished = basin.polished_start
+        message = f"basin {basin.basin_id}, polished from start {basin.polished_start}"
+        row = failed_row(start.start_id, start.orientation, start.position_name, "same-basin", end.seconds, message)
         return {
-            "start_id": start.start_id,
-            "orientation": start.orientation,
-            "position": start.position_name,
-            "status": "same-basin",
+            **row,
             "iterations": end.iterations,
-            "seconds": end.seconds,
-            "message": f"basin {basin.basin_id}, polished from start {polished}",
             "Q": end.forces.Q,
-            "verified": False,
             **self._searched(end, point, basin, "same-basin"),
         }
 
     def _unsearched(self, start: Start, end: SearchEnd) -> dict:
-        return {
-            "start_id": start.start_id,
-            "orientation": start.orientation,
-            "position": start.position_name,
-            "status": end.status,
-            "iterations": end.iterations,
-            "seconds": end.seconds,
-            "message": f"search: {end.message}",
-            "Q": float("nan"),
-            "verified": False,
-            "outcome": "search-failed",
-            "search_status": end.status,
-            "search_attempts": end.attempts,
-        }
+        """A start whose search converged from no posture: IPOPT's status and why."""
+        message = f"search: {end.message}"
+        row = failed_row(start.start_id, start.orientation, start.position_name, end.status, end.seconds, message)
+        figures = {"search_status": end.status, "search_attempts": end.attempts}
+        return {**row, "iterations": end.iterations, "outcome": "search-failed", **figures}
 
 
 def known_basins(rows: list[dict]) -> list[Basin]:
