@@ -449,7 +449,7 @@ def test_attempts_start_from_the_first_posture_then_each_retry_posture(tasks, mo
 
     as_they_were = []
 
-    def attempt(start, joints, as_it_is=False):
+    def attempt(start, joints, as_it_is=False, end=None):  # the signature of SolverContext._attempt
         tried.append(joints)
         as_they_were.append(as_it_is)
         keys = ("seconds", "iterations", "placement_seconds", "feedback_rounds", "all_axes_solves")

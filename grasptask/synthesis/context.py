@@ -222,7 +222,7 @@ class SolverContext:
             postures[0] = np.asarray(start.joints, dtype=float)
         spent = {"seconds": 0.0, "iterations": 0, "placement_seconds": 0.0, "feedback_rounds": 0, "all_axes_solves": 0}
         for attempt, joints in enumerate(postures, 1):
-            row = self._attempt(start, joints, warm and attempt == 1, end if attempt == 1 else None)
+            row = self._attempt(start, joints, as_it_is=warm and attempt == 1, end=end if attempt == 1 else None)
             if attempt == 1:
                 first = {"first_attempt_seconds": row["seconds"], "first_attempt_verified": row["verified"]}
             for key in spent:
