@@ -146,6 +146,27 @@ def test_at_an_optimum_of_the_paper_nlp_the_force_problems_q_is_the_nlps(tasks):
     assert solution.Q == pytest.approx(row["Q"], abs=1e-6, rel=1e-4)
 
 
+@pytest.mark.parametrize("axes", [0, 1])
+def test_the_search_model_holds_eq_10_for_its_longest_axes_only(tasks, axes):
+    """No task forces in the search's model; eq. 10's two blocks (each sign) of the longest axis when asked."""
+    from grasptask.hand import load_hand
+    from grasptask.objects import load_object
+    from grasptask.paths import DEFAULT_HAND
+    from grasptask.synthesis.nlp import build_model, search_equations
+    from grasptask.task.task_model import load_task_models
+
+    obj = load_object(ROOT / "configs/objects/tool.yaml", say=lambda _: None)
+    task = load_task_models(tasks)["drawing"]
+    equations = search_equations(axes)
+    m = build_model(load_hand(DEFAULT_HAND), obj, task, GraspSettings(), torque_axes=axes, equations=equations).model
+    assert m.component("force") is None and m.component("eq12_Q") is None
+    if not axes:
+        assert m.component("lam") is None and m.component("edge_torque") is None
+        return
+    assert {(a, s) for a, s, *_ in m.lam.index_set()} == {(0, 0), (0, 1)}
+    assert len(m.eq10_wrench) == 12
+
+
 def _point(start_id: int, x: float, Q: float = 1.0, value: float | None = None) -> EndPoint:
     return EndPoint(start_id, np.array([x, 0.0, 0.0]), Q, Q if value is None else value)
 

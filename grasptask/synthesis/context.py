@@ -117,7 +117,15 @@ class SolverContext:
         job = self.job
         solver = job.solver
         return build_solver(
-            self.hand, self.obj, self.task, self.settings, solver, job.backend, None, solver.search_iterations, True
+            self.hand,
+            self.obj,
+            self.task,
+            self.settings,
+            solver,
+            job.backend,
+            solver.search_torque_axes,
+            solver.search_iterations,
+            True,
         )
 
     @cached_property

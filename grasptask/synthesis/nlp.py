@@ -21,8 +21,9 @@ family of variables and constraints, in this order, and the component names carr
                                         task's longest axes only when asked: :func:`build_model`)
     objective                eq. 12     Q plus the small terms of :class:`Regularisation`
 
-:data:`SEARCH_EQUATIONS` is the search's model (SPEC section 12): the same geometry without eq. 8, 10 and 12,
-whose forces the force problem (:mod:`grasptask.synthesis.force_problem`) holds.
+:func:`search_equations` gives the search's model (SPEC section 12): the same geometry without eq. 8 and 12, whose
+forces the force problem (:mod:`grasptask.synthesis.force_problem`) holds, and eq. 10 for none of the task's axes or
+its longest.
 
 Every quantity that several constraints share (frames, contacts, normals, cone edges, wrenches, Jacobians, edge
 torques) is a variable defined once by an equality, so that eq. 4, 10 and 12 are bilinear in them and the
@@ -450,14 +451,22 @@ def objective(nlp: NLPBuilder) -> None:
     """Eq. 12's Q plus small quadratic terms on the variables Q does not see (phi about its mean, eq. 10's edge
     forces and activations), so that each optimum is isolated instead of a flat manifold. Zero weights give the
     paper's objective; the Q a solution reports is eq. 12 alone."""
+    m = nlp.model
+    m.eq12_objective = pyo.Objective(expr=m.eq12_Q + _regularising(nlp), doc="eq. 12 and the regularising terms")
+
+
+def _regularising(nlp: NLPBuilder) -> Any:
+    """:class:`Regularisation`'s terms: phi about its mean, and eq. 10's edge forces and activations where the
+    model has them."""
     m, weights = nlp.model, nlp.regularisation
 
     def squares(weight: float, values: Any) -> Any:
         return weight * sum(v**2 for v in values) if weight > 0 else 0
 
     closure = squares(weights.closure_weight, [v - 1.0 / len(m.phi) for v in m.phi.values()])
-    feasibility = squares(weights.edge_force, m.lam.values()) + squares(weights.activation, m.act.values())
-    m.eq12_objective = pyo.Objective(expr=m.eq12_Q + closure + feasibility, doc="eq. 12 and the regularising terms")
+    if m.component("lam") is None:
+        return closure
+    return closure + squares(weights.edge_force, m.lam.values()) + squares(weights.activation, m.act.values())
 
 
 #: the paper's equation map, in the order the components are created (which fixes the NL column order)
@@ -479,18 +488,18 @@ EQUATIONS: tuple[Callable[[NLPBuilder], None], ...] = (
 
 
 def search_objective(nlp: NLPBuilder) -> None:
-    """The search's Pyomo objective: only eq. 4's regularising term. The force problem's value, the search's
+    """The search's Pyomo objective: only the regularising terms. The force problem's value, the search's
     objective proper, is added where the model is imported into CasADi (:mod:`grasptask.synthesis.search`),
     a closed form Pyomo cannot write."""
-    m, weight = nlp.model, nlp.regularisation.closure_weight
-    m.eq12_objective = pyo.Objective(expr=weight * sum((v - 1.0 / len(m.phi)) ** 2 for v in m.phi.values()))
+    nlp.model.eq12_objective = pyo.Objective(expr=_regularising(nlp), doc="the regularising terms")
 
 
-#: the search's equation families (SPEC section 12): the geometry alone, eqs. 2-5, 7, 14 and 16-23, without the
-#: task forces (eq. 8, 12) and eq. 10, whose rows the force problem holds
-SEARCH_EQUATIONS: tuple[Callable[[NLPBuilder], None], ...] = tuple(
-    f for f in EQUATIONS if f not in (edge_torques, task_forces_and_quality, torque_feasibility, objective)
-) + (search_objective,)
+def search_equations(torque_axes: int = 0) -> tuple[Callable[[NLPBuilder], None], ...]:
+    """The search's equation families (SPEC section 12): the geometry, eqs. 2-5 and 14-23, without the task
+    forces (eq. 8, 12), whose part of Q the force problem's closed form gives; with ``torque_axes``, eq. 7's
+    edge torques and eq. 10 for that many of the task's longest axes (:func:`build_model`'s ``torque_axes``)."""
+    left_out = (task_forces_and_quality, objective) + (() if torque_axes else (edge_torques, torque_feasibility))
+    return tuple(f for f in EQUATIONS if f not in left_out) + (search_objective,)
 
 
 @dataclass
@@ -584,10 +593,10 @@ class GraspNLP:
         m = self.model
         for var in m.phi.values() if m.component("phi") is not None else []:
             var.set_value(1.0 / len(m.phi))
-        if m.component("force") is None:  # the search's model has no forces
-            return
-        for var in m.force.values():
+        for var in m.force.values() if m.component("force") is not None else []:  # the search's model has none
             var.set_value(0.0)
+        if m.component("lam") is None:
+            return
         for var in m.lam.values():
             var.set_value(0.1)
         for var in m.act.values():
@@ -671,7 +680,7 @@ def build_model(
     ``held_axis``: the object's axis of revolution (direction, point) about which the grasp's turn is held at
     each start's (:func:`held_axis_rotation`); None leaves it free, as the paper does.
 
-    ``equations``: the families to build, :data:`EQUATIONS` (the paper's model) or :data:`SEARCH_EQUATIONS`."""
+    ``equations``: the families to build, :data:`EQUATIONS` (the paper's model) or :func:`search_equations`."""
     grasping = hand.grasping_hand()
     n_axes = len(task.weights)
     builder = NLPBuilder(

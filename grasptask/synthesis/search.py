@@ -1,12 +1,13 @@
 """The search (SPEC section 12): a start's geometry moved by IPOPT on the model without the task forces.
 
-The search's model is :data:`~grasptask.synthesis.nlp.SEARCH_EQUATIONS`: palm pose, joints, contacts, normals,
-cone edges, Jacobians and eq. 4's weights, with eqs. 3, 14 and 16-23 as constraints, but none of eq. 8's task
-forces or eq. 10's rows. Its objective is the force problem's eq. 8 part in closed form
+The search's model is :func:`~grasptask.synthesis.nlp.search_equations`: palm pose, joints, contacts, normals,
+cone edges, Jacobians and eq. 4's weights, with eqs. 3, 14 and 16-23 as constraints, none of eq. 8's task forces,
+and eq. 10's rows for the solver config's ``search_torque_axes`` longest axes only. Its objective is the force
+problem's eq. 8 part in closed form
 (:func:`~grasptask.synthesis.force_problem.symbolic_quality`), added where CasADi imports the model, so IPOPT has
 its exact derivatives: the gradient the envelope theorem gives from the force problem's solution and multipliers.
-An iteration's cost then does not grow with the task's wrench rows. Eq. 10 is the force problem's to judge at
-each end point, and the polish's (the paper's NLP) to meet.
+An iteration's cost then does not grow with the task's wrench rows. Eq. 10 for the other axes is the force
+problem's to judge at each end point, and the polish's (the paper's NLP) to meet.
 """
 
 from __future__ import annotations

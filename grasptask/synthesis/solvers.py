@@ -71,11 +71,11 @@ def build_solver(
     iterations below the solver config's. ``search``: the search's model instead of the paper's
     (:mod:`grasptask.synthesis.search`), its objective the force problem's closed form."""
     from grasptask.synthesis.backends import BACKENDS, write_nl_rows  # the solver stack: CasADi, Pyomo
-    from grasptask.synthesis.nlp import EQUATIONS, SEARCH_EQUATIONS, build_model  # deferred: Pyomo, in the workers
+    from grasptask.synthesis.nlp import EQUATIONS, build_model, search_equations  # deferred: Pyomo, in the workers
     from grasptask.synthesis.search import SEARCH_IPOPT, search_objective
 
     held = held_axis(obj, task, config.hold_axis_rotation)
-    equations = SEARCH_EQUATIONS if search else EQUATIONS
+    equations = search_equations(torque_axes or 0) if search else EQUATIONS
     bounds, regularisation = config.search_bounds, config.regularisation
     nlp = build_model(hand, obj, task, settings, bounds, regularisation, torque_axes, held, equations)
     text, order, rows = write_nl_rows(nlp.model)
