@@ -25,6 +25,24 @@ def bottle(sections: int = 48, step: float = 0.004) -> trimesh.Trimesh:
     return trimesh.creation.revolve(np.array(profile), sections=sections)
 
 
+def bowl(radius: float = 0.0805, height: float = 0.055, wall: float = 0.005, sections: int = 64) -> trimesh.Trimesh:
+    """A bowl of revolution about z, YCB's bowl's size (161 mm across), open at the top, its base at z = 0: two
+    of its principal axes are equal, and its third, the axis of symmetry, its shortest."""
+    profile = [(0.0, 0.0), (0.6 * radius, 0.0), (radius, height), (radius - wall, height),
+               (0.6 * radius - wall, wall), (0.0, wall)]  # fmt: skip
+    return trimesh.creation.revolve(np.array(profile), sections=sections)
+
+
+def can(radius: float = 0.0335, height: float = 0.102, sections: int = 64) -> trimesh.Trimesh:
+    """A closed can, YCB's soup can's size, its base at z = 0: even-sided along its axis, so no third moment
+    points it."""
+    mesh = trimesh.creation.cylinder(radius=radius, height=height, sections=sections)
+    for _ in range(3):
+        mesh = mesh.subdivide()
+    mesh.apply_translation([0, 0, height / 2])
+    return mesh
+
+
 def box(size=(0.09, 0.04, 0.175), subdivisions: int = 4) -> trimesh.Trimesh:
     """A box with sharp edges, YCB's sugar box's size, its base at z = 0; its faces split ``subdivisions`` times,
     to scan-sized triangles (6 mm at 4)."""

@@ -22,7 +22,7 @@ from grasptask.objects import load_object
 from grasptask.objects.mesh_file import holes, non_manifold_edges, open_edges
 from grasptask.objects.mesh_object import MeshObject
 from grasptask.objects.object_files import FRAME_DEPTH_M, file_object_name
-from tests.scan_files import bottle, box, cup, rod, with_fin, with_hole, write_scene_glb, write_textured_obj
+from tests.scan_files import bottle, bowl, box, can, cup, rod, with_fin, with_hole, write_scene_glb, write_textured_obj
 from tests.test_bad_input import assert_rejected
 
 
@@ -113,6 +113,26 @@ def test_the_default_task_frame_is_inside_and_turns_with_the_mesh(tmp_path_facto
     assert np.argmax(longest) == 2  # z along the longest axis
 
 
+@pytest.mark.parametrize("shape", ["bowl", "can", "ball"])
+def test_a_scanned_symmetric_object_gets_z_along_its_symmetry_axis(tmp_path, shape):
+    """Turned in its file, with a scan's noise and texture seams: a bowl's and a can's z is their axis of
+    symmetry, whatever the noise makes of their two equal axes; a ball keeps the file's own axes."""
+    mesh = {"bowl": bowl, "can": can, "ball": lambda: trimesh.creation.icosphere(4, radius=0.035)}[shape]()
+    mesh.vertices += np.random.default_rng(7).normal(scale=2e-4, size=mesh.vertices.shape)
+    turn = Rotation.from_euler("xyz", [35, -20, 50], degrees=True).as_matrix()
+    mesh.vertices = mesh.vertices @ turn.T + [0.1, -0.05, 0.2]
+    obj, _ = loaded(write_textured_obj(mesh, tmp_path / f"{shape}.obj"))
+    frame = obj.task_frame[:3, :3]
+    if shape == "ball":
+        assert obj.task_frame_axes.startswith("the file's own axes")
+        np.testing.assert_allclose(frame, np.eye(3))
+        return
+    assert obj.task_frame_axes == "z along its symmetry axis"
+    assert abs(frame[:, 2] @ turn[:, 2]) > 0.9999
+    if shape == "bowl":  # its wide rim reaches farther from its centre than its base: z points out of it
+        assert frame[:, 2] @ turn[:, 2] > 0
+
+
 def test_unit_mass_and_task_frame_reach_run_json(cli, simulated, tmp_path):
     """A bare OBJ in millimetres, with --unit, --mass and --task-frame: the sweep records them, writes the object
     config the later stages read, and its summary says where the task frame is."""
@@ -129,7 +149,10 @@ def test_unit_mass_and_task_frame_reach_run_json(cli, simulated, tmp_path):
     np.testing.assert_allclose(np.array(run["task_frame"]["in_file_frame"])[:3, 3], [0, 0, 0.0875], atol=1e-6)
     config = yaml.safe_load((out / "drawing" / "object.yaml").read_text())
     assert run["object"] == str(out / "drawing" / "object.yaml") and config["unit"] == "mm"
-    assert "task frame: centre, at (0, 0, 88) mm" in result.output and "mass is not given" not in result.output
+    assert (
+        "task frame: centre (z along its longest axis), at (0, 0, 88) mm" in result.output
+        and "mass is not given" not in result.output
+    )
     again = cli(*args, "--unit", "mm")  # no mass: said
     assert "the object's mass is not given" in again.output
     base = cli(*args, "--unit", "mm", "--task-frame", "origin", "--task-frame-outside")  # on its base: taken

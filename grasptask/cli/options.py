@@ -97,8 +97,8 @@ def object_options(f):
         "--task-frame",
         type=click.Choice(["centre", "origin"]),
         default=None,
-        help="The object's task frame: centre (its centre of volume, z along its longest axis: a bare file's "
-        "default) or origin (the file's own frame).",
+        help="The object's task frame: centre (its centre of volume, z along its longest axis, or a bowl's or a "
+        "can's symmetry axis: a bare file's default) or origin (the file's own frame).",
     )(f)
     f = click.option(
         "--mass", "mass_kg", type=click.FloatRange(min=0, min_open=True), default=None,

@@ -74,7 +74,8 @@ def object_said(run: dict) -> str:
     if frame.get("rule") in (None, "object"):
         return ""
     origin = ", ".join(str(int(round(row[3] * 1e3))) for row in frame["in_file_frame"][:3])  # no "-0"
-    said = f"; task frame: {frame['rule']}, at ({origin}) mm in the file's frame"
+    axes = f" ({frame['axes']})" if frame.get("axes") else ""
+    said = f"; task frame: {frame['rule']}{axes}, at ({origin}) mm in the file's frame"
     if run.get("object_mass_kg") is None:
         said += "; the object's mass is not given (physics takes its config's object_mass_kg; --mass KG)"
     return said

@@ -38,9 +38,11 @@ class MeshObject(ImplicitObject):
     #: the task frame's pose in the world, for placing the object (not used by synthesis, which works in it)
     world_pose: np.ndarray | None = None
     grid_spacing: float = GRID_SPACING_M  # of the synthesis surrogate's distance grid (m)
-    #: the task frame in the file's own coordinates (metres), and how it was chosen: centre, origin or given
+    #: the task frame in the file's own coordinates (metres), how it was chosen (centre, origin or given) and, for
+    #: the centre, how its axes were (:mod:`grasptask.objects.principal_frame`)
     task_frame: np.ndarray | None = None
     task_frame_rule: str = "origin"
+    task_frame_axes: str = ""
 
     def bounds(self) -> np.ndarray:
         return np.array(self.mesh.bounds, dtype=float)
@@ -156,6 +158,7 @@ class PointCloudObject(ImplicitObject):
     grid_spacing: float = GRID_SPACING_M
     task_frame: np.ndarray | None = None
     task_frame_rule: str = "origin"
+    task_frame_axes: str = ""
 
     @cached_property
     def tree(self) -> cKDTree:

@@ -28,7 +28,8 @@
 A mesh or point-cloud file can also be given directly (``--object thing.obj``), with ``--unit``, ``--mass`` and
 ``--task-frame`` for what a bare file cannot say (the same fields of a mesh object's YAML, which they override).
 A bare file's task frame is its ``centre``: the centre of volume (of the points, for a cloud), z along the
-longest principal axis, x along the next; this is where the paper's frame sits on its tool. ``origin`` keeps the
+longest principal axis (or a symmetric object's symmetry axis: :mod:`grasptask.objects.principal_frame`), x along
+the next; this is where the paper's frame sits on its tool. ``origin`` keeps the
 file's own frame. A mesh or cloud object lives in its task frame, so grasps are reported in it. A frame
 given or ``origin`` outside the object, or within 5 mm of its surface, is refused unless ``task_frame_outside:
 true`` (``--task-frame-outside``): the task's torques act about it, and a frame on the base of a scan (where
@@ -56,6 +57,7 @@ from grasptask.objects.gp import GPImplicitSurface
 from grasptask.objects.mesh_file import CLOUD_SUFFIXES, MESH_SUFFIXES, read_cloud, read_mesh
 from grasptask.objects.mesh_object import MeshObject, PointCloudObject
 from grasptask.objects.object_config import GPConfig, MeshConfig, SuperquadricConfig, SymmetryConfig, object_schema
+from grasptask.objects.principal_frame import PrincipalFrame, principal_frame
 from grasptask.objects.superquadric import Superquadric
 from grasptask.objects.surface import ImplicitObject, Symmetry
 from grasptask.paths import DEFAULT_OBJECT
@@ -208,8 +210,10 @@ def mesh_object(source: Path, config: MeshConfig, path: Path, say: Callable[[str
         found = PointCloudObject(points.points, points.normals, name, symmetry, mass, None, spacing)
     else:
         found = MeshObject(read_mesh(source, unit, repairs.append), name, symmetry, mass, None, spacing)
+    axes = ""
     if rule == "centre":
-        task_frame = principal_frame(found)
+        principal = _principal_frame(found)
+        task_frame, axes = principal.matrix, principal.axes
     elif rule == "origin":
         task_frame = np.eye(4)
     else:
@@ -234,12 +238,12 @@ def mesh_object(source: Path, config: MeshConfig, path: Path, say: Callable[[str
     if isinstance(found, PointCloudObject):
         return PointCloudObject(
             found.points @ rotation.T + into_task[:3, 3], found.normals @ rotation.T, name, symmetry, mass,
-            pose @ task_frame, spacing, task_frame, label,
+            pose @ task_frame, spacing, task_frame, label, axes,
         )  # fmt: skip
     assert isinstance(found, MeshObject)
     mesh = found.mesh
     mesh.apply_transform(into_task)
-    return MeshObject(mesh, name, symmetry, mass, pose @ task_frame, spacing, task_frame, label)
+    return MeshObject(mesh, name, symmetry, mass, pose @ task_frame, spacing, task_frame, label, axes)
 
 
 def object_facts(obj: ImplicitObject) -> dict[str, Any]:
@@ -250,39 +254,24 @@ def object_facts(obj: ImplicitObject) -> dict[str, Any]:
         "object_name": obj.name,
         "task_frame": {
             "rule": getattr(obj, "task_frame_rule", "object"),
+            "axes": getattr(obj, "task_frame_axes", ""),
             "in_file_frame": None if frame is None else np.round(frame, 9).tolist(),
         },
         "object_mass_kg": getattr(obj, "mass_kg", None),
     }
 
 
-def principal_frame(obj: ImplicitObject) -> np.ndarray:
-    """The object's centre of volume (of its points, for a cloud) and principal axes, as a 4 x 4 frame in its
-    file's coordinates: z along the longest axis, x along the next. Each axis points to the side where the
-    object reaches farther (the sign of its third moment), so that the frame turns with the object."""
+def _principal_frame(obj: ImplicitObject) -> PrincipalFrame:
+    """A mesh's or cloud's default task frame (:mod:`grasptask.objects.principal_frame`), in its file's frame."""
     if isinstance(obj, MeshObject):
         centre = np.asarray(obj.mesh.center_mass, dtype=float)
         inertia = np.asarray(obj.mesh.moment_inertia, dtype=float)
-        _, vectors = np.linalg.eigh(inertia)  # ascending: the least inertia is about the longest axis
-        longest, next_ = vectors[:, 0], vectors[:, 1]
-        areas = obj.mesh.area_faces
-        spread = obj.mesh.triangles_center - centre
-    else:
-        assert isinstance(obj, PointCloudObject)
-        centre = obj.points.mean(axis=0)
-        spread = obj.points - centre
-        _, vectors = np.linalg.eigh(spread.T @ spread)  # ascending: the most variance is along the longest axis
-        longest, next_ = vectors[:, 2], vectors[:, 1]
-        areas = np.ones(len(spread))
-    axes = []
-    for axis in (longest, next_):
-        skew = float(areas @ (spread @ axis) ** 3)
-        axes.append(-axis if skew < 0 else axis)
-    z, x = axes
-    frame = np.eye(4)
-    frame[:3, :3] = np.column_stack([x, np.cross(z, x), z])
-    frame[:3, 3] = centre
-    return frame
+        return principal_frame(centre, inertia, obj.mesh.triangles_center - centre, obj.mesh.area_faces)
+    assert isinstance(obj, PointCloudObject)
+    centre = obj.points.mean(axis=0)
+    spread = obj.points - centre
+    second = spread.T @ spread  # as a thin shell's inertia: the least about the longest axis
+    return principal_frame(centre, np.trace(second) * np.eye(3) - second, spread, np.ones(len(spread)))
 
 
 def _frame_place(depth: float, origin: np.ndarray, rule: str) -> str:
