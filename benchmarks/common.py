@@ -224,7 +224,8 @@ def time_shares(folder: Path) -> dict:
 
 
 def held(sweep: Path, tasks: Path, task: str, out: Path) -> dict:
-    """The physics judge on one sweep's grasps: the share of the verified ones it holds."""
+    """The physics judge on one sweep's grasps: the share of the verified ones it holds, and for each verified one
+    it drops, why (the pad that slipped, its friction use, MuJoCo's normal against the object's there)."""
     from grasptask.stages import PhysicsOptions, run_physics
 
     began = time.perf_counter()
@@ -236,7 +237,21 @@ def held(sweep: Path, tasks: Path, task: str, out: Path) -> dict:
         "held_of_verified": float(verified["physics_passed"].astype(bool).mean()) if len(verified) else None,
         "seconds_per_grasp_median": float(solved["physics_seconds"].median()) if len(solved) else None,
         "wall_s": time.perf_counter() - began,
+        "dropped": [
+            {
+                "start_id": int(row["start_id"]),
+                "why": row["physics_why"],
+                "slip_friction_use": _figure(row["physics_slip_friction_use"]),
+                "slip_normal_off_deg": _figure(row["physics_slip_normal_off_deg"]),
+            }
+            for _, row in verified[~verified["physics_passed"].astype(bool)].iterrows()
+        ],
     }
+
+
+def _figure(value: float) -> float | None:
+    """A figure for JSON: None for NaN."""
+    return None if value != value else round(float(value), 4)
 
 
 def held_cell(figures: dict) -> str:

@@ -34,10 +34,10 @@ SPRING = replace(SETTINGS, controller="spring")
 HANDS = ["configs/hands/human.yaml", "configs/hands/barrett_bh8_282.urdf", "configs/hands/allegro.yaml"]
 
 
-def held(directions, effort_nm: float, task=None, settings=SETTINGS):
+def held(directions, effort_nm: float, task=None, settings=SETTINGS, friction: float = 0.5):
     hand, grasp, ball = gripper_grasp(directions, effort_nm)
     body = object_body(ball, settings)
-    scene = build_scene(hand, ball, body, grasp, 0.5, settings)
+    scene = build_scene(hand, ball, body, grasp, friction, settings)
     return check_grasp(scene, task or drawing_like_task(1.0), body.mass_kg, settings)
 
 
@@ -202,6 +202,26 @@ def test_the_same_grasp_without_strength_drops_the_ball_under_the_task_wrench():
     assert result.record()["physics_saturated"]
 
 
+def test_a_dropped_grasp_says_which_pad_slipped_and_with_what():
+    """The ball held by four pads at a hundredth of the friction: a pad slipped at its cone's edge, and the
+    friction and strength are said; without strength, the pads still pressing meet the ball along its own
+    normal; pads all on one side press on nothing once the ball has gone."""
+    record = held(TETRAHEDRON, effort_nm=2.0, friction=0.005).record()
+    assert not record["physics_passed"]
+    assert record["physics_slip_finger"] in {f"f{k}" for k in range(4)}
+    assert record["physics_slip_friction_use"] >= 0.95
+    assert record["physics_friction"] == 0.005 and record["physics_strength"] == 1.0
+    why = record["physics_why"]
+    assert why.startswith(record["physics_failed_wrench"] + ": ") and f"{record['physics_slip_finger']} slipped" in why
+    weak = held(TETRAHEDRON, effort_nm=1e-3).record()
+    assert "peak activation at its limit" in weak["physics_why"]
+    assert weak["physics_slip_normal_off_deg"] < 10.0
+    gone = held(ONE_SIDE, effort_nm=2.0).record()
+    assert gone["physics_lost_contact"] == "f0;f1;f2;f3" and "f0, f1, f2, f3 pressed on nothing" in gone["physics_why"]
+    firm = held(TETRAHEDRON, effort_nm=2.0).record()
+    assert firm["physics_passed"] and firm["physics_why"] == "" and firm["physics_slip_finger"] == ""
+
+
 def test_the_check_is_deterministic():
     first, second = held(TETRAHEDRON, 2.0).record(), held(TETRAHEDRON, 2.0).record()
     first.pop("physics_seconds"), second.pop("physics_seconds")
@@ -314,6 +334,22 @@ def test_the_physics_command_judges_every_solved_grasp(cli, sweep, tmp_path):
     with_synthesis = solutions.set_index("start_id")["physics_passed"].dropna()
     alone = table.set_index("start_id")["physics_passed"].loc[with_synthesis.index]
     assert (with_synthesis.astype(bool) == alone.astype(bool)).all()  # the same check, the same verdict
+
+
+def test_a_grasp_physics_drops_carries_its_why_in_physics_parquet(cli, sweep, tmp_path):
+    tasks, folder = sweep
+    result = cli(
+        "physics", folder / "solutions.parquet", "--tasks", tasks, "--task", "drawing", "--out", tmp_path,
+        "--friction-scale", "0.01",
+    )  # fmt: skip
+    assert result.exit_code == 0, result.output
+    table = pd.read_parquet(tmp_path / "physics.parquet")
+    dropped = table[table["physics_passed"].notna() & ~table["physics_passed"].astype(bool)]
+    assert len(dropped), "at a hundredth of the friction every grasp should slip"
+    for _, row in dropped.iterrows():
+        assert row["physics_why"].startswith(row["physics_failed_wrench"] + ": ")
+        assert row["physics_slip_finger"] in row["physics_why"] or row["physics_lost_contact"]
+        assert row["physics_friction"] < 0.1
 
 
 def test_physics_refuses_a_table_from_another_hand(cli, sweep, tmp_path):

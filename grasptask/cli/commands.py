@@ -269,7 +269,8 @@ def physics(**params):
     """Hold every solved grasp of SOLUTIONS (solutions.parquet) in MuJoCo against its task's own wrenches, and
     against DexGraspBench's six forces. A URDF or MJCF hand is simulated from its own file. Writes
     OUT/physics.parquet (one row per start: pass flags, the object's worst translation and rotation, the wrench
-    that failed, the peak activation, the friction used and the hand's penetration) and
+    that failed and why (physics_why: the pad that slipped, MuJoCo's normal there against the object's, the
+    friction and strength), the peak activation, the friction used and the hand's penetration) and
     OUT/physics_summary.json (pass rates and the 2x2 agreement with the analytic verifier)."""
     run_command("physics", params)
 

@@ -20,7 +20,7 @@ from grasptask.physics.loads import Test, benchmark_tests, task_tests
 from grasptask.physics.physics_settings import PhysicsSettings
 from grasptask.physics.scene import ObjectBody, Scene, build_scene
 from grasptask.physics.seating import Seating, seat
-from grasptask.physics.sensing import friction_use, hand_contacts, penetration_m
+from grasptask.physics.sensing import hand_contacts, link_loads, pad_loads, penetration_m
 from grasptask.physics.spring import SpringController
 from grasptask.task.task_model import TaskModel
 
@@ -29,13 +29,15 @@ from grasptask.task.task_model import TaskModel
 class Motion:
     """The object's largest translation (m) and rotation (deg) during a phase, from where it started it, and what
     the hand did meanwhile: the largest actuator activation (1: some tendon or motor at its limit), whether the
-    actuators saturated, and the worst link's friction use at the phase's end, under the full load."""
+    actuators saturated, and the worst link's friction use at the phase's end, under the full load (or where
+    the object went past the thresholds), and each pad's there (:func:`~grasptask.physics.sensing.pad_loads`)."""
 
     translation_m: float
     rotation_deg: float
     peak_activation: float = 0.0
     saturated: bool = False
     friction_use: float = 0.0
+    pads: np.ndarray | None = field(default=None, compare=False)
 
     def within(self, translation_m: float, rotation_deg: float) -> bool:
         return self.translation_m <= translation_m and self.rotation_deg <= rotation_deg
@@ -56,6 +58,8 @@ class PhysicsResult:
     #: the largest joint motion that seated the fingers at rest on the object first (deg; nan: not seated)
     seat_deg: float = 0.0
     controller: str = "grip"
+    #: why the grasp was dropped (:func:`why_dropped`; empty where it held)
+    why: dict[str, object] = field(default_factory=dict)
     #: with ``check_grasp(..., trace=True)``: per phase (``"settle"`` and each test), the object's motion at
     #: every control step, ``(n, 3)``: seconds into the phase, translation (m), rotation (deg)
     traces: dict[str, np.ndarray] = field(default_factory=dict)
@@ -96,6 +100,7 @@ class PhysicsResult:
             "dexgraspbench_worst_translation_m": bench.translation_m,
             "dexgraspbench_worst_rotation_deg": bench.rotation_deg,
             "physics_seconds": self.seconds,
+            **(self.why or why_dropped(None, None, None)),
         }
 
 
@@ -160,9 +165,10 @@ class _Run:
                 trace.append(((k + 1) * period_s, now_moved, now_turned))
             if stop is not None and (moved > stop[0] or turned > stop[1]):
                 break
-        use = friction_use(scene, data, hand_contacts(scene, data))  # under the full load, held
+        loads = link_loads(scene, data, hand_contacts(scene, data))  # under the full load, held or going
         data.xfrc_applied[:] = 0.0
-        return Motion(moved, turned, peak, saturated, use)
+        use = max((load.friction_use for load in loads), default=0.0)
+        return Motion(moved, turned, peak, saturated, use, pad_loads(scene, data, loads))
 
 
 def check_grasp(
@@ -198,20 +204,58 @@ def check_grasp(
         limit = ours if test.of_task else theirs
         tests[test.name] = run.simulate(settings.ramp_s + settings.hold_s, test, None if trace else limit, kept)
     failed = next((n for n, m in tests.items() if n.startswith("task") and not m.within(*ours)), None)
+    failed = failed if failed is not None else (None if settle.within(*ours) else "settle")
     return PhysicsResult(
         settle=settle,
         tests=tests,
         passed=settle.within(*ours) and failed is None,
         benchmark_passed=settle.within(*theirs)
         and all(m.within(*theirs) for n, m in tests.items() if n.startswith("dexgraspbench")),
-        failed_test=failed if failed is not None else (None if settle.within(*ours) else "settle"),
+        failed_test=failed,
         seconds=time.perf_counter() - began,
         initial_penetration_m=initial,
         settled_penetration_m=settled_depth,
         seat_deg=0.0 if seating is None else seating.moved_deg,
         controller=settings.controller,
         traces={name: np.array(rows).reshape(-1, 3) for name, rows in traces.items()},
+        why=why_dropped(scene, failed, settle if failed == "settle" else tests.get(failed or "")),
     )
+
+
+#: a pad using this much of its friction is said to slip
+SLIPPING = 0.95
+
+
+def why_dropped(scene: Scene | None, test: str | None, motion: Motion | None) -> dict[str, object]:
+    """The columns that say why a grasp was dropped, from its failed phase's pads where the object went past the
+    thresholds: the pad using the most friction (or the pads that pressed on nothing), the angle between
+    MuJoCo's contact normal there and the object's own at the synthesized contact (the normal the NLP and the
+    verifier worked with), the friction and the strength; one line ``physics_why``. Empty where it held."""
+    why: dict[str, object] = {
+        "physics_why": "", "physics_slip_finger": "", "physics_slip_friction_use": float("nan"),
+        "physics_slip_normal_off_deg": float("nan"), "physics_lost_contact": "", "physics_friction": float("nan"),
+        "physics_strength": float("nan"),
+    }  # fmt: skip
+    if scene is None or test is None or motion is None or motion.pads is None:
+        return why
+    names, pads = scene.finger_names or tuple(map(str, range(scene.finger_count))), motion.pads
+    loaded = ~np.isnan(pads[:, 0])
+    lost = [names[f] for f in np.flatnonzero(~loaded)]
+    why.update(physics_lost_contact=";".join(lost), physics_friction=scene.friction, physics_strength=scene.strength)
+    said = [f"{', '.join(lost)} pressed on nothing"] if lost else []
+    if loaded.any():
+        f = int(np.nanargmax(np.where(loaded, pads[:, 1], np.nan)))
+        off = float(np.degrees(np.arccos(np.clip(pads[f, 2:] @ scene.normals[f], -1.0, 1.0))))
+        why.update(physics_slip_finger=names[f], physics_slip_friction_use=pads[f, 1], physics_slip_normal_off_deg=off)
+        verb = "slipped, using" if pads[f, 1] >= SLIPPING else "used the most friction,"
+        said.append(
+            f"{names[f]} {verb} {pads[f, 1]:.2f} of mu {scene.friction:g}, MuJoCo's normal there {off:.1f} deg off "
+            "the object's at the synthesized contact"
+        )
+    strength = "at its limit" if motion.saturated else f"at {motion.peak_activation:.2f} of its limit"
+    said.append(f"peak activation {strength} ({scene.strength:g}x the hand model's strength)")
+    why["physics_why"] = f"{test}: " + "; ".join(said)
+    return why
 
 
 def hold_grasp(

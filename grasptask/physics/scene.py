@@ -78,6 +78,9 @@ class Scene:
     #: for each simulated joint, its column in ``hand.joint_names``; for each of those, its simulated joint
     columns: np.ndarray
     expand: np.ndarray
+    #: the grasping fingers' names, in the pads' order, and the actuators' strength factor
+    finger_names: tuple[str, ...] = ()
+    strength: float = 1.0
 
     def to_hand(self, q: np.ndarray) -> np.ndarray:
         """Simulated joint values in ``hand.joint_names`` order (a shared joint's value in each finger)."""
@@ -282,6 +285,8 @@ def build_scene(
         object_geoms=np.flatnonzero(model.geom_bodyid == object_id),
         columns=columns,
         expand=expand,
+        finger_names=tuple(hand.fingers),
+        strength=strength,
     )
 
 

@@ -65,19 +65,29 @@ def hand_contacts(scene: Scene, data: mujoco.MjData) -> Contacts:
     )
 
 
-def friction_use(scene: Scene, data: mujoco.MjData, contacts: Contacts, floor_n: float = 1e-2) -> float:
-    """The worst hand link's ``|f_t| / (mu f_n)`` from MuJoCo's own contact forces: each link's contact forces
-    summed, split along their load-weighted mean normal (0 without a loaded link). Per link, not per contact:
-    a fingertip pressing with its pad may graze the object with a second geom that slides at no load, and it
-    is the link that slips or holds."""
+@dataclass(frozen=True)
+class LinkLoad:
+    """One hand link's contacts with the object, their forces summed: the normal load (N), the friction it uses
+    (``|f_t| / (mu f_n)``, 1 at the cone's edge) and its load-weighted mean normal into the object (world)."""
+
+    body: int
+    load_n: float
+    friction_use: float
+    normal: np.ndarray
+
+
+def link_loads(scene: Scene, data: mujoco.MjData, contacts: Contacts, floor_n: float = 1e-2) -> list[LinkLoad]:
+    """Each loaded hand link's :class:`LinkLoad`, from MuJoCo's own contact forces (links pressing with
+    ``floor_n`` or less are left out). Per link, not per contact: a fingertip pressing with its pad may graze the
+    object with a second geom that slides at no load, and it is the link that slips or holds."""
     if not len(contacts):
-        return 0.0
+        return []
     local = np.zeros((len(contacts), 6))
     for k, i in enumerate(contacts.index):
         mujoco.mj_contactForce(scene.model, data, int(i), local[k])
     # world forces on the object: MuJoCo's frame rows are (normal, tangents), ours point into the object
     forces = np.einsum("mj,mji->mi", local[:, :3], contacts.frames)
-    worst = 0.0
+    loads = []
     for body in np.unique(contacts.bodies):
         mine = contacts.bodies == body
         pressing = (local[mine, 0, None] * contacts.frames[mine, 0]).sum(axis=0)
@@ -88,8 +98,20 @@ def friction_use(scene: Scene, data: mujoco.MjData, contacts: Contacts, floor_n:
         along = float(total @ normal)
         if along <= floor_n:
             continue
-        worst = max(worst, float(np.linalg.norm(total - along * normal)) / (scene.friction * along))
-    return worst
+        use = float(np.linalg.norm(total - along * normal)) / (scene.friction * along)
+        loads.append(LinkLoad(int(body), along, use, normal))
+    return loads
+
+
+def pad_loads(scene: Scene, data: mujoco.MjData, loads: list[LinkLoad]) -> np.ndarray:
+    """``(b, 5)``: each grasping finger's pad link now: its normal load (N), friction use, and MuJoCo's contact
+    normal there as the object's outward normal in the object's frame; NaN where the pad presses on nothing."""
+    pads = np.full((scene.finger_count, 5), np.nan)
+    turn = data.xmat[scene.object_body].reshape(3, 3)  # object frame -> world
+    for load in loads:
+        for f in np.flatnonzero(scene.pad_bodies == load.body):
+            pads[f] = [load.load_n, load.friction_use, *(-turn.T @ load.normal)]
+    return pads
 
 
 def penetration_m(scene: Scene, data: mujoco.MjData) -> float:
