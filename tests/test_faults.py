@@ -122,6 +122,7 @@ def test_resume_refuses_another_run(tasks, tmp_path):
         (("--seed", "1"), "seed (0, now 1)"),
         (("--solver-config", other_solver), "solver config"),
         (("--starts", "4"), "not among the 4"),
+        (("--surface-starts", "2"), "another surface starts"),
     ):
         result = run_sweep(tasks, tmp_path, "--starts", "3", "--executor", "serial", "--resume", *extra)
         assert expected in one_error_line(result)

@@ -24,7 +24,7 @@ from grasptask.synthesis.solver_config import (
     SolverConfig,
     load_solver_config,
 )
-from grasptask.synthesis.starts import make_starts
+from grasptask.synthesis.starts import SURFACE_FIRST_ID, SURFACE_TURNS, make_starts, surface_starts
 from grasptask.synthesis.surfaces import surface_for
 from grasptask.task.task_model import load_task_models
 
@@ -221,3 +221,35 @@ def test_anchors_on_a_mesh_lie_on_parts_its_surrogate_resolves():
     start = make_starts(tool.bounds(), seed=0)[5]
     expected = anchor_point(start.palm_position, tool.bounds())
     np.testing.assert_array_equal(Anchors(tool.bounds())(start.palm_position), expected)
+
+
+def test_surface_starts_spread_over_the_object_and_face_it():
+    """Seeds spread by farthest-point sampling (no two closer than the farthest any surface point lies from its
+    nearest seed), each turned SURFACE_TURNS ways about its inward normal, numbered after the paper's and the
+    library's starts."""
+    obj = load_object(TOOL)
+    points, normals = obj.surface.points, obj.surface.normals
+    starts = surface_starts(points, normals, 22)
+    assert [s.start_id for s in starts] == list(range(SURFACE_FIRST_ID, SURFACE_FIRST_ID + 22))
+    assert all(s.position_name == "surface" for s in starts)
+    seeds = np.array([s.anchor for s in starts[::SURFACE_TURNS]])
+    assert len(seeds) == 6
+    apart = np.linalg.norm(seeds[:, None] - seeds[None], axis=2) + np.eye(len(seeds))
+    covering = np.linalg.norm(points[:, None] - seeds[None], axis=2).min(axis=1).max()
+    assert apart.min() >= covering > 0
+    for start in starts:
+        outward = obj.normal(start.anchor[None])[0]
+        assert start.palm_rotation[:, 2] @ outward == pytest.approx(-1.0, abs=0.05)  # the palm faces the seed
+        np.testing.assert_allclose(start.palm_rotation.T @ start.palm_rotation, np.eye(3), atol=1e-12)
+    turns = [s.palm_rotation[:, 0] for s in starts[:SURFACE_TURNS]]
+    assert all(a @ b < 0.99 for k, a in enumerate(turns) for b in turns[k + 1 :])  # four ways, none twice
+
+
+def test_a_surface_start_is_placed_at_its_seed(nlp):
+    """The pads' centroid goes to the seed, and the palm backs away from it along the approach."""
+    obj = load_object(TOOL)
+    joints = nlp.hand.mid_range()
+    for start in surface_starts(obj.surface.points, obj.surface.normals, 8, turns=1):
+        backoff = place(nlp, start, Anchors(obj.bounds()), joints)
+        pads = nlp.read()["contacts"].mean(axis=0)
+        assert np.linalg.norm(pads - start.anchor) <= backoff + 1e-9

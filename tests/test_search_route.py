@@ -227,16 +227,17 @@ def test_the_search_routes_rows_are_the_same_with_one_worker_two_and_dask(tasks,
     assert run["route"]["polished"] == len(polished)
 
 
-def test_the_search_route_refuses_to_resume_a_paper_sweep(tasks, tmp_path, search_config):
+@pytest.mark.parametrize("first", ["paper", "search"])
+def test_a_route_refuses_to_resume_the_other_routes_sweep(tasks, tmp_path, search_config, first):
     from grasptask.errors import BadInputError
     from grasptask.stages import SynthesisOptions, run_synthesize
 
     folder = tmp_path / "out"
-    (folder / "drawing").mkdir(parents=True)
     common = {"tasks": tasks, "task": "drawing", "out": folder, "starts": 1, "executor": "serial"}
-    run_synthesize(SynthesisOptions(**common), echo=lambda _: None)
-    with pytest.raises(BadInputError):
-        run_synthesize(SynthesisOptions(**common, route="search", resume=True), echo=lambda _: None)
+    run_synthesize(SynthesisOptions(**common, route=first), echo=lambda _: None)
+    other = "search" if first == "paper" else "paper"
+    with pytest.raises(BadInputError, match="another route"):
+        run_synthesize(SynthesisOptions(**common, route=other, resume=True), echo=lambda _: None)
 
 
 SCRIPT = """

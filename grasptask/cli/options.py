@@ -151,6 +151,15 @@ _SYNTHESIS = [
     click.option(
         "--starts", type=click.IntRange(min=1), default=None, help="Run a deterministic subset of the 126 starts."
     ),
+    click.option(
+        "--surface-starts",
+        type=click.IntRange(min=0),
+        default=0,
+        show_default=True,
+        help="Starts seeded over the object's surface too, besides the paper's: seeds spread evenly over it, each "
+        "approached along its normal with the palm turned 4 ways, the pads placed at the seed (a handle, a rim "
+        "or a flat face tried wherever it lies).",
+    ),
     click.option("--seed", type=int, default=0, show_default=True, help="Seed of the starts' jitter."),
     click.option(
         "--library",

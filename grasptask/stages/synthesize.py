@@ -58,13 +58,15 @@ from grasptask.records.sweeps import SolvedGrasps
 from grasptask.synthesis.clustering import cluster
 from grasptask.synthesis.context import Job
 from grasptask.synthesis.solver_config import load_solver_config
-from grasptask.synthesis.starts import Start, make_starts, subset, warm_starts
+from grasptask.synthesis.starts import Start, make_starts, subset, surface_starts, warm_starts
 from grasptask.synthesis.sweep import graceful_stop, make_executor
 from grasptask.task.task_model import TaskModel, load_task_model
 
 EXECUTORS = ("pool", "serial", "dask")
 BACKENDS = ("casadi", "cyipopt")
 ROUTES = ("paper", "search")
+#: at most this many starts seeded over the object's surface
+MAX_SURFACE_STARTS = 1024
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -80,6 +82,8 @@ class SynthesisOptions(BareObjectFacts):
     solver_config: Path = DEFAULT_SOLVER_CONFIG
     grasp_config: Path = DEFAULT_GRASP_CONFIG
     starts: int | None = None
+    #: starts seeded over the object's surface too (synthesis.starts.surface_starts); 0: the paper's only
+    surface_starts: int = 0
     seed: int = 0
     workers: int = 1
     executor: str = "pool"
@@ -110,6 +114,10 @@ class SynthesisOptions(BareObjectFacts):
             raise BadInputError("synthesize", f"--workers must be from 1 to {MAX_WORKERS}, got {self.workers}")
         if self.starts is not None and self.starts < 1:
             raise BadInputError("synthesize", "--starts must be at least 1")
+        if not 0 <= self.surface_starts <= MAX_SURFACE_STARTS:
+            raise BadInputError(
+                "synthesize", f"--surface-starts must be from 0 to {MAX_SURFACE_STARTS}, got {self.surface_starts}"
+            )
         if self.executor == "serial" and self.workers != 1:
             raise BadInputError(
                 "synthesize",
@@ -259,6 +267,10 @@ def _prepare(options: SynthesisOptions) -> _Prepared:
         definition["physics config"] = path_hash(options.physics)
     if options.route != "paper":  # the paper route's definition is as it always was: its sweeps still resume
         definition["route"] = options.route
+    seeded: list[Start] = []
+    if options.surface_starts:
+        seeded = surface_starts(obj.surface.points, obj.surface.normals, options.surface_starts)
+        definition["surface starts"] = options.surface_starts
     library = _library(options, definition, model, hand)
     # the workers get the hand, the object and the task model as loaded here, by value; a mesh's or cloud's
     # signed-distance grid (3.3 s for a YCB mug) is made here once, not once in every worker
@@ -269,7 +281,7 @@ def _prepare(options: SynthesisOptions) -> _Prepared:
     )
     return _Prepared(
         job,
-        (library.starts if library is not None else []) + subset(every, options.starts),
+        (library.starts if library is not None else []) + subset(every, options.starts) + seeded,
         list(hand.grasping),
         obj.symmetry,
         solver.hang_after_s,
@@ -301,10 +313,10 @@ def _check_resume(folder: Path, prepared: _Prepared, done: LogContents, definiti
         ) from None
     current = prepared.definition
     shown = ("task", "seed", "solver")
-    differ = [
-        f"{key} ({recorded.get(key)!r}, now {current[key]!r})" if key in shown else key
-        for key in current
-        if recorded.get(key) != current[key]
+    differ = [  # a key either run lacks counts too: a search sweep resumed on the paper's route is another run
+        f"{key} ({recorded.get(key)!r}, now {current.get(key)!r})" if key in shown else key
+        for key in {**current, **recorded}
+        if recorded.get(key) != current.get(key)
     ]
     if differ:
         raise BadInputError(

@@ -1,12 +1,13 @@
 """Placement, the step before IPOPT: the hand is moved from its far-away start (Section 7.3) to the object.
 
 The palm keeps the start's orientation and joint angles (mid-range); only its position changes. It is put where
-the centroid of the fingertip pads falls on an anchor point inside the object, the start position pulled into
+the centroid of the fingertip pads falls on an anchor point inside the object: the start position pulled into
 the object's bounding box shrunk to ``inset`` of its size, so the three palm positions of the starts (diagonal,
-middle, above) become three places along the object. On a mesh the anchor then moves to the nearest part thick
-enough for the surrogate to resolve (:class:`Anchors`). The palm then backs away from the pads until no hand
-point is inside the object, so IPOPT begins near a grasp and collision-free. From the far-away starts IPOPT spent
-most of its iterations bringing the hand to the object, through restoration phases; a placed start begins there.
+middle, above) become three places along the object, or a surface seed's own point. On a mesh the anchor then
+moves to the nearest part thick enough for the surrogate to resolve (:class:`Anchors`). The palm then backs away
+from the pads until no hand point is inside the object, so IPOPT begins near a grasp and collision-free. From
+the far-away starts IPOPT spent most of its iterations bringing the hand to the object, through restoration
+phases; a placed start begins there.
 """
 
 from __future__ import annotations
@@ -42,9 +43,12 @@ class Anchors:
         self._inside = cKDTree(inside) if len(inside) else None
 
     def __call__(self, start_position: np.ndarray) -> np.ndarray:
-        point = anchor_point(start_position, self.bounds)
+        return self.inside(anchor_point(start_position, self.bounds))
+
+    def inside(self, point: np.ndarray) -> np.ndarray:
+        """``point``, or on a grid's object the nearest point a start may begin on."""
         if self._inside is None:
-            return point
+            return np.asarray(point, dtype=float)
         return self._inside.data[self._inside.query(point)[1]]
 
 
@@ -60,7 +64,8 @@ def place(
     nlp.initialise(start.palm_rotation, np.zeros(3), joint_angles)
     pads = nlp.read()["contacts"].mean(axis=0)  # palm at the origin: the pads' centroid relative to the palm
     away = -pads / np.linalg.norm(pads)
-    grasp_centre = anchors(start.palm_position) - pads
+    target = anchors(start.palm_position) if start.anchor is None else anchors.inside(start.anchor)
+    grasp_centre = target - pads
     for backoff in np.arange(0.0, max_backoff + step / 2, step):
         if nlp.min_clearance(palm_position=grasp_centre + backoff * away) >= 0:
             break

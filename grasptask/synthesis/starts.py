@@ -33,6 +33,8 @@ class Start:
     #: a warm start's joints (an optimum of a grasp library): its first attempt starts at that grasp as it was,
     #: neither placed nor moved by the geometric phase
     joints: np.ndarray | None = None
+    #: where placement puts the pads' centroid (a surface seed's point); None: the anchor nearest the palm
+    anchor: np.ndarray | None = None
 
 
 @dataclass(frozen=True)
@@ -57,6 +59,11 @@ class StartJob:
 #: the first id of the warm starts, apart from the 126
 WARM_FIRST_ID = 1000
 WARM_POSITION = "library"
+#: the first id of the starts seeded over the object's surface
+SURFACE_FIRST_ID = 2000
+SURFACE_POSITION = "surface"
+#: a surface seed's palm turns about its approach direction (Dexonomy turns each of its seeds 8 ways)
+SURFACE_TURNS = 4
 
 
 def palm_directions() -> np.ndarray:
@@ -104,6 +111,43 @@ def make_starts(bounds: np.ndarray, seed: int = 0, jitter_deg: float = 3.0, jitt
                 )
             )
     return starts
+
+
+def surface_starts(
+    points: np.ndarray, normals: np.ndarray, count: int, turns: int = SURFACE_TURNS, standoff: float = 0.09
+) -> list[Start]:
+    """``count`` starts seeded over the object's surface, so that a handle, a rim or a flat face is tried wherever
+    it lies: seeds spread by farthest-point sampling over ``points`` (outward ``normals``), each approached along
+    its inward normal with the palm turned ``turns`` ways about it, its pads placed at the seed (``anchor``).
+    ``orientation`` numbers the seed and ``palm_position`` is ``standoff`` out along its normal; deterministic."""
+    seeds = farthest_points(np.asarray(points, dtype=float), -(-count // turns))
+    starts = []
+    for k in range(count):
+        seed, turn = seeds[k // turns], k % turns
+        normal = normals[seed] / np.linalg.norm(normals[seed])
+        about = Rotation.from_rotvec(2 * np.pi * turn / turns * normal).as_matrix()
+        starts.append(
+            Start(
+                start_id=SURFACE_FIRST_ID + k,
+                orientation=k // turns,
+                position_name=SURFACE_POSITION,
+                palm_rotation=about @ palm_rotation_towards(-normal),
+                palm_position=points[seed] + standoff * normal,
+                anchor=np.array(points[seed], dtype=float),
+            )
+        )
+    return starts
+
+
+def farthest_points(points: np.ndarray, count: int) -> np.ndarray:
+    """The indices of ``count`` of ``points`` spread by farthest-point sampling, from the point farthest from
+    their centroid."""
+    chosen = [int(np.argmax(np.linalg.norm(points - points.mean(axis=0), axis=1)))]
+    nearest = np.linalg.norm(points - points[chosen[0]], axis=1)
+    while len(chosen) < min(count, len(points)):
+        chosen.append(int(np.argmax(nearest)))
+        nearest = np.minimum(nearest, np.linalg.norm(points - points[chosen[-1]], axis=1))
+    return np.array(chosen, dtype=int)
 
 
 def subset(starts: list[Start], n: int | None) -> list[Start]:
