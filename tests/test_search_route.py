@@ -157,14 +157,21 @@ def test_the_search_model_holds_eq_10_for_its_longest_axes_only(tasks, axes):
 
     obj = load_object(ROOT / "configs/objects/tool.yaml", say=lambda _: None)
     task = load_task_models(tasks)["drawing"]
-    equations = search_equations(axes)
-    m = build_model(load_hand(DEFAULT_HAND), obj, task, GraspSettings(), torque_axes=axes, equations=equations).model
+    equations, hand = search_equations(axes), load_hand(DEFAULT_HAND)
+    m = build_model(
+        hand, obj, task, GraspSettings(), torque_axes=axes, equations=equations, eq10_slack_weight=RHO
+    ).model
     assert m.component("force") is None and m.component("eq12_Q") is None
     if not axes:
         assert m.component("lam") is None and m.component("edge_torque") is None
         return
     assert {(a, s) for a, s, *_ in m.lam.index_set()} == {(0, 0), (0, 1)}
     assert len(m.eq10_wrench) == 12
+    # each of eq. 10's rows kept by a slack the objective weighs, so that a grasp that cannot meet it yet is graded
+    torque_rows = len(hand.grasping_hand().capability.transmission)
+    assert len(m.eq10_slack) == 2 * (6 + torque_rows) == len(m.eq10_wrench) + len(m.eq10_torque)
+    paper = build_model(hand, obj, task, GraspSettings(), torque_axes=axes).model
+    assert paper.component("eq10_slack") is None
 
 
 def _point(start_id: int, x: float, Q: float = 1.0, value: float | None = None) -> EndPoint:

@@ -72,6 +72,8 @@ class NLPBuilder:
     torque_axes: range
     #: the object's axis of revolution (direction, point) about which the grasp's turn is held; None: free
     held_axis: tuple[np.ndarray, np.ndarray] | None = None
+    #: eq. 10's rows kept by a slack of this weight (the search's, as the force problem's); 0: exact, the paper's
+    eq10_slack_weight: float = 0.0
     #: ``(variable, expression)`` pairs in dependency order, for :meth:`GraspNLP.initialise`
     definitions: list[tuple[Any, Any]] = field(default_factory=list)
     #: per finger, the distance from its fingertip sphere's centre to a rolling contact (0: a fixed pad point)
@@ -425,6 +427,14 @@ def torque_feasibility(nlp: NLPBuilder) -> None:
     m.act = pyo.Var(blocks, actuators, bounds=(0, cap), doc="tendon or motor activations per task wrench (eq. 1)")
     m.eq10_wrench = pyo.ConstraintList()
     m.eq10_torque = pyo.ConstraintList()
+    rows = 6 + len(capability.transmission)
+    soft = nlp.eq10_slack_weight > 0  # the search's: a grasp that cannot meet eq. 10 yet is graded, not infeasible
+    if soft:
+        m.eq10_slack = pyo.Var(blocks, range(rows), initialize=0.0, doc="eq. 10's residuals (search only)")
+
+    def slack(a: int, s: int, r: int) -> Any:
+        return m.eq10_slack[a, s, r] if soft else 0
+
     floor = nlp.settings.min_normal_force_n
     if floor > 0:  # the margin's least normal force: a component only where the margin asks for one
         m.eq10_normal = pyo.ConstraintList()
@@ -433,7 +443,8 @@ def torque_feasibility(nlp: NLPBuilder) -> None:
     for a, s in blocks:
         target = (1.0 if s == 0 else -1.0) * lengths[a] * axes[a]
         for r in range(6):
-            m.eq10_wrench.add(sum(m.lam[a, s, j, e] * wrenches[j][e][r] for j, e in cells) == float(target[r]))
+            applied = sum(m.lam[a, s, j, e] * wrenches[j][e][r] for j, e in cells)
+            m.eq10_wrench.add(applied + slack(a, s, r) == float(target[r]))
         if floor > 0:  # each contact presses with at least the margin's normal force
             for j in range(nlp.b):
                 m.eq10_normal.add(sum(m.lam[a, s, j, e] for e in range(m_edges)) * along_normal >= floor)
@@ -444,7 +455,7 @@ def torque_feasibility(nlp: NLPBuilder) -> None:
             produced = sum(
                 float(capability.torque_map[r, q]) * m.act[a, s, q] for q in np.flatnonzero(capability.torque_map[r])
             )
-            m.eq10_torque.add(carried == produced)
+            m.eq10_torque.add(carried + slack(a, s, 6 + r) == produced)
 
 
 def objective(nlp: NLPBuilder) -> None:
@@ -491,7 +502,9 @@ def search_objective(nlp: NLPBuilder) -> None:
     """The search's Pyomo objective: only the regularising terms. The force problem's value, the search's
     objective proper, is added where the model is imported into CasADi (:mod:`grasptask.synthesis.search`),
     a closed form Pyomo cannot write."""
-    nlp.model.eq12_objective = pyo.Objective(expr=_regularising(nlp), doc="the regularising terms")
+    m, weight = nlp.model, nlp.eq10_slack_weight
+    residuals = weight * sum(v**2 for v in m.eq10_slack.values()) if m.component("eq10_slack") is not None else 0
+    m.eq12_objective = pyo.Objective(expr=_regularising(nlp) + residuals, doc="eq. 10's residuals, regularised")
 
 
 def search_equations(torque_axes: int = 0) -> tuple[Callable[[NLPBuilder], None], ...]:
@@ -601,6 +614,8 @@ class GraspNLP:
             var.set_value(0.1)
         for var in m.act.values():
             var.set_value(0.2)
+        for var in m.eq10_slack.values() if m.component("eq10_slack") is not None else []:
+            var.set_value(0.0)  # not the last search's: a start's search depends on no other
 
     def set_forces(self, forces: ForceSolution, phi: np.ndarray | None = None) -> None:
         """The task forces, eq. 10's cone-edge forces and activations at the force problem's solution for this
@@ -668,6 +683,7 @@ def build_model(
     torque_axes: int | None = None,
     held_axis: tuple[np.ndarray, np.ndarray] | None = None,
     equations: tuple[Callable[[NLPBuilder], None], ...] = EQUATIONS,
+    eq10_slack_weight: float = 0.0,
 ) -> GraspNLP:
     """The NLP for ``hand``'s grasping fingers on ``obj`` for ``task``: :data:`EQUATIONS` in order, its forces
     searched within ``bounds``, its objective eq. 12 plus the small terms of ``regularisation``.
@@ -680,7 +696,8 @@ def build_model(
     ``held_axis``: the object's axis of revolution (direction, point) about which the grasp's turn is held at
     each start's (:func:`held_axis_rotation`); None leaves it free, as the paper does.
 
-    ``equations``: the families to build, :data:`EQUATIONS` (the paper's model) or :func:`search_equations`."""
+    ``equations``: the families to build, :data:`EQUATIONS` (the paper's model) or :func:`search_equations`;
+    ``eq10_slack_weight``: eq. 10's rows kept by a penalised slack (the search's), 0 for exact rows."""
     grasping = hand.grasping_hand()
     n_axes = len(task.weights)
     builder = NLPBuilder(
@@ -693,6 +710,7 @@ def build_model(
         regularisation,
         range(n_axes if torque_axes is None else min(torque_axes, n_axes)),
         held_axis,
+        eq10_slack_weight,
         contact_offsets=grasping.contact_offsets(settings.rolling_contacts),
     )
     builder.surface.attach(builder.model, builder.definitions)

@@ -126,8 +126,9 @@ class SolverConfig:
     force_slack_weight: Positive = 1.0e7
     #: the search's IPOPT iterations per attempt (route search)
     search_iterations: Iterations = 500
-    #: route search: eq. 10 inside the search for the task's this many longest axes (0: none, the force problem
-    #: judges it at the end point); its polishes then start nearer eq. 10's optimum
+    #: route search: eq. 10 inside the search for the task's this many longest axes, its rows kept by slacks of
+    #: force_slack_weight (0: none, the force problem judges it at the end point); its polishes then start nearer
+    #: eq. 10's optimum
     search_torque_axes: Annotated[int, Strict(), Field(ge=0, le=6)] = 1
     #: route search: starts searched in rounds of this many, each round's basins polished before the next round;
     #: the rows depend on it, not on the workers
