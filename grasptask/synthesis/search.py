@@ -3,8 +3,8 @@
 The search's model is :func:`~grasptask.synthesis.nlp.search_equations`: palm pose, joints, contacts, normals,
 cone edges, Jacobians and eq. 4's weights, with eqs. 3, 14 and 16-23 as constraints, none of eq. 8's task forces,
 and eq. 10's rows for the solver config's ``search_torque_axes`` longest axes only, each kept by a slack that the
-objective weighs as the force problem does (so that a start whose grasp cannot meet eq. 10 yet is not infeasible). Its objective is the force
-problem's eq. 8 part in closed form
+objective weighs as the force problem does (so that a start whose grasp cannot meet eq. 10 yet is not
+infeasible). Its objective is the force problem's eq. 8 part in closed form
 (:func:`~grasptask.synthesis.force_problem.symbolic_quality`), added where CasADi imports the model, so IPOPT has
 its exact derivatives: the gradient the envelope theorem gives from the force problem's solution and multipliers.
 An iteration's cost then does not grow with the task's wrench rows. Eq. 10 for the other axes is the force
