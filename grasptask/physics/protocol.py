@@ -30,7 +30,8 @@ class Motion:
     """The object's largest translation (m) and rotation (deg) during a phase, from where it started it, and what
     the hand did meanwhile: the largest actuator activation (1: some tendon or motor at its limit), whether the
     actuators saturated, and the worst link's friction use at the phase's end, under the full load (or where
-    the object went past the thresholds), and each pad's there (:func:`~grasptask.physics.sensing.pad_loads`)."""
+    the object went past the thresholds); each pad's (:func:`~grasptask.physics.sensing.pad_loads`) there, or
+    where a pad last pressed once the object began to go."""
 
     translation_m: float
     rotation_deg: float
@@ -119,6 +120,11 @@ def controller_for(scene: Scene, settings: PhysicsSettings) -> Controller:
     return GripController.of(scene, settings)
 
 
+#: past this share of a test's thresholds the object is going: the pads are read at every control step from then
+#: on, so that a dropped grasp's why is the last state in which a pad still pressed, not the empty hand after
+GOING = 0.25
+
+
 class _Run:
     """One simulation of a scene with its controller."""
 
@@ -144,9 +150,13 @@ class _Run:
         periods = max(1, int(round(seconds / (settings.timestep_s * self.every))))
         period_s = settings.timestep_s * self.every
         peak, saturated, moved, turned = 0.0, False, 0.0, 0.0
+        held: np.ndarray | None = None  # the pads the last time one still pressed, once the object began to go
         for k in range(periods):
             ramp = min(1.0, k * period_s / settings.ramp_s) if test is not None else 0.0
             contacts = hand_contacts(scene, data)
+            if stop is not None and (moved > GOING * stop[0] or turned > GOING * stop[1]):
+                pads = pad_loads(scene, data, link_loads(scene, data, contacts))
+                held = pads if not np.isnan(pads[:, 0]).all() else held
             wanted = self.controller.torques(data, contacts, test, ramp)
             mapped = self.mapping(wanted)
             data.ctrl[:] = mapped.activations
@@ -168,7 +178,7 @@ class _Run:
         loads = link_loads(scene, data, hand_contacts(scene, data))  # under the full load, held or going
         data.xfrc_applied[:] = 0.0
         use = max((load.friction_use for load in loads), default=0.0)
-        return Motion(moved, turned, peak, saturated, use, pad_loads(scene, data, loads))
+        return Motion(moved, turned, peak, saturated, use, pad_loads(scene, data, loads) if held is None else held)
 
 
 def check_grasp(
