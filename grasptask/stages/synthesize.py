@@ -229,6 +229,28 @@ def _library(options: SynthesisOptions, definition: dict[str, Any], task: TaskMo
     return Library(options.library, setup, entry, starts)
 
 
+def _definition(options: SynthesisOptions, model: TaskModel, hand: Hand) -> dict[str, Any]:
+    """What makes a sweep the run it is (``sweep.json``): a resume with another of these is refused."""
+    definition: dict[str, Any] = {
+        "task": options.task,
+        "seed": options.seed,
+        "solver": options.backend,
+        "task model": config_hash(model.ellipsoid.S.tolist()),
+        "hand": path_hash(options.hand),
+        "object": config_hash([path_hash(p) for p in object_files(options.object)] + [options.object_overrides]),
+        "solver config": path_hash(options.solver_config),
+        "grasp config": path_hash(options.grasp_config),
+        "fingers": list(hand.grasping),
+    }
+    if options.physics is not None:  # a sweep with the physics check is another run than one without
+        definition["physics config"] = path_hash(options.physics)
+    if options.route != "paper":  # the paper route's definition is as it always was: its sweeps still resume
+        definition["route"] = options.route
+    if options.surface_starts:
+        definition["surface starts"] = options.surface_starts
+    return definition
+
+
 def _prepare(options: SynthesisOptions) -> _Prepared:
     from grasptask.synthesis.backends import check_ipopt_options  # deferred: CasADi and Pyomo
 
@@ -252,25 +274,10 @@ def _prepare(options: SynthesisOptions) -> _Prepared:
     every = make_starts(obj.bounds(), options.seed)
     if options.starts is not None and options.starts > len(every):
         raise BadInputError("synthesize", f"--starts {options.starts}: there are {len(every)} starts")
-    definition = {
-        "task": options.task,
-        "seed": options.seed,
-        "solver": options.backend,
-        "task model": config_hash(model.ellipsoid.S.tolist()),
-        "hand": path_hash(options.hand),
-        "object": config_hash([path_hash(p) for p in object_files(options.object)] + [options.object_overrides]),
-        "solver config": path_hash(options.solver_config),
-        "grasp config": path_hash(options.grasp_config),
-        "fingers": list(hand.grasping),
-    }
-    if options.physics is not None:  # a sweep with the physics check is another run than one without
-        definition["physics config"] = path_hash(options.physics)
-    if options.route != "paper":  # the paper route's definition is as it always was: its sweeps still resume
-        definition["route"] = options.route
+    definition = _definition(options, model, hand)
     seeded: list[Start] = []
     if options.surface_starts:
         seeded = surface_starts(obj.surface.points, obj.surface.normals, options.surface_starts)
-        definition["surface starts"] = options.surface_starts
     library = _library(options, definition, model, hand)
     # the workers get the hand, the object and the task model as loaded here, by value; a mesh's or cloud's
     # signed-distance grid (3.3 s for a YCB mug) is made here once, not once in every worker
