@@ -432,8 +432,9 @@ def torque_feasibility(nlp: NLPBuilder) -> None:
     if soft:
         m.eq10_slack = pyo.Var(blocks, range(rows), initialize=0.0, doc="eq. 10's residuals (search only)")
 
-    def slack(a: int, s: int, r: int) -> Any:
-        return m.eq10_slack[a, s, r] if soft else 0
+    def exact(lhs: Any, rhs: Any, a: int, s: int, r: int) -> Any:
+        """``lhs == rhs``, or with the search's slack on the left; the paper's rows as they always were."""
+        return lhs + m.eq10_slack[a, s, r] == rhs if soft else lhs == rhs
 
     floor = nlp.settings.min_normal_force_n
     if floor > 0:  # the margin's least normal force: a component only where the margin asks for one
@@ -444,7 +445,7 @@ def torque_feasibility(nlp: NLPBuilder) -> None:
         target = (1.0 if s == 0 else -1.0) * lengths[a] * axes[a]
         for r in range(6):
             applied = sum(m.lam[a, s, j, e] * wrenches[j][e][r] for j, e in cells)
-            m.eq10_wrench.add(applied + slack(a, s, r) == float(target[r]))
+            m.eq10_wrench.add(exact(applied, float(target[r]), a, s, r))
         if floor > 0:  # each contact presses with at least the margin's normal force
             for j in range(nlp.b):
                 m.eq10_normal.add(sum(m.lam[a, s, j, e] for e in range(m_edges)) * along_normal >= floor)
@@ -455,7 +456,7 @@ def torque_feasibility(nlp: NLPBuilder) -> None:
             produced = sum(
                 float(capability.torque_map[r, q]) * m.act[a, s, q] for q in np.flatnonzero(capability.torque_map[r])
             )
-            m.eq10_torque.add(carried + slack(a, s, 6 + r) == produced)
+            m.eq10_torque.add(exact(carried, produced, a, s, 6 + r))
 
 
 def objective(nlp: NLPBuilder) -> None:
@@ -463,12 +464,13 @@ def objective(nlp: NLPBuilder) -> None:
     forces and activations), so that each optimum is isolated instead of a flat manifold. Zero weights give the
     paper's objective; the Q a solution reports is eq. 12 alone."""
     m = nlp.model
-    m.eq12_objective = pyo.Objective(expr=m.eq12_Q + _regularising(nlp), doc="eq. 12 and the regularising terms")
+    closure, feasibility = _regularising(nlp)
+    m.eq12_objective = pyo.Objective(expr=m.eq12_Q + closure + feasibility, doc="eq. 12 and the regularising terms")
 
 
-def _regularising(nlp: NLPBuilder) -> Any:
-    """:class:`Regularisation`'s terms: phi about its mean, and eq. 10's edge forces and activations where the
-    model has them."""
+def _regularising(nlp: NLPBuilder) -> tuple[Any, Any]:
+    """:class:`Regularisation`'s terms: phi about its mean, and eq. 10's edge forces and activations (0 where the
+    model has none)."""
     m, weights = nlp.model, nlp.regularisation
 
     def squares(weight: float, values: Any) -> Any:
@@ -476,8 +478,8 @@ def _regularising(nlp: NLPBuilder) -> Any:
 
     closure = squares(weights.closure_weight, [v - 1.0 / len(m.phi) for v in m.phi.values()])
     if m.component("lam") is None:
-        return closure
-    return closure + squares(weights.edge_force, m.lam.values()) + squares(weights.activation, m.act.values())
+        return closure, 0
+    return closure, squares(weights.edge_force, m.lam.values()) + squares(weights.activation, m.act.values())
 
 
 #: the paper's equation map, in the order the components are created (which fixes the NL column order)
@@ -504,7 +506,8 @@ def search_objective(nlp: NLPBuilder) -> None:
     a closed form Pyomo cannot write."""
     m, weight = nlp.model, nlp.eq10_slack_weight
     residuals = weight * sum(v**2 for v in m.eq10_slack.values()) if m.component("eq10_slack") is not None else 0
-    m.eq12_objective = pyo.Objective(expr=_regularising(nlp) + residuals, doc="eq. 10's residuals, regularised")
+    closure, feasibility = _regularising(nlp)
+    m.eq12_objective = pyo.Objective(expr=closure + feasibility + residuals, doc="eq. 10's residuals, regularised")
 
 
 def search_equations(torque_axes: int = 0) -> tuple[Callable[[NLPBuilder], None], ...]:
