@@ -501,9 +501,9 @@ EQUATIONS: tuple[Callable[[NLPBuilder], None], ...] = (
 
 
 def search_objective(nlp: NLPBuilder) -> None:
-    """The search's Pyomo objective: only the regularising terms. The force problem's value, the search's
-    objective proper, is added where the model is imported into CasADi (:mod:`grasptask.synthesis.search`),
-    a closed form Pyomo cannot write."""
+    """The search's Pyomo objective: the regularising terms and the penalty on eq. 10's slacks. The force
+    problem's value, the search's objective proper, is added where the model is imported into CasADi
+    (:mod:`grasptask.synthesis.search`), a closed form Pyomo cannot write."""
     m, weight = nlp.model, nlp.eq10_slack_weight
     residuals = weight * sum(v**2 for v in m.eq10_slack.values()) if m.component("eq10_slack") is not None else 0
     closure, feasibility = _regularising(nlp)

@@ -4,6 +4,9 @@ The orientations point the palm's normal along the 42 vertices of a subdivided i
 two; 12 + 30 vertices), so they span all directions evenly. The positions are on the diagonal of the object
 frame, level with the middle of the object, and above it, each far enough that the hand starts away from the
 object. Joints start at mid-range. A seeded jitter of a few degrees and millimetres separates the starts.
+
+Besides them, a sweep may seed starts over the object's surface (:func:`surface_starts`), and a grasp library
+gives warm starts (:func:`warm_starts`).
 """
 
 from __future__ import annotations
@@ -122,7 +125,7 @@ def surface_starts(
     ``orientation`` numbers the seed and ``palm_position`` is ``standoff`` out along its normal; deterministic."""
     seeds = farthest_points(np.asarray(points, dtype=float), -(-count // turns))
     starts = []
-    for k in range(count):
+    for k in range(min(count, turns * len(seeds))):  # an object sampled more sparsely than asked: each point once
         seed, turn = seeds[k // turns], k % turns
         normal = normals[seed] / np.linalg.norm(normals[seed])
         about = Rotation.from_rotvec(2 * np.pi * turn / turns * normal).as_matrix()
