@@ -59,8 +59,8 @@ class PhysicsResult:
     #: the largest joint motion that seated the fingers at rest on the object first (deg; nan: not seated)
     seat_deg: float = 0.0
     controller: str = "grip"
-    #: why the grasp was dropped (:func:`why_dropped`; empty where it held)
-    why: dict[str, object] = field(default_factory=dict)
+    #: why the grasp was dropped (:func:`why_dropped`; :data:`HELD_WHY` where it held)
+    why: dict[str, object] = field(default_factory=lambda: dict(HELD_WHY))
     #: with ``check_grasp(..., trace=True)``: per phase (``"settle"`` and each test), the object's motion at
     #: every control step, ``(n, 3)``: seconds into the phase, translation (m), rotation (deg)
     traces: dict[str, np.ndarray] = field(default_factory=dict)
@@ -101,7 +101,7 @@ class PhysicsResult:
             "dexgraspbench_worst_translation_m": bench.translation_m,
             "dexgraspbench_worst_rotation_deg": bench.rotation_deg,
             "physics_seconds": self.seconds,
-            **(self.why or why_dropped(None, None, None)),
+            **self.why,
         }
 
 
@@ -234,21 +234,24 @@ def check_grasp(
 
 #: a pad using this much of its friction is said to slip
 SLIPPING = 0.95
+#: :func:`why_dropped`'s columns for a grasp that held
+HELD_WHY: dict[str, object] = {
+    "physics_why": "", "physics_slip_finger": "", "physics_slip_friction_use": float("nan"),
+    "physics_slip_normal_off_deg": float("nan"), "physics_lost_contact": "", "physics_friction": float("nan"),
+    "physics_strength": float("nan"),
+}  # fmt: skip
 
 
-def why_dropped(scene: Scene | None, test: str | None, motion: Motion | None) -> dict[str, object]:
+def why_dropped(scene: Scene, test: str | None, motion: Motion | None) -> dict[str, object]:
     """The columns that say why a grasp was dropped, from its failed phase's pads where the object went past the
     thresholds: the pad using the most friction (or the pads that pressed on nothing), the angle between
     MuJoCo's contact normal there and the object's own at the synthesized contact (the normal the NLP and the
-    verifier worked with), the friction and the strength; one line ``physics_why``. Empty where it held."""
-    why: dict[str, object] = {
-        "physics_why": "", "physics_slip_finger": "", "physics_slip_friction_use": float("nan"),
-        "physics_slip_normal_off_deg": float("nan"), "physics_lost_contact": "", "physics_friction": float("nan"),
-        "physics_strength": float("nan"),
-    }  # fmt: skip
-    if scene is None or test is None or motion is None or motion.pads is None:
+    verifier worked with), the friction and the strength; one line ``physics_why``. :data:`HELD_WHY` where it
+    held."""
+    why = dict(HELD_WHY)
+    if test is None or motion is None or motion.pads is None:
         return why
-    names, pads = scene.finger_names or tuple(map(str, range(scene.finger_count))), motion.pads
+    names, pads = scene.finger_names, motion.pads
     loaded = ~np.isnan(pads[:, 0])
     lost = [names[f] for f in np.flatnonzero(~loaded)]
     why.update(physics_lost_contact=";".join(lost), physics_friction=scene.friction, physics_strength=scene.strength)

@@ -79,8 +79,8 @@ class Scene:
     columns: np.ndarray
     expand: np.ndarray
     #: the grasping fingers' names, in the pads' order, and the actuators' strength factor
-    finger_names: tuple[str, ...] = ()
-    strength: float = 1.0
+    finger_names: tuple[str, ...]
+    strength: float
 
     def to_hand(self, q: np.ndarray) -> np.ndarray:
         """Simulated joint values in ``hand.joint_names`` order (a shared joint's value in each finger)."""

@@ -114,19 +114,9 @@ class SolverContext:
         """The search's model (route search), built on first use: the paper's route never needs it."""
         from grasptask.synthesis.solvers import build_solver
 
-        job = self.job
-        solver = job.solver
-        return build_solver(
-            self.hand,
-            self.obj,
-            self.task,
-            self.settings,
-            solver,
-            job.backend,
-            solver.search_torque_axes,
-            solver.search_iterations,
-            True,
-        )
+        job, solver = self.job, self.job.solver
+        parts = (self.hand, self.obj, self.task, self.settings, solver, job.backend)
+        return build_solver(*parts, solver.search_torque_axes, max_iter=solver.search_iterations, search=True)
 
     @cached_property
     def force_problem(self) -> ForceProblem:
