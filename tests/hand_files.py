@@ -19,11 +19,31 @@ def ball_centre() -> np.ndarray:
     return np.array([0.0, 0.0, sum(LINKS_M)])
 
 
-def write_mesh_gripper(root: Path, effort_nm: float = 2.0, inertia: str | None = None) -> Path:
+#: a box tip's size (m): across the way it closes, wide, long; its inner face where the sphere tip's nearest point is
+BOX_TIP_M = (0.008, 0.016, 0.024)
+
+
+#: a printed box tip's edges are rounded over this radius (m)
+PRINTED_FILLET_M = 0.0015
+
+
+def _tip_geometry(tip: str, package: Path) -> str:
+    depth = TIP_RADIUS_M - BOX_TIP_M[0] / 2  # a box's middle, its inner face at the sphere's innermost point
+    if tip == "box":
+        return f'<origin xyz="{-depth} 0 0"/><geometry><box size="{" ".join(map(str, BOX_TIP_M))}"/></geometry>'
+    if tip == "printed":
+        rounded_box(np.array(BOX_TIP_M) / 2, PRINTED_FILLET_M).export(package / "meshes" / "tip.stl")
+        return f'<origin xyz="{-depth} 0 0"/><geometry><mesh filename="package://gripper/meshes/tip.stl"/></geometry>'
+    return f'<geometry><sphere radius="{TIP_RADIUS_M}"/></geometry>'
+
+
+def write_mesh_gripper(root: Path, effort_nm: float = 2.0, inertia: str | None = None, tip: str = "sphere") -> Path:
     """A three-finger gripper as a ROS package under ``root``: ``gripper/urdf/gripper.urdf`` and its meshes in
     ``gripper/meshes``. Each finger rises from the palm 3 cm off its axis, two links (STL boxes) and a sphere
     tip; at zero posture the tips touch a 2 cm ball centred :func:`ball_centre` above the palm, and the joints
-    (named "0" to "5") close them towards it. ``inertia`` replaces the first link's inertial element."""
+    (named "0" to "5") close them towards it. ``inertia`` replaces the first link's inertial element; ``tip`` "box"
+    makes each tip a box whose inner face is where the sphere's nearest point to the ball is (a flat pad), and
+    "printed" the same box as an STL mesh with its edges rounded over :data:`PRINTED_FILLET_M`."""
     package = root / "gripper"
     (package / "meshes").mkdir(parents=True, exist_ok=True)
     (package / "urdf").mkdir(parents=True, exist_ok=True)
@@ -58,10 +78,7 @@ def write_mesh_gripper(root: Path, effort_nm: float = 2.0, inertia: str | None =
                 f'<limit lower="-0.4" upper="0.4" effort="{effort_nm}" velocity="2"/></joint>'
             )
             parent = name
-        links.append(
-            f'<link name="finger{f}_tip"><collision><geometry><sphere radius="{TIP_RADIUS_M}"/></geometry>'
-            "</collision></link>"
-        )
+        links.append(f'<link name="finger{f}_tip"><collision>{_tip_geometry(tip, package)}</collision></link>')
         joints.append(
             f'<joint name="finger{f}_tip_joint" type="fixed"><parent link="{parent}"/>'
             f'<child link="finger{f}_tip"/><origin xyz="0 0 {LINKS_M[1]}"/></joint>'
@@ -97,6 +114,14 @@ ALLEGRO_MJCF = Path(__file__).resolve().parents[1] / "configs" / "hands" / "alle
 FILLET_M = 0.003
 
 
+def rounded_box(half_sizes: np.ndarray, fillet: float) -> trimesh.Trimesh:
+    """A box of ``half_sizes`` about the origin, its edges and corners rounded over ``fillet``, as printed."""
+    corner = trimesh.creation.icosphere(subdivisions=2, radius=fillet)
+    inset = np.maximum(np.asarray(half_sizes, dtype=float) - fillet, 1e-4)
+    corners = [corner.vertices + np.array(s) * inset for s in itertools.product((-1, 1), repeat=3)]
+    return trimesh.convex.convex_hull(np.vstack(corners))
+
+
 def _geom_mesh(model, g: int) -> trimesh.Trimesh:
     """One MuJoCo primitive geom as a triangle mesh in its body's frame."""
     import mujoco
@@ -107,10 +132,7 @@ def _geom_mesh(model, g: int) -> trimesh.Trimesh:
     elif kind == mujoco.mjtGeom.mjGEOM_SPHERE:
         mesh = trimesh.creation.icosphere(subdivisions=3, radius=size[0])
     else:  # a printed link's box, its edges rounded over FILLET_M as published hand meshes are
-        corner = trimesh.creation.icosphere(subdivisions=2, radius=FILLET_M)
-        inset = np.maximum(np.asarray(size[:3]) - FILLET_M, 1e-4)
-        corners = [corner.vertices + np.array(s) * inset for s in itertools.product((-1, 1), repeat=3)]
-        mesh = trimesh.convex.convex_hull(np.vstack(corners))
+        mesh = rounded_box(np.asarray(size[:3]), FILLET_M)
     mesh.apply_transform(trimesh.transformations.quaternion_matrix(model.geom_quat[g]))
     mesh.apply_translation(model.geom_pos[g])
     return mesh

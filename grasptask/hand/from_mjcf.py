@@ -87,7 +87,7 @@ def _shape(model, g: int, shift: np.ndarray, link: str, source: Path) -> Shape:
         return Shape(cover.cylinder(radius, length, transform), skin.cylinder(radius, length, transform))
     halves = np.asarray(size, dtype=float)
     if kind == mujoco.mjtGeom.mjGEOM_BOX:
-        return Shape(cover.box(halves, transform), skin.box(halves, transform))
+        return Shape(cover.box(halves, transform), skin.box(halves, transform), box=(halves, transform))
     if kind == mujoco.mjtGeom.mjGEOM_ELLIPSOID:
         return Shape(cover.box(halves, transform), skin.ellipsoid(halves, transform))
     if kind == mujoco.mjtGeom.mjGEOM_MESH:

@@ -41,7 +41,7 @@ def _shape(geometry, transform: np.ndarray, link: str, source: Path) -> Shape:
         return Shape(cover.cylinder(radius, length, transform), skin.cylinder(radius, length, transform))
     if geometry.box is not None:
         half = np.asarray(geometry.box.size, dtype=float) / 2
-        return Shape(cover.box(half, transform), skin.box(half, transform))
+        return Shape(cover.box(half, transform), skin.box(half, transform), box=(half, transform))
     if geometry.mesh is not None:
         path = resolve_mesh(geometry.mesh.filename, source)
         if path is None:

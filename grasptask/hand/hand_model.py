@@ -57,7 +57,12 @@ class Pad:
     normal, over which the contact rolls; 0 keeps the contact at the point (the paper's model). ``fit_error_m``
     is how far a mesh fingertip's surface lies from that sphere (RMS), 0 for a sphere or capsule tip, and
     ``roll_max_deg`` how far from the pad normal the contact may roll before the sphere leaves the fingertip's
-    own mesh by more than it gives (90 for a sphere or capsule tip, which the sphere is)."""
+    own mesh by more than it gives (90 for a sphere or capsule tip, which the sphere is).
+
+    A ``flat`` pad is a flat face (a box fingertip's), ``point`` its middle: the contact stays there and the face
+    lies on the surface, its normal the surface's, where a sphere fitted to it would touch at one point and tilt
+    the face's edges into the object. ``half_extents`` (m) is the face's size about the point, along the tangent
+    and across it."""
 
     point: np.ndarray
     normal: np.ndarray
@@ -65,6 +70,15 @@ class Pad:
     radius: float = 0.0
     fit_error_m: float = 0.0
     roll_max_deg: float = 90.0
+    flat: bool = False
+    half_extents: tuple[float, float] = (0.0, 0.0)
+
+    @property
+    def across(self) -> np.ndarray:
+        """The face's second in-plane direction, normal x tangent: with the tangent, the axes a flat pad's
+        face must keep in the surface's tangent plane."""
+        across = np.cross(self.normal, self.tangent)
+        return across / max(float(np.linalg.norm(across)), 1e-300)
 
     @property
     def centre(self) -> np.ndarray:

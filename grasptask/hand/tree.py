@@ -8,10 +8,11 @@ project's :class:`~grasptask.hand.hand_model.Hand` from it, the same way for bot
 - fingertips are the last link of each chain from the palm that carries collision geometry, behind at least
   one revolute joint (or the named ``fingertips``); each finger is the chain of revolute joints from the palm to
   its tip, fixed joints folded into the next joint's origin;
-- the pad is on the tip's sphere (or, for a mesh tip, a sphere fitted to the surface that faces the way the
+- the pad is on the tip's sphere (for a mesh tip, a sphere fitted to the surface that faces the way the
   finger closes: :mod:`grasptask.hand.pad_fit`), facing the way the tip moves as the last joint closes the
   finger, and the first friction-cone edge follows the distal link, from its joint to the tip; the sphere that
-  holds the pad is the contact surface, over which the contact rolls, not a collision sphere;
+  holds the pad is the contact surface, over which the contact rolls, not a collision sphere; a box tip's pad,
+  and a mesh tip's whose pad is flat, is its flat face, which lies on the surface;
 - the approach direction for the starts runs from the palm's origin to the pads' centroid at mid-range;
 - each motor limits ``|tau| <= effort``; a joint that mimics another shares its motor and its limit;
 - a joint on the way to two fingertips (a spread, a palm arch) is in each of their chains, repeated as
@@ -32,7 +33,7 @@ import numpy as np
 from grasptask.errors import BadInputError
 from grasptask.hand.hand_model import DEFAULT_COMPLIANCE_M, Capability, Finger, Hand, Joint, Pad, Palm, Skin, Sphere
 from grasptask.hand.kinematics import forward
-from grasptask.hand.pad_fit import NoPadError, fit_pad, roll_limit_deg
+from grasptask.hand.pad_fit import NoPadError, box_pad, boxes_mesh, fit_pad, flat_face, roll_limit_deg
 from grasptask.hand.palm import REVOLUTE, branching_link, fixed_links, fixed_to_palm, held_joints
 
 #: how far over a mesh tip's pad sphere the contact may roll from the pad's home point (the pad-angle limit)
@@ -51,12 +52,15 @@ class TreeLink:
     skin: list[np.ndarray] = field(default_factory=list)  # points on each collision shape, in the link's frame
     meshes: list[tuple[np.ndarray, np.ndarray]] = field(default_factory=list)  # (vertices in its frame, faces)
     cover_reach_m: float = 0.0  # how far the spheres of its meshes reach outside them
+    boxes: list[tuple[np.ndarray, np.ndarray]] = field(default_factory=list)  # (half sizes, 4 x 4 frame)
 
     def add(self, shape: Shape) -> None:
         self.spheres += shape.spheres
         self.skin.append(shape.skin)
         if shape.rounded:
             self.rounded += shape.spheres
+        if shape.box is not None:
+            self.boxes.append(shape.box)
         if shape.mesh is not None:
             self.meshes.append(shape.mesh)
             self.cover_reach_m = max(self.cover_reach_m, shape.reach_m)
@@ -71,6 +75,7 @@ class Shape:
     rounded: bool = False  # a sphere or capsule: a fingertip's shape
     mesh: tuple[np.ndarray, np.ndarray] | None = None  # (vertices, faces) of a mesh
     reach_m: float = 0.0  # how far its spheres reach outside it
+    box: tuple[np.ndarray, np.ndarray] | None = None  # a box's half sizes and its frame: a flat pad's shape
 
 
 @dataclass
@@ -260,6 +265,7 @@ class _Chain:
     tip_frame: np.ndarray
     tip_spheres: list[tuple[np.ndarray, float]]
     tip_meshes: list[tuple[np.ndarray, np.ndarray]]  # in the last joint's link frame
+    tip_boxes: list[tuple[np.ndarray, np.ndarray]]  # (half sizes, frame in the last joint's link frame)
 
 
 def _skin(link: TreeLink, transform: np.ndarray) -> np.ndarray:
@@ -316,7 +322,8 @@ def _chain(tree: Tree, path: list[TreeJoint], source: Path, on_path: set[str], a
     tip = tree.links[path[-1].child]
     meshes = [(v @ pending[:3, :3].T + pending[:3, 3], f) for v, f in tip.meshes]
     rounded = _transform_spheres(tip.rounded, pending)
-    return _Chain(joints, spheres, [s for s in skin if len(s.points)], pending, rounded, meshes)
+    boxes = [(half, pending @ frame) for half, frame in tip.boxes]
+    return _Chain(joints, spheres, [s for s in skin if len(s.points)], pending, rounded, meshes, boxes)
 
 
 def _attach(link: str, attached: set[str]) -> bool:
@@ -387,43 +394,32 @@ def _provisional(fingers: dict[str, Finger]) -> Hand:
 def _pads(
     hand_fingers: dict[str, Finger], chains: dict[str, _Chain], tips: list[str], options: HandOptions, source: Path
 ) -> dict[str, Finger]:
-    """Each pad on its tip's sphere (for a mesh tip, the sphere fitted to its pad), facing the way the tip moves
-    when the last joint closes it (the flexion side), unless the YAML places it; the first friction-cone edge
-    follows the distal link."""
+    """Each pad on its tip's sphere (for a mesh tip, the sphere fitted to its pad; for a box tip or a mesh tip
+    whose pad is flat, its flat face), facing the way the tip moves when the last joint closes it (the flexion
+    side), unless the YAML places it; the first friction-cone edge follows the distal link."""
     out = {}
     for (name, finger), tip in zip(hand_fingers.items(), tips, strict=True):
         chain, last = chains[name], finger.joints[-1]
+        closing = 1.0 if last.upper + last.lower >= 0 else -1.0  # most of the range turns the finger shut
+        mesh = _merged(chain.tip_meshes) if chain.tip_meshes and not chain.tip_spheres else None
+        flat = None
         if tip in options.pads:
             pad, frame = options.pads[tip], chain.tip_frame
             rotation = frame[:3, :3]
             pad = Pad(rotation @ pad.point + frame[:3, 3], rotation @ pad.normal, rotation @ pad.tangent, pad.radius)
-        else:
-            closing = 1.0 if last.upper + last.lower >= 0 else -1.0  # most of the range turns the finger shut
-            error = 0.0
-            if chain.tip_spheres:
-                centre, radius = chain.tip_spheres[-1]
-            elif chain.tip_meshes:
-                centre, radius, error = _mesh_pad(chain.tip_meshes, last.axis, closing, tip, source)
-            else:
-                centre, radius = chain.tip_frame[:3, 3], 0.0
-            if np.linalg.norm(centre) < 1e-6:  # no way from the joint to the tip: no side it closes on
-                raise BadInputError(
-                    source,
-                    f"fingertip '{tip}' lies on its last joint '{last.name}' (a link of zero length): no pad can "
-                    "face the way it closes; place the pad under 'pads' in a hand YAML",
-                )
-            along = centre / np.linalg.norm(centre)  # from the last joint to the tip, in its frame
-            normal = closing * np.cross(last.axis, centre)
-            if np.linalg.norm(normal) < 1e-9:  # a tip on the joint's axis: face away from the palm
-                normal = np.cross(along, [0.0, 0.0, 1.0]) if abs(along[2]) < 0.9 else np.cross(along, [1.0, 0.0, 0.0])
-            normal = normal / np.linalg.norm(normal)
-            tangent = along - (along @ normal) * normal
-            tangent = tangent / max(np.linalg.norm(tangent), 1e-12)
-            pad = Pad(centre + radius * normal, normal, tangent, radius, fit_error_m=error)
+        elif chain.tip_boxes and not (chain.tip_spheres or chain.tip_meshes):
+            flat, mesh = box_pad(chain.tip_boxes, last.axis, closing), boxes_mesh(chain.tip_boxes)
+        elif mesh is not None:
+            flat = flat_face(*mesh, last.axis, closing, options.compliance_m)
+        if flat is not None:
+            out[name] = replace(finger, spheres=_behind_the_face(finger, flat, options.compliance_m), pad=flat,
+                                tip_mesh=mesh)  # fmt: skip
+            continue
+        if tip not in options.pads:
+            pad = _rounded_pad(chain, last, closing, tip, source)
         if not all(np.isfinite(v).all() for v in (pad.point, pad.normal, pad.tangent, pad.radius)):
             raise BadInputError(source, f"fingertip '{tip}': its pad is not finite (point {pad.point})")
         spheres = _off_the_pad(finger, pad, options.compliance_m)
-        mesh = _merged(chain.tip_meshes) if chain.tip_meshes and not chain.tip_spheres else None
         if mesh is not None and pad.radius > 0:
             spheres = _flush_with_the_pad(spheres, finger.n_joints - 1, pad, mesh[0])
             # a contact sits the compliance inside the pad sphere; where the sphere leaves the mesh, so does it
@@ -432,6 +428,31 @@ def _pads(
             pad = replace(pad, roll_max_deg=roll)
         out[name] = replace(finger, spheres=spheres, pad=pad, tip_mesh=mesh)
     return out
+
+
+def _rounded_pad(chain: _Chain, last: Joint, closing: float, tip: str, source: Path) -> Pad:
+    """The pad on the tip's sphere (a mesh tip's fitted one), or at the tip's frame for a tip with none."""
+    error = 0.0
+    if chain.tip_spheres:
+        centre, radius = chain.tip_spheres[-1]
+    elif chain.tip_meshes:
+        centre, radius, error = _mesh_pad(chain.tip_meshes, last.axis, closing, tip, source)
+    else:
+        centre, radius = chain.tip_frame[:3, 3], 0.0
+    if np.linalg.norm(centre) < 1e-6:  # no way from the joint to the tip: no side it closes on
+        raise BadInputError(
+            source,
+            f"fingertip '{tip}' lies on its last joint '{last.name}' (a link of zero length): no pad can "
+            "face the way it closes; place the pad under 'pads' in a hand YAML",
+        )
+    along = centre / np.linalg.norm(centre)  # from the last joint to the tip, in its frame
+    normal = closing * np.cross(last.axis, centre)
+    if np.linalg.norm(normal) < 1e-9:  # a tip on the joint's axis: face away from the palm
+        normal = np.cross(along, [0.0, 0.0, 1.0]) if abs(along[2]) < 0.9 else np.cross(along, [1.0, 0.0, 0.0])
+    normal = normal / np.linalg.norm(normal)
+    tangent = along - (along @ normal) * normal
+    tangent = tangent / max(np.linalg.norm(tangent), 1e-12)
+    return Pad(centre + radius * normal, normal, tangent, radius, fit_error_m=error)
 
 
 def _merged(meshes: list[tuple[np.ndarray, np.ndarray]]) -> tuple[np.ndarray, np.ndarray]:
@@ -473,6 +494,21 @@ def _off_the_pad(finger: Finger, pad: Pad, compliance: float) -> tuple[Sphere, .
         inside_pad = pad.radius > 0 and np.linalg.norm(s.center - pad.centre) + radius <= pad.radius + 1e-4
         if radius > 1e-4 and not inside_pad:  # a sphere within the pad's own guards nothing it does not
             kept.append(replace(s, radius=radius))
+    return tuple(kept)
+
+
+def _behind_the_face(finger: Finger, pad: Pad, compliance: float) -> tuple[Sphere, ...]:
+    """The finger's collision spheres, those of its last link shrunk to pass ``compliance`` behind a flat pad's
+    face: a box's cover bulges out of its faces by 6-12% of its half-width, and kept so, eq. 14 would hold the
+    face off the surface it is to lie on, or meet the object where the contact does (parallel constraints)."""
+    last, kept = finger.n_joints - 1, []
+    for s in finger.spheres:
+        if s.link == last:
+            radius = min(s.radius, float((pad.point - s.center) @ pad.normal) - compliance)
+            if radius <= 1e-4:
+                continue
+            s = replace(s, radius=radius)
+        kept.append(s)
     return tuple(kept)
 
 

@@ -11,7 +11,7 @@ import pandas as pd
 import plotly.graph_objects as go
 
 from grasptask.exports.scene_meshes import PALM_COLOUR, finger_colour, spheres_mesh
-from grasptask.hand.hand_model import Hand, Joint
+from grasptask.hand.hand_model import Finger, Hand, Joint
 from grasptask.hand.kinematics import forward
 from grasptask.hand.mesh_cover import BOUND_M, MAX_SPHERES
 from grasptask.report.interactive import _line, _mesh_trace, figure_json
@@ -54,6 +54,21 @@ def _one_motor_fingers(hand: Hand) -> list[str]:
     ]
 
 
+def _pad_shape(finger: Finger) -> str:
+    """What the contact lies on: the pad's sphere, its flat face, or a fixed point; a fitted sphere's error and how
+    far it follows the mesh."""
+    pad = finger.pad
+    if pad.flat:
+        length, width = (2e3 * e for e in pad.half_extents)
+        return f"a flat face {length:.1f} x {width:.1f} mm, lying on the surface"
+    shape = f"sphere radius {1e3 * pad.radius:.1f} mm" if pad.radius > 0 else "a fixed point"
+    if pad.fit_error_m > 0:
+        shape += f", fit error {1e3 * pad.fit_error_m:.3f} mm"
+    if finger.tip_mesh is not None and pad.radius > 0:
+        shape += f", on the mesh for {pad.roll_max_deg:g} deg of roll"
+    return shape
+
+
 def hand_lines(hand: Hand) -> list[str]:
     """The summary a user reads first: the file, the fingers, each finger's chain and pad, and the covers."""
     source = hand.model_file or "the project's own hand model"
@@ -77,13 +92,9 @@ def hand_lines(hand: Hand) -> list[str]:
         )
         pad = finger.pad
         link = hand.fingertip_links.get(name, name)
-        shape = f"sphere radius {1e3 * pad.radius:.1f} mm" if pad.radius > 0 else "a fixed point"
-        fit = f", fit error {1e3 * pad.fit_error_m:.3f} mm" if pad.fit_error_m > 0 else ""
-        if finger.tip_mesh is not None and pad.radius > 0:
-            fit += f", on the mesh for {pad.roll_max_deg:g} deg of roll"
         lines.append(f"finger {name}: joints {joints}")
         lines.append(
-            f"  fingertip link '{link}': pad at {_mm(pad.point)} mm, normal {_unit(pad.normal)}, {shape}{fit}; "
+            f"  fingertip link '{link}': pad at {_mm(pad.point)} mm, normal {_unit(pad.normal)}, {_pad_shape(finger)}; "
             f"{len(finger.spheres)} collision spheres"
         )
     if hand.unbalanced_inertia:

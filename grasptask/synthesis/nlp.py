@@ -84,6 +84,8 @@ class NLPBuilder:
     joint_positions: list[list[Vector]] = field(default_factory=list)
     pad_normals: list[Vector] = field(default_factory=list)  # each pad's outward normal
     pad_tangents: list[Vector] = field(default_factory=list)  # the direction each cone's first edge follows
+    #: per finger with a flat pad, its face's two in-plane directions, which the surface's normal must be square to
+    flat_faces: dict[int, tuple[Vector, Vector]] = field(default_factory=dict)
     #: collision spheres: centre, radius, and how deep into the object they may sink (a rolling fingertip's
     #: compliance, on its last link; 0 elsewhere)
     samples: list[tuple[Vector, float, float]] = field(default_factory=list)
@@ -238,6 +240,8 @@ def _finger_chain(nlp: NLPBuilder, j: int, finger: Finger, first_column: int) ->
     nlp.joint_positions.append(positions_j)
     nlp.pad_normals.append(pad_normal)
     nlp.pad_tangents.append(_direction(previous, pad.tangent))
+    if pad.flat:
+        nlp.flat_faces[j] = (_direction(previous, pad.tangent), _direction(previous, pad.across))
 
 
 def _under_a_fixed_pad(sphere: Sphere, pad: Pad, compliance: float) -> float:
@@ -280,7 +284,10 @@ def contacts_and_collisions(nlp: NLPBuilder) -> None:
     ``p = c + (r - compliance) n``, with the sphere's centre ``c`` fixed in the distal link and ``n`` the
     inward normal at ``p`` (eq. 2 for a contact that moves over the fingertip). On a distance field eq. 3 holds
     ``c`` at ``r - compliance`` from the surface and ``n`` is the normal there, which is the same point for an
-    exact distance, and a wall thinner than the grid is seen (:class:`~grasptask.synthesis.surfaces.GridSurface`)."""
+    exact distance, and a wall thinner than the grid is seen (:class:`~grasptask.synthesis.surfaces.GridSurface`).
+
+    A flat pad's contact is its face's middle, and the face lies on the surface: the inward normal there is square
+    to the face's two in-plane directions (``eq2_flat_pad``)."""
     m, surface, p, samples = nlp.model, nlp.surface, nlp.contacts, nlp.samples
     b = nlp.b
     # on a distance field, a rolling contact is where its sphere's centre stands r - compliance off the surface
@@ -314,6 +321,12 @@ def contacts_and_collisions(nlp: NLPBuilder) -> None:
         offset = float(nlp.contact_offsets[j])
         for i in XYZ:
             m.eq2_rolling_contact.add(m.p[j, i] == centre[i] + offset * m.n[j, i])
+    # a flat pad's face lies on the surface: the normal at its contact is square to the face's two directions
+    if nlp.flat_faces:
+        m.eq2_flat_pad = pyo.ConstraintList()
+    for j, face in nlp.flat_faces.items():
+        for direction in face:
+            m.eq2_flat_pad.add(dot(direction, [m.n[j, i] for i in XYZ]) == 0)
     # per finger: a mesh fingertip's pad sphere may leave the real tip before the settings' bound
     cos_bound = np.cos(np.radians(nlp.hand.pad_angle_limits(nlp.settings.pad_angle_max_deg)))
     m.pad_facing = pyo.Constraint(

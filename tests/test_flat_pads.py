@@ -1,0 +1,76 @@
+"""Flat pads: a box fingertip's contact is its face, lying on the surface, not a sphere fitted to it."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hand_files import BOX_TIP_M, PRINTED_FILLET_M, TIP_RADIUS_M, write_mesh_gripper
+
+from grasptask.grasp.grasp_settings import GraspSettings
+from grasptask.hand import forward, load_hand
+from grasptask.objects import load_object
+from grasptask.records.solutions import grasp_from_row
+from grasptask.verifier.verify import verify
+
+
+@pytest.mark.parametrize("tip", ["box", "printed"])
+def test_a_box_tip_gets_a_flat_pad_on_the_face_that_closes(tmp_path, tip):
+    """A URDF box, and the same box printed (an STL mesh, its edges rounded): the pad is the inner face, flat, its
+    size the face's flat part."""
+    hand = load_hand(write_mesh_gripper(tmp_path, tip=tip))
+    rounded = 2 * PRINTED_FILLET_M if tip == "printed" else 0.0  # the fillets' share of each side
+    for finger in hand.fingers.values():
+        pad = finger.pad
+        assert pad.flat and pad.radius == 0.0
+        # the inner face, towards the palm's axis (-x in the finger's frame), its middle where the sphere tip's
+        # nearest point to the ball was
+        np.testing.assert_allclose(pad.normal, [-1.0, 0.0, 0.0], atol=1e-9)
+        np.testing.assert_allclose(pad.point, [-TIP_RADIUS_M, 0.0, 0.04], atol=1e-9)
+        length, width = BOX_TIP_M[2] - rounded, BOX_TIP_M[1] - rounded
+        np.testing.assert_allclose(pad.half_extents, (length / 2, width / 2), atol=0.3e-3)
+        # no sphere of the tip stands within the compliance of the face: eq. 14 leaves the face to lie on the surface
+        last = finger.n_joints - 1
+        fronts = [(pad.point - s.center) @ pad.normal - s.radius for s in finger.spheres if s.link == last]
+        assert fronts and min(fronts) >= hand.compliance_m - 1e-12
+        assert finger.tip_mesh is not None  # the verifier measures each contact against the tip's own triangles
+
+
+@pytest.mark.parametrize("tip", ["box", pytest.param("printed", marks=pytest.mark.slow)])
+def test_a_box_tipped_gripper_grasps_a_cylinder_with_its_faces_flat_on_it(tmp_path, simulated, tip):
+    """The tool (a cylinder 2 cm across): the verifier accepts a grasp whose contacts lie on the boxes' inner
+    faces, within them, and each face square to the surface's normal there."""
+    from grasptask.synthesis.context import Job, SolverContext
+    from grasptask.synthesis.solver_config import load_solver_config
+    from grasptask.synthesis.starts import make_starts, subset
+
+    path = write_mesh_gripper(tmp_path, tip=tip)
+    tasks = str(simulated[0] / "tasks" / "task_models.json")
+    solver = load_solver_config("configs/solver.yaml")
+    context = SolverContext(
+        Job.from_files(str(path), "configs/objects/tool.yaml", tasks, "drawing", solver=solver,
+                       settings=GraspSettings())
+    )  # fmt: skip
+    hand, tool = load_hand(path).grasping_hand(), load_object("configs/objects/tool.yaml")
+    tried = []
+    for start in subset(make_starts(context.bounds), 8):
+        row = context.solve(start)
+        tried.append((start.start_id, row["status"], row.get("verify_failures")))
+        if row["verified"]:
+            break
+    else:
+        pytest.fail(f"no verified grasp of the box-tipped gripper: {tried}")
+    grasp = grasp_from_row(row, hand.joint_names)
+    verdict = verify(grasp, hand, tool, context.job.task, GraspSettings())
+    assert verdict.ok, verdict.failures
+    pose = forward(hand, grasp.joint_angles, grasp.palm_rotation, grasp.palm_position)
+    for j, (name, finger) in enumerate(hand.fingers.items()):
+        placed = pose.fingers[name]
+        rotation, origin = placed.link_rotations[0, -1], placed.joint_positions[0, finger.n_joints - 1]
+        local = rotation.T @ (verdict.contacts[j] - origin)  # the verifier's contact, in the tip's frame
+        pad = finger.pad
+        offset = local - pad.point
+        assert abs(offset @ pad.normal) <= 0.5e-3  # on the face's plane
+        assert abs(offset @ pad.tangent) <= pad.half_extents[0] and abs(offset @ pad.across) <= pad.half_extents[1]
+        # the face square to the surface: the object's outward normal against the pad's
+        facing = -(rotation @ pad.normal) @ verdict.normals[j]
+        assert np.degrees(np.arccos(min(1.0, facing))) < 1.0
