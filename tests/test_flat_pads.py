@@ -74,3 +74,34 @@ def test_a_box_tipped_gripper_grasps_a_cylinder_with_its_faces_flat_on_it(tmp_pa
         # the face square to the surface: the object's outward normal against the pad's
         facing = -(rotation @ pad.normal) @ verdict.normals[j]
         assert np.degrees(np.arccos(min(1.0, facing))) < 1.0
+
+
+def _mjcf_gripper(tip: str) -> str:
+    """Two fingers facing each other across the palm, their links capsules, each tip ``tip`` (an MJCF geom)."""
+    fingers = []
+    for side, name in ((1, "left"), (-1, "right")):
+        fingers.append(
+            f'<body name="{name}_base" pos="{0.03 * side} 0 0.01" euler="0 0 {90 - 90 * side}">'
+            f'<joint name="{name}_1" axis="0 -1 0" range="-0.4 0.4"/>'
+            '<geom type="capsule" fromto="0 0 0 0 0 0.06" size="0.006"/>'
+            f'<body name="{name}_tip" pos="0 0 0.06"><joint name="{name}_2" axis="0 -1 0" range="-0.4 0.4"/>'
+            f"{tip}</body></body>"
+        )
+    motors = "".join(f'<motor joint="{n}_{k}" gear="1" ctrlrange="-1 1"/>' for n in ("left", "right") for k in (1, 2))
+    return (
+        '<mujoco model="jaws"><worldbody><body name="palm"><geom type="box" size="0.04 0.02 0.005"/>'
+        + "".join(fingers)
+        + f"</body></worldbody><actuator>{motors}</actuator></mujoco>"
+    )
+
+
+def test_an_mjcf_box_tip_gets_the_same_flat_pad(tmp_path):
+    """The same box tip in an MJCF file: its face towards the other finger is a flat pad."""
+    box = '<geom type="box" pos="-0.006 0 0.012" size="0.004 0.008 0.012"/>'
+    (tmp_path / "jaws.xml").write_text(_mjcf_gripper(box))
+    hand = load_hand(tmp_path / "jaws.xml")
+    for finger in hand.fingers.values():
+        assert finger.pad.flat
+        np.testing.assert_allclose(finger.pad.normal, [-1.0, 0.0, 0.0], atol=1e-9)
+        np.testing.assert_allclose(finger.pad.point, [-0.010, 0.0, 0.012], atol=1e-9)
+        np.testing.assert_allclose(finger.pad.half_extents, (0.012, 0.008), atol=1e-9)

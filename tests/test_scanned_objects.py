@@ -336,3 +336,35 @@ def test_a_scan_as_published_gives_a_verified_grasp_in_its_default_frame(simulat
         if row["verified"]:
             return
     pytest.fail(f"no verified grasp on the {shape} in {len(tried)} starts: {tried}")
+
+
+def test_a_noisy_seamed_scan_is_grasped_with_its_contacts_on_its_own_triangles(simulated, tmp_path):
+    """A soup can as a scanner gives it: 0.2 mm of noise on every vertex, split at its texture seams. The NLP
+    sees the smooth surrogate of its distance grid, but the verified grasp's pads meet the scan's own triangles:
+    each contact lies on them, and each pad sinks into them by the compliance within 0.5 mm."""
+    from grasptask.synthesis.context import Job, SolverContext
+    from grasptask.synthesis.solver_config import load_solver_config
+    from grasptask.synthesis.starts import make_starts, subset
+
+    mesh = can()
+    mesh.vertices += np.random.default_rng(3).normal(scale=2e-4, size=mesh.vertices.shape)
+    (tmp_path / "can").mkdir()
+    path = write_textured_obj(mesh, tmp_path / "can" / "textured.obj")
+    tasks = str(simulated[0] / "tasks" / "task_models.json")
+    job = Job.from_files("configs/hands/human.yaml", str(path), tasks, "drawing",
+                         solver=load_solver_config("configs/solver.yaml"), settings=GraspSettings())  # fmt: skip
+    context = SolverContext(job)
+    tried = []
+    for start in subset(make_starts(context.bounds), 8):
+        row = context.solve(start)
+        tried.append((start.start_id, row["status"], row.get("verify_failures")))
+        if row["verified"]:
+            break
+    else:
+        pytest.fail(f"no verified grasp on the noisy can in {len(tried)} starts: {tried}")
+    fingers = list(context.job.hand.grasping)
+    sinking = np.array([row[f"verify_contact_distance_m_{f}"] for f in fingers])
+    assert np.abs(sinking).max() <= 0.5e-3
+    contacts = np.array([[row[f"contact_{f}_{a}"] for a in "xyz"] for f in fingers])
+    _, off, _ = trimesh.proximity.closest_point(context.obj.mesh, contacts)  # the scan's triangles, as loaded
+    assert off.max() <= 0.5e-3
