@@ -105,3 +105,19 @@ def test_an_mjcf_box_tip_gets_the_same_flat_pad(tmp_path):
         np.testing.assert_allclose(finger.pad.normal, [-1.0, 0.0, 0.0], atol=1e-9)
         np.testing.assert_allclose(finger.pad.point, [-0.010, 0.0, 0.012], atol=1e-9)
         np.testing.assert_allclose(finger.pad.half_extents, (0.012, 0.008), atol=1e-9)
+
+
+def test_the_hand_summary_and_view_show_a_flat_pad(tmp_path):
+    from grasptask.report.hand_view import hand_figure, hand_lines
+
+    hand = load_hand(write_mesh_gripper(tmp_path, tip="box"))
+    lines = [line for line in hand_lines(hand) if "fingertip link" in line]
+    assert len(lines) == 3 and all("a flat face 24.0 x 16.0 mm, lying on the surface" in line for line in lines)
+    faces = [t for t in hand_figure(hand).data if t.name and t.name.endswith("flat pad")]
+    assert len(faces) == 3
+    pose = forward(hand, hand.mid_range())
+    for face, finger in zip(faces, pose.fingers.values(), strict=True):
+        corners = np.column_stack([face.x, face.y, face.z])
+        # the rectangle lies on the pad's plane, about its middle
+        np.testing.assert_allclose((corners - finger.contact[0]) @ finger.pad_normal[0], 0.0, atol=1e-6)
+        np.testing.assert_allclose(corners.mean(axis=0), finger.contact[0], atol=1e-6)

@@ -9,6 +9,7 @@ import html
 import numpy as np
 import pandas as pd
 import plotly.graph_objects as go
+import trimesh
 
 from grasptask.exports.scene_meshes import PALM_COLOUR, finger_colour, spheres_mesh
 from grasptask.hand.hand_model import Finger, Hand, Joint
@@ -177,6 +178,9 @@ def hand_figure(hand: Hand) -> go.Figure:
         if radius > 0:
             sphere = spheres_mesh(finger.pad_centre, np.array([radius]), subdivisions=2)
             traces.append(_mesh_trace(sphere, "#d62728", f"{label} pad sphere", 0.3, legendgroup=name))
+        if hand.fingers[name].pad.flat:
+            face = _flat_face(hand.fingers[name], finger.link_rotations[0, -1], finger.joint_positions[0, -2])
+            traces.append(_mesh_trace(face, "#d62728", f"{label} flat pad", 0.6, legendgroup=name))
     pads = np.array([f.contact[0] for f in pose.fingers.values()])
     marker = {"size": 6, "color": "#d62728", "line": {"color": "black", "width": 1}}
     traces.append(go.Scatter3d(x=pads[:, 0], y=pads[:, 1], z=pads[:, 2], mode="markers", name="pads", marker=marker))
@@ -191,6 +195,14 @@ def hand_figure(hand: Hand) -> go.Figure:
     return figure
 
 
+def _flat_face(finger: Finger, rotation: np.ndarray, origin: np.ndarray) -> trimesh.Trimesh:
+    """A flat pad's face as a rectangle of two triangles, its last link at ``rotation`` and ``origin``."""
+    pad = finger.pad
+    corners = [pad.point + a * pad.half_extents[0] * pad.tangent + b * pad.half_extents[1] * pad.across
+               for a, b in ((-1, -1), (1, -1), (1, 1), (-1, 1))]  # fmt: skip
+    return trimesh.Trimesh(np.array(corners) @ rotation.T + origin, [[0, 1, 2], [0, 2, 3]], process=False)
+
+
 def _points(points: np.ndarray, colour: str, name: str, **extra) -> go.Scatter3d:
     p = np.asarray(points, dtype=np.float32)
     return go.Scatter3d(x=p[:, 0], y=p[:, 1], z=p[:, 2], mode="markers", name=name,
@@ -201,7 +213,8 @@ def hand_page(hand: Hand) -> str:
     """One self-contained HTML page: the summary, the view, and the joint table."""
     data, shared = figure_json(hand_figure(hand))
     view = View("view-hand", data, "Points: the links' true collision surfaces; translucent: the spheres the NLP "
-                "keeps outside the object; red: each pad's sphere, over which the contact rolls; black: pad normals.",
+                "keeps outside the object; red: each pad's sphere, over which the contact rolls, or its flat face; "
+                "black: pad normals.",
                 height=660, shared=shared)  # fmt: skip
     sections = [
         Section("view", "The hand at mid-range joints", blocks=[view]),
