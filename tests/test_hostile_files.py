@@ -127,6 +127,8 @@ def hand_case(case: str) -> str:
         "a mass of NaN": with_inertial("nan", 1e-5),
         "a negative mass": with_inertial(-1, 1e-5),
         "a zero-length link": TWO_FINGERS.replace('<origin xyz="0 0 0.05"/>', '<origin xyz="0 0 0"/>', 1),
+        "a box of NaN": TWO_FINGERS.replace('<box size="0.08 0.08 0.02"/>', '<box size="0.08 nan 0.02"/>'),
+        "a sphere of no radius": TWO_FINGERS.replace('<sphere radius="0.01"/>', '<sphere radius="0"/>', 1),
     }[case]
 
 
@@ -140,6 +142,8 @@ HAND_CASES = {
     "a mass of NaN": "link 'l1': inertial mass nan is not a mass",
     "a negative mass": "link 'l1': inertial mass -1.0 is not a mass",
     "a zero-length link": "fingertip 'f1' lies on its last joint 'j1' (a link of zero length)",
+    "a box of NaN": "link 'palm': box size '0.08 nan 0.02' is not a positive number of metres",
+    "a sphere of no radius": "link 'f1': sphere radius '0' is not a positive number of metres",
 }
 
 

@@ -29,18 +29,27 @@ def resolve_mesh(filename: str, source: Path) -> Path | None:
     return next((c for c in candidates if c.is_file()), None)
 
 
+def _sizes(values, what: str, link: str, source: Path) -> list[float]:
+    """A primitive's sizes as floats, each finite and positive, or the link's one-line refusal."""
+    sizes = [float(v) for v in np.atleast_1d(np.asarray(values, dtype=float))]
+    if not all(np.isfinite(v) and v > 0 for v in sizes):
+        shown = " ".join(f"{v:g}" for v in sizes)
+        raise BadInputError(source, f"link '{link}': {what} '{shown}' is not a positive number of metres")
+    return sizes
+
+
 def _shape(geometry, transform: np.ndarray, link: str, source: Path) -> Shape:
     """One collision geometry: the spheres covering it, points on its surface, and a mesh's triangles."""
     import trimesh  # deferred: trimesh, only for mesh links
 
     if geometry.sphere is not None:
-        radius = float(geometry.sphere.radius)
+        (radius,) = _sizes([geometry.sphere.radius], "sphere radius", link, source)
         return Shape([(transform[:3, 3].copy(), radius)], skin.sphere(transform[:3, 3], radius), rounded=True)
     if geometry.cylinder is not None:
-        radius, length = float(geometry.cylinder.radius), float(geometry.cylinder.length)
+        radius, length = _sizes([geometry.cylinder.radius, geometry.cylinder.length], "cylinder size", link, source)
         return Shape(cover.cylinder(radius, length, transform), skin.cylinder(radius, length, transform))
     if geometry.box is not None:
-        half = np.asarray(geometry.box.size, dtype=float) / 2
+        half = np.array(_sizes(geometry.box.size, "box size", link, source)) / 2
         return Shape(cover.box(half, transform), skin.box(half, transform), box=(half, transform))
     if geometry.mesh is not None:
         path = resolve_mesh(geometry.mesh.filename, source)

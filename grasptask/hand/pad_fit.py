@@ -33,13 +33,16 @@ class PadFit:
     faces: int  # how many faces the pad took
 
 
-def box_pad(boxes: list[tuple[np.ndarray, np.ndarray]], axis: np.ndarray, closing: float) -> Pad:
+def box_pad(boxes: list[tuple[np.ndarray, np.ndarray]], axis: np.ndarray, closing: float) -> Pad | None:
     """The flat pad of a box fingertip: of the boxes ``(half sizes, 4 x 4 frame)`` in its last joint's frame, the
     one farthest from the joint, and its face whose outward normal is nearest the way the box's centre moves as
-    the joint (about ``axis``, ``closing`` its sign) closes the finger."""
+    the joint (about ``axis``, ``closing`` its sign) closes the finger. None for a box centred on the joint's
+    axis, which does not move as the finger closes."""
     half, frame = max(boxes, key=lambda box: float(np.linalg.norm(box[1][:3, 3])))
     centre, rotation = frame[:3, 3], frame[:3, :3]
     facing = rotation.T @ (closing * np.cross(axis, centre))  # the motion in the box's own axes
+    if np.linalg.norm(facing) < 1e-9:
+        return None
     k = int(np.argmax(np.abs(facing)))
     normal = np.sign(facing[k]) * rotation[:, k]
     others = [i for i in range(3) if i != k]

@@ -408,7 +408,8 @@ def _pads(
             rotation = frame[:3, :3]
             pad = Pad(rotation @ pad.point + frame[:3, 3], rotation @ pad.normal, rotation @ pad.tangent, pad.radius)
         elif chain.tip_boxes and not (chain.tip_spheres or chain.tip_meshes):
-            flat, mesh = box_pad(chain.tip_boxes, last.axis, closing), boxes_mesh(chain.tip_boxes)
+            flat = box_pad(chain.tip_boxes, last.axis, closing)
+            mesh = boxes_mesh(chain.tip_boxes) if flat is not None else None
         elif mesh is not None:
             flat = flat_face(*mesh, last.axis, closing, options.compliance_m)
         if flat is not None:
