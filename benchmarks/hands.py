@@ -7,7 +7,8 @@ Ratios: each hand's median over the human 3-finger hand's, in the same run.
 
 ``mesh_allegro`` is a robot hand as people publish one, written by the run (``tests/hand_files.py``): the
 Allegro's kinematics as a URDF whose every link is an STL mesh, joints named "0" to "15", no YAML;
-its medians are also given over the Allegro's. ``shadow`` and ``inspire`` are two published hands as their
+its medians are also given over the Allegro's. ``box_gripper`` is the tests' three-finger gripper with box
+fingertips (``tests/hand_files.py``: STL links, URDF boxes at the tips), whose pads are flat faces. ``shadow`` and ``inspire`` are two published hands as their
 authors ship them (``../shared/zoo/hands``: the Shadow Hand with its forearm and wrist, the Inspire Hand rooted
 at an empty link), with no YAML; they run only when asked for (``--hands``).
 
@@ -58,23 +59,26 @@ HANDS = {
     "barrett": (ROOT / "configs/hands/barrett_bh8_282.urdf", None),
     "allegro": (ROOT / "configs/hands/allegro.yaml", None),
     "mesh_allegro": (None, None),  # written by the run
+    "box_gripper": (None, None),  # written by the run
     "shadow": (ROOT.parent / "shared/zoo/hands/shadow_hand/shadow_hand_right.urdf", None),
     "inspire": (ROOT.parent / "shared/zoo/hands/inspire_hand/inspire_hand_right.urdf", None),
 }
 #: the hands a run takes unless --hands says otherwise (the zoo's published hands are outside the repository)
-DEFAULT_HANDS = ("human3", "human4", "human5", "barrett", "allegro", "mesh_allegro")
+DEFAULT_HANDS = ("human3", "human4", "human5", "barrett", "allegro", "mesh_allegro", "box_gripper")
 #: the robot hands held to the targets, and those whose median is also set against the Allegro's
-ROBOTS = ("barrett", "allegro", "mesh_allegro", "shadow", "inspire")
-MESH_HANDS = ("mesh_allegro", "shadow", "inspire")
+ROBOTS = ("barrett", "allegro", "mesh_allegro", "box_gripper", "shadow", "inspire")
+MESH_HANDS = ("mesh_allegro", "box_gripper", "shadow", "inspire")
 
 
 def hand_path(name: str, folder: Path) -> Path:
-    """The hand's file: a shipped one, or the mesh hand written under ``folder``."""
+    """The hand's file: a shipped one, or the mesh hand or the box gripper written under ``folder``."""
     path = HANDS[name][0]
     if path is not None:
         return path
-    from tests.hand_files import write_mesh_allegro
+    from tests.hand_files import write_mesh_allegro, write_mesh_gripper
 
+    if name == "box_gripper":
+        return write_mesh_gripper(folder / "box_gripper", tip="box")
     return write_mesh_allegro(folder / "hand_files")
 
 
