@@ -7,6 +7,7 @@ from __future__ import annotations
 import shutil
 from dataclasses import replace
 from functools import lru_cache
+from typing import Any
 
 import numpy as np
 from scipy.optimize import least_squares
@@ -176,3 +177,23 @@ def ball_sweep(results, task="drawing"):
         fingers=fingers,
         paper=read_paper_synthesis(),
     )
+
+
+def first_verified(hand: str, obj: str, tasks: str, task: str, starts: int = 8) -> tuple[dict, Any]:
+    """The first verified row of ``starts`` spread-out starts of ``hand`` on ``obj`` (the shipped solver config,
+    the default grasp settings), and the solver context that solved it; the test fails with every start's status
+    and failures when none verifies."""
+    import pytest
+
+    from grasptask.synthesis.context import Job, SolverContext
+    from grasptask.synthesis.starts import make_starts, subset
+
+    solver = load_solver_config("configs/solver.yaml")
+    context = SolverContext(Job.from_files(hand, obj, tasks, task, solver=solver, settings=GraspSettings()))
+    tried = []
+    for start in subset(make_starts(context.bounds), starts):
+        row = context.solve(start)
+        tried.append((start.start_id, row["status"], row.get("verify_failures")))
+        if row["verified"]:
+            return row, context
+    pytest.fail(f"no verified {task} grasp of {obj} by {hand} in {len(tried)} starts: {tried}")

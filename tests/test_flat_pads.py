@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from grasp_fixtures import first_verified
 from hand_files import BOX_TIP_M, PRINTED_FILLET_M, TIP_RADIUS_M, write_mesh_gripper
 
 from grasptask.grasp.grasp_settings import GraspSettings
@@ -39,26 +40,10 @@ def test_a_box_tip_gets_a_flat_pad_on_the_face_that_closes(tmp_path, tip):
 def test_a_box_tipped_gripper_grasps_a_cylinder_with_its_faces_flat_on_it(tmp_path, simulated, tip):
     """The tool (a cylinder 2 cm across): the verifier accepts a grasp whose contacts lie on the boxes' inner
     faces, within them, and each face square to the surface's normal there."""
-    from grasptask.synthesis.context import Job, SolverContext
-    from grasptask.synthesis.solver_config import load_solver_config
-    from grasptask.synthesis.starts import make_starts, subset
-
     path = write_mesh_gripper(tmp_path, tip=tip)
     tasks = str(simulated[0] / "tasks" / "task_models.json")
-    solver = load_solver_config("configs/solver.yaml")
-    context = SolverContext(
-        Job.from_files(str(path), "configs/objects/tool.yaml", tasks, "drawing", solver=solver,
-                       settings=GraspSettings())
-    )  # fmt: skip
+    row, context = first_verified(str(path), "configs/objects/tool.yaml", tasks, "drawing")
     hand, tool = load_hand(path).grasping_hand(), load_object("configs/objects/tool.yaml")
-    tried = []
-    for start in subset(make_starts(context.bounds), 8):
-        row = context.solve(start)
-        tried.append((start.start_id, row["status"], row.get("verify_failures")))
-        if row["verified"]:
-            break
-    else:
-        pytest.fail(f"no verified grasp of the box-tipped gripper: {tried}")
     grasp = grasp_from_row(row, hand.joint_names)
     verdict = verify(grasp, hand, tool, context.job.task, GraspSettings())
     assert verdict.ok, verdict.failures

@@ -22,6 +22,7 @@ from grasptask.objects import load_object
 from grasptask.objects.mesh_file import holes, non_manifold_edges, open_edges
 from grasptask.objects.mesh_object import MeshObject
 from grasptask.objects.object_files import FRAME_DEPTH_M, file_object_name
+from tests.grasp_fixtures import first_verified
 from tests.scan_files import bottle, bowl, box, can, cup, rod, with_fin, with_hole, write_scene_glb, write_textured_obj
 from tests.test_bad_input import assert_rejected
 
@@ -342,26 +343,12 @@ def test_a_noisy_seamed_scan_is_grasped_with_its_contacts_on_its_own_triangles(s
     """A soup can as a scanner gives it: 0.2 mm of noise on every vertex, split at its texture seams. The NLP
     sees the smooth surrogate of its distance grid, but the verified grasp's pads meet the scan's own triangles:
     each contact lies on them, and each pad sinks into them by the compliance within 0.5 mm."""
-    from grasptask.synthesis.context import Job, SolverContext
-    from grasptask.synthesis.solver_config import load_solver_config
-    from grasptask.synthesis.starts import make_starts, subset
-
     mesh = can()
     mesh.vertices += np.random.default_rng(3).normal(scale=2e-4, size=mesh.vertices.shape)
     (tmp_path / "can").mkdir()
     path = write_textured_obj(mesh, tmp_path / "can" / "textured.obj")
     tasks = str(simulated[0] / "tasks" / "task_models.json")
-    job = Job.from_files("configs/hands/human.yaml", str(path), tasks, "drawing",
-                         solver=load_solver_config("configs/solver.yaml"), settings=GraspSettings())  # fmt: skip
-    context = SolverContext(job)
-    tried = []
-    for start in subset(make_starts(context.bounds), 8):
-        row = context.solve(start)
-        tried.append((start.start_id, row["status"], row.get("verify_failures")))
-        if row["verified"]:
-            break
-    else:
-        pytest.fail(f"no verified grasp on the noisy can in {len(tried)} starts: {tried}")
+    row, context = first_verified("configs/hands/human.yaml", str(path), tasks, "drawing")
     fingers = list(context.job.hand.grasping)
     sinking = np.array([row[f"verify_contact_distance_m_{f}"] for f in fingers])
     assert np.abs(sinking).max() <= 0.5e-3
