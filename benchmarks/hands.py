@@ -5,12 +5,12 @@ fraction, distinct optima, model size, and, where grasps pass every check of the
 the torque effort its LP needs there (above 1: the hand's tendons or motors cannot hold the task at that grasp).
 Ratios: each hand's median over the human 3-finger hand's, in the same run.
 
-``mesh_allegro`` is a robot hand as people publish one, written by the run (``tests/hand_files.py``): the
-Allegro's kinematics as a URDF whose every link is an STL mesh, joints named "0" to "15", no YAML;
-its medians are also given over the Allegro's. ``box_gripper`` is the tests' three-finger gripper with box
-fingertips (``tests/hand_files.py``: STL links, URDF boxes at the tips), whose pads are flat faces. ``shadow`` and ``inspire`` are two published hands as their
-authors ship them (``../shared/zoo/hands``: the Shadow Hand with its forearm and wrist, the Inspire Hand rooted
-at an empty link), with no YAML; they run only when asked for (``--hands``).
+``mesh_allegro`` is a robot hand as people publish one, written by the run (``tests/hand_files.py``): the Allegro's
+kinematics as a URDF whose every link is an STL mesh, joints named "0" to "15", no YAML; its medians are also given
+over the Allegro's. ``box_gripper`` is the tests' three-finger gripper with box fingertips
+(``tests/hand_files.py``: STL links, URDF boxes at the tips), whose pads are flat faces. ``shadow`` and ``inspire``
+are two published hands as their authors ship them (``../shared/zoo/hands``: the Shadow Hand with its forearm and
+wrist, the Inspire Hand rooted at an empty link), with no YAML; they run only when asked for (``--hands``).
 
     python benchmarks/hands.py [--starts N] [--hands human3,barrett,...]
     python benchmarks/hands.py --table     # the saved results as the README's table
