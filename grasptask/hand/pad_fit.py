@@ -7,7 +7,7 @@ sphere fitted to their vertices by least squares. The contact rolls over that sp
 fingertip's, and its RMS distance from the faces' vertices is the fit error a user is shown.
 
 A box fingertip's pad is the face of the box that faces the way the finger closes, flat: no sphere is fitted to
-it (:func:`box_pad`)."""
+it (:func:`box_pad`); so is a mesh fingertip's whose pad is flat (:func:`flat_face`)."""
 
 from __future__ import annotations
 

@@ -182,8 +182,9 @@ class PadAngle(Check):
 
 
 class FingertipContact(Check):
-    """A mesh fingertip's contact lies on the real tip, not in the air beside it, where only the sphere fitted to
-    its pad reaches (a contact inside the tip is the tip pressing deeper: the penetration check's)."""
+    """A mesh or box fingertip's contact lies on the real tip, not in the air beside it, where only the sphere
+    fitted to its pad reaches, or off its flat face (a contact inside the tip is the tip pressing deeper: the
+    penetration check's)."""
 
     name = "fingertip_contact"
 
