@@ -106,3 +106,28 @@ def test_the_hand_summary_and_view_show_a_flat_pad(tmp_path):
         # the rectangle lies on the pad's plane, about its middle
         np.testing.assert_allclose((corners - finger.contact[0]) @ finger.pad_normal[0], 0.0, atol=1e-6)
         np.testing.assert_allclose(corners.mean(axis=0), finger.contact[0], atol=1e-6)
+
+
+def test_a_hand_yaml_declares_a_flat_pad_and_refuses_one_with_a_radius(tmp_path):
+    """A flat tip the rule does not find (here the sphere-tipped gripper's, for the test): the YAML's pad is flat,
+    its face the size it says; a flat pad with a radius is one line naming the field."""
+    import yaml
+
+    from grasptask.errors import BadInputError
+
+    urdf = write_mesh_gripper(tmp_path)
+
+    def pad() -> dict:  # a new one each time: the YAML has no aliases
+        return {"point_m": [-0.01, 0.0, 0.0], "normal": [-1.0, 0.0, 0.0], "tangent": [0.0, 0.0, 1.0],
+                "flat_size_m": [0.012, 0.008]}  # fmt: skip
+
+    spec = {"model": str(urdf), "pads": {f"finger{f}_tip": pad() for f in range(3)}}
+    (tmp_path / "hand.yaml").write_text(yaml.safe_dump(spec))
+    hand = load_hand(tmp_path / "hand.yaml")
+    for finger in hand.fingers.values():
+        assert finger.pad.flat and finger.pad.half_extents == (0.006, 0.004)
+        np.testing.assert_allclose(finger.pad.point, [-0.01, 0.0, 0.04], atol=1e-12)  # in the last link's frame
+    spec["pads"]["finger0_tip"] = {**pad(), "radius_m": 0.01}
+    (tmp_path / "hand.yaml").write_text(yaml.safe_dump(spec))
+    with pytest.raises(BadInputError, match="field 'pads.finger0_tip': a flat pad"):
+        load_hand(tmp_path / "hand.yaml")

@@ -116,6 +116,9 @@ class PadConfig:
     tangent: Vector
     #: the fingertip's radius of curvature, for the contact to roll over it (0: a fixed point)
     radius_m: NonNegative = 0.0
+    #: a flat pad's face, its length along the tangent and its width across (m), centred on the point: the
+    #: contact stays at the point and the face lies on the surface (a flat pad has no radius)
+    flat_size_m: tuple[Positive, Positive] | None = None
 
 
 @dataclass(frozen=True, config=SCHEMA)

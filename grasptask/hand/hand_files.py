@@ -49,9 +49,13 @@ def _pads(pads: dict[str | int, PadConfig], source: Path) -> dict[str, Pad]:
         tangent = tangent - (tangent @ normal) * normal
         if np.linalg.norm(tangent) < 1e-6:
             raise BadInputError(source, f"field '{where}.tangent' is parallel to the normal")
+        if spec.flat_size_m is not None and spec.radius_m > 0:
+            raise BadInputError(source, f"field '{where}': a flat pad (flat_size_m) has no radius_m")
         found[str(link)] = Pad(
-            np.array(spec.point_m, dtype=float), normal, tangent / np.linalg.norm(tangent), spec.radius_m
-        )
+            np.array(spec.point_m, dtype=float), normal, tangent / np.linalg.norm(tangent), spec.radius_m,
+            flat=spec.flat_size_m is not None,
+            half_extents=(0.0, 0.0) if spec.flat_size_m is None else (spec.flat_size_m[0] / 2, spec.flat_size_m[1] / 2),
+        )  # fmt: skip
     return found
 
 

@@ -406,7 +406,11 @@ def _pads(
         if tip in options.pads:
             pad, frame = options.pads[tip], chain.tip_frame
             rotation = frame[:3, :3]
-            pad = Pad(rotation @ pad.point + frame[:3, 3], rotation @ pad.normal, rotation @ pad.tangent, pad.radius)
+            pad = replace(pad, point=rotation @ pad.point + frame[:3, 3], normal=rotation @ pad.normal,
+                          tangent=rotation @ pad.tangent)  # fmt: skip
+            if pad.flat:  # the verifier measures its contact against the tip's own triangles, or a box's
+                flat = pad
+                mesh = boxes_mesh(chain.tip_boxes) if mesh is None and chain.tip_boxes else mesh
         elif chain.tip_boxes and not (chain.tip_spheres or chain.tip_meshes):
             flat = box_pad(chain.tip_boxes, last.axis, closing)
             mesh = boxes_mesh(chain.tip_boxes) if flat is not None else None
