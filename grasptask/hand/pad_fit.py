@@ -54,7 +54,7 @@ def box_pad(boxes: list[tuple[np.ndarray, np.ndarray]], axis: np.ndarray, closin
 def flat_face(
     vertices: np.ndarray, faces: np.ndarray, axis: np.ndarray, closing: float, compliance: float
 ) -> Pad | None:
-    """The flat pad of a mesh fingertip whose pad is a flat face (a printed box tip, a LEAP Hand's pad), else
+    """The flat pad of a mesh fingertip whose pad is a flat face (a printed box tip), else
     None: of the faces that face the way the finger closes (as for :func:`fit_pad`), those within
     :data:`FLAT_DEG` of their commonest normal and within ``compliance`` of their outermost plane, when they hold
     at least :data:`FLAT_SHARE` of those faces' area. Pressed on a flat surface, such a pad touches over all of
