@@ -17,7 +17,6 @@ from hypothesis import strategies as st
 from scipy.spatial.transform import Rotation
 
 from grasptask.errors import BadInputError
-from grasptask.grasp.grasp_settings import GraspSettings
 from grasptask.objects import load_object
 from grasptask.objects.mesh_file import holes, non_manifold_edges, open_edges
 from grasptask.objects.mesh_object import MeshObject
@@ -312,31 +311,12 @@ def test_a_scan_as_published_gives_a_verified_grasp_in_its_default_frame(simulat
     """A marker (a rod 18 mm across, as YCB's large marker), a thin rod (6 mm), a mug with a handle (its centre
     in the cavity) and a box with sharp edges, each a bare textured OBJ split at its seams: each loads in its
     default frame and gives a verified grasp."""
-    from grasptask.synthesis.context import Job, SolverContext
-    from grasptask.synthesis.solver_config import load_solver_config
-    from grasptask.synthesis.starts import make_starts, subset
-
     (tmp_path / shape).mkdir()
     shapes = {"marker": lambda: rod(radius=0.009), "rod": rod, "cup": cup, "box": box}
     path = write_textured_obj(shapes[shape](), tmp_path / shape / "textured.obj")
     tasks = str(simulated[0] / "tasks" / "task_models.json")
-    job = Job.from_files(
-        "configs/hands/human.yaml",
-        str(path),
-        tasks,
-        task,
-        solver=load_solver_config("configs/solver.yaml"),
-        settings=GraspSettings(),
-    )
-    context = SolverContext(job)
+    _, context = first_verified("configs/hands/human.yaml", str(path), tasks, task, starts=12)
     assert context.obj.name == shape and context.obj.task_frame_rule == "centre"
-    tried = []
-    for start in subset(make_starts(context.bounds), 12):
-        row = context.solve(start)
-        tried.append((start.start_id, row["status"], row.get("verify_failures")))
-        if row["verified"]:
-            return
-    pytest.fail(f"no verified grasp on the {shape} in {len(tried)} starts: {tried}")
 
 
 def test_a_noisy_seamed_scan_is_grasped_with_its_contacts_on_its_own_triangles(simulated, tmp_path):

@@ -174,12 +174,12 @@ def hand_figure(hand: Hand) -> go.Figure:
         traces.append(_line(finger.joint_positions[0], colour, f"{label} chain", showlegend=False, legendgroup=name))
         pad, normal = finger.contact[0], finger.pad_normal[0]
         traces.append(_line(np.vstack([pad, pad + NORMAL_M * normal]), "black", f"{label} pad normal", width=6))
-        radius = hand.fingers[name].pad.radius
-        if radius > 0:
-            sphere = spheres_mesh(finger.pad_centre, np.array([radius]), subdivisions=2)
+        own = hand.fingers[name]
+        if own.pad.radius > 0:
+            sphere = spheres_mesh(finger.pad_centre, np.array([own.pad.radius]), subdivisions=2)
             traces.append(_mesh_trace(sphere, "#d62728", f"{label} pad sphere", 0.3, legendgroup=name))
-        if hand.fingers[name].pad.flat:
-            face = _flat_face(hand.fingers[name], finger.link_rotations[0, -1], finger.joint_positions[0, -2])
+        if own.pad.flat:
+            face = _flat_face(own, finger.link_rotations[0, -1], finger.joint_positions[0, -2])
             traces.append(_mesh_trace(face, "#d62728", f"{label} flat pad", 0.6, legendgroup=name))
     pads = np.array([f.contact[0] for f in pose.fingers.values()])
     marker = {"size": 6, "color": "#d62728", "line": {"color": "black", "width": 1}}

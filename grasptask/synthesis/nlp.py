@@ -322,11 +322,11 @@ def contacts_and_collisions(nlp: NLPBuilder) -> None:
         for i in XYZ:
             m.eq2_rolling_contact.add(m.p[j, i] == centre[i] + offset * m.n[j, i])
     # a flat pad's face lies on the surface: the normal at its contact is square to the face's two directions
-    if nlp.flat_faces:
+    if nlp.flat_faces:  # only then: the paper's model keeps its components as they were
         m.eq2_flat_pad = pyo.ConstraintList()
-    for j, face in nlp.flat_faces.items():
-        for direction in face:
-            m.eq2_flat_pad.add(dot(direction, [m.n[j, i] for i in XYZ]) == 0)
+        for j, face in nlp.flat_faces.items():
+            for direction in face:
+                m.eq2_flat_pad.add(dot(direction, [m.n[j, i] for i in XYZ]) == 0)
     # per finger: a mesh fingertip's pad sphere may leave the real tip before the settings' bound
     cos_bound = np.cos(np.radians(nlp.hand.pad_angle_limits(nlp.settings.pad_angle_max_deg)))
     m.pad_facing = pyo.Constraint(
