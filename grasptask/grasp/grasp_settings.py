@@ -41,6 +41,11 @@ class GraspSettings:
     min_normal_force_n: NonNegative = 0.5
     #: contacts roll over the fingertip's sphere, sunk by the hand's compliance (false: a fixed pad point)
     rolling_contacts: Flag = True
+    #: m, a flat pad's torsional friction: it resists a twist about the contact normal up to this times its
+    #: normal force (the soft-finger contact of Salisbury and Mason; 0: point contacts only). 0.005 m is
+    #: MuJoCo's default torsional friction (geom friction[1]), and mu L / 4 for a pad pressed along a line of
+    #: L = 40 mm with mu = 0.5 and even pressure. A fingertip that is not flat is a point contact.
+    torsional_friction_m: NonNegative = 0.005
 
     def __post_init__(self) -> None:
         if self.activation_margin >= min(self.activation_max, self.motor_activation_max):

@@ -1,4 +1,4 @@
-"""A hand as plain data: fingers as serial chains of revolute joints from the palm, each with its collision
+"""A hand as plain data: fingers as serial chains of revolute (or sliding) joints from the palm, each with its collision
 spheres, its fingertip pad and its force capability, whatever file it came from (YAML, URDF, MJCF)."""
 
 from __future__ import annotations
@@ -14,7 +14,8 @@ import numpy as np
 class Joint:
     """A revolute joint. Its frame sits at ``offset`` in the frame of the link before it (the palm's for a
     finger's first joint), turned by ``rotation`` (None: not turned); the joint then rotates about ``axis``
-    (in its own frame), and the link after it moves with that frame."""
+    (in its own frame), and the link after it moves with that frame. A ``sliding`` joint (a URDF's prismatic, a
+    gripper's jaw) moves the link along ``axis`` instead, by its value in metres; its effort is a force (N)."""
 
     name: str
     axis: np.ndarray
@@ -28,6 +29,7 @@ class Joint:
     #: this joint is ``coupled_to`` itself, repeated in a second finger: one joint of the hand file on the way to
     #: two fingertips (a spread shared by the ring and little fingers), one motor and one angle
     shared: bool = False
+    sliding: bool = False
 
     @property
     def file_name(self) -> str:

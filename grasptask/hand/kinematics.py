@@ -1,7 +1,7 @@
 """Forward kinematics of the hand, vectorised over configurations (paper eq. 2, Appendix 10.2).
 
 Each finger is a chain from the palm frame: joint k sits at its offset in the frame of the link before it,
-turned by its fixed rotation, and turns about its axis; its collision spheres and, on the last link, the pad
+turned by its fixed rotation, and turns about its axis (a sliding joint moves along it); its collision spheres and, on the last link, the pad
 move with the link after it. Everything is computed for a batch of ``N`` configurations at once and returned
 in the object frame, given the palm pose ``(R_h, d_h)``.
 """
@@ -26,7 +26,7 @@ def axis_rotations(axis: np.ndarray, angles: np.ndarray) -> np.ndarray:
 class FingerPose:
     """One finger in a batch of ``N`` configurations, in the object frame."""
 
-    joint_positions: np.ndarray  # (N, n+1, 3): each joint's origin, then the fingertip end
+    joint_positions: np.ndarray  # (N, n+1, 3): each joint's link's origin (a sliding one's where it slid to), the tip
     joint_axes: np.ndarray  # (N, n, 3): each joint's axis
     link_rotations: np.ndarray  # (N, n, 3, 3): each link's frame after its joint
     contact: np.ndarray  # (N, 3): the fingertip pad's home point
@@ -34,6 +34,7 @@ class FingerPose:
     pad_normal: np.ndarray  # (N, 3): outward normal of the pad
     pad_tangent: np.ndarray  # (N, 3): the direction the first friction-cone edge follows
     jacobian: np.ndarray  # (N, 3, n): d contact / d joint angles
+    sliding: np.ndarray  # (n,): which joints slide (their Jacobian column is their axis, and they carry no torque)
     samples: np.ndarray  # (N, s, 3): collision sphere centres on the links
     radii: np.ndarray  # (s,)
     radius: float  # for drawing the links
@@ -76,9 +77,14 @@ class HandPose:
         """Each finger's ``(N, 3, n)`` Jacobian of the point of its last link at ``points`` ``(N, b, 3)``
         (a contact that rolled away from the pad's home point)."""
         return [
-            point_jacobian(f.joint_axes, f.joint_positions[:, :-1], points[:, j])
+            point_jacobian(f.joint_axes, f.joint_positions[:, :-1], points[:, j], f.sliding)
             for j, f in enumerate(self.fingers.values())
         ]
+
+    def turn_jacobians(self) -> list[np.ndarray]:
+        """Each finger's ``(N, 3, n)`` d (its last link's turn) / d joints: a revolute joint's axis, a sliding
+        joint's zero; a torque ``m`` on the last link asks ``J^T m`` of the joints (a flat pad's twist)."""
+        return [np.where(f.sliding[None, None, :], 0.0, f.joint_axes.transpose(0, 2, 1)) for f in self.fingers.values()]
 
     def pad_normals(self) -> np.ndarray:
         return np.stack([f.pad_normal for f in self.fingers.values()], axis=1)
@@ -93,10 +99,15 @@ class HandPose:
         return np.concatenate(points, axis=1), np.concatenate(radii)
 
 
-def point_jacobian(axes: np.ndarray, joints: np.ndarray, points: np.ndarray) -> np.ndarray:
-    """``(N, 3, n)``: d point / d joint angles, ``a_k x (p - P_k)``, for revolute joints of axes ``(N, n, 3)`` at
-    ``(N, n, 3)`` moving points ``(N, 3)`` of the link after the last of them."""
-    return np.cross(axes, points[:, None, :] - joints).transpose(0, 2, 1)
+def point_jacobian(
+    axes: np.ndarray, joints: np.ndarray, points: np.ndarray, sliding: np.ndarray | None = None
+) -> np.ndarray:
+    """``(N, 3, n)``: d point / d joint values, ``a_k x (p - P_k)`` for revolute joints of axes ``(N, n, 3)`` at
+    ``(N, n, 3)``, ``a_k`` for ``sliding`` ones, at moving points ``(N, 3)`` of the link after the last of them."""
+    columns = np.cross(axes, points[:, None, :] - joints)
+    if sliding is not None and sliding.any():
+        columns = np.where(sliding[None, :, None], axes, columns)
+    return columns.transpose(0, 2, 1)
 
 
 def finger_forward(finger: Finger, q: np.ndarray) -> FingerPose:
@@ -109,9 +120,12 @@ def finger_forward(finger: Finger, q: np.ndarray) -> FingerPose:
         position = position + rotation @ joint.offset
         if joint.rotation is not None:
             rotation = rotation @ joint.rotation
-        positions.append(position)
         axes.append(rotation @ joint.axis)
-        rotation = rotation @ axis_rotations(joint.axis, q[:, k])
+        if joint.sliding:  # the link slides along the axis, unturned; its origin is where it slid to
+            position = position + q[:, k, None] * axes[-1]
+        else:
+            rotation = rotation @ axis_rotations(joint.axis, q[:, k])
+        positions.append(position)
         rotations.append(rotation)
     link_rotations, joint_positions = np.stack(rotations, axis=1), np.stack(positions, axis=1)
     pad = finger.pad
@@ -121,7 +135,8 @@ def finger_forward(finger: Finger, q: np.ndarray) -> FingerPose:
     links = [s.link for s in finger.spheres]
     samples = joint_positions[:, links] + np.einsum("nsij,sj->nsi", link_rotations[:, links], centres)
     axes_arr = np.stack(axes, axis=1)
-    jacobian = point_jacobian(axes_arr, joint_positions, contact)
+    sliding = np.array([joint.sliding for joint in finger.joints], dtype=bool)
+    jacobian = point_jacobian(axes_arr, joint_positions, contact, sliding)
     return FingerPose(
         joint_positions=np.concatenate([joint_positions, (position + rotation @ finger.tip)[:, None]], axis=1),
         joint_axes=axes_arr,
@@ -131,6 +146,7 @@ def finger_forward(finger: Finger, q: np.ndarray) -> FingerPose:
         pad_normal=rotation @ pad.normal,
         pad_tangent=rotation @ pad.tangent,
         jacobian=jacobian,
+        sliding=sliding,
         samples=samples,
         radii=np.array([s.radius for s in finger.spheres]),
         radius=finger.radius,
@@ -154,6 +170,7 @@ def _to_object(pose: FingerPose, rotation: np.ndarray, position: np.ndarray) -> 
         pad_normal=vector(pose.pad_normal[:, None, :])[:, 0],
         pad_tangent=vector(pose.pad_tangent[:, None, :])[:, 0],
         jacobian=rotation @ pose.jacobian,
+        sliding=pose.sliding,
         samples=point(pose.samples),
         radii=pose.radii,
         radius=pose.radius,

@@ -33,14 +33,16 @@ class PadFit:
     faces: int  # how many faces the pad took
 
 
-def box_pad(boxes: list[tuple[np.ndarray, np.ndarray]], axis: np.ndarray, closing: float) -> Pad | None:
+def box_pad(
+    boxes: list[tuple[np.ndarray, np.ndarray]], axis: np.ndarray, closing: float, sliding: bool = False
+) -> Pad | None:
     """The flat pad of a box fingertip: of the boxes ``(half sizes, 4 x 4 frame)`` in its last joint's frame, the
     one farthest from the joint, and its face whose outward normal is nearest the way the box's centre moves as
-    the joint (about ``axis``, ``closing`` its sign) closes the finger. None for a box centred on the joint's
-    axis, which does not move as the finger closes."""
+    the joint (about ``axis``, or along it if ``sliding``; ``closing`` its sign) closes the finger. None for a
+    box centred on a turning joint's axis, which does not move as the finger closes."""
     half, frame = max(boxes, key=lambda box: float(np.linalg.norm(box[1][:3, 3])))
     centre, rotation = frame[:3, 3], frame[:3, :3]
-    facing = rotation.T @ (closing * np.cross(axis, centre))  # the motion in the box's own axes
+    facing = rotation.T @ motion(axis, closing, centre, sliding)  # the motion in the box's own axes
     if np.linalg.norm(facing) < 1e-9:
         return None
     k = int(np.argmax(np.abs(facing)))
@@ -52,14 +54,14 @@ def box_pad(boxes: list[tuple[np.ndarray, np.ndarray]], axis: np.ndarray, closin
 
 
 def flat_face(
-    vertices: np.ndarray, faces: np.ndarray, axis: np.ndarray, closing: float, compliance: float
+    vertices: np.ndarray, faces: np.ndarray, axis: np.ndarray, closing: float, compliance: float, sliding: bool = False
 ) -> Pad | None:
     """The flat pad of a mesh fingertip whose pad is a flat face (a printed box tip), else
     None: of the faces that face the way the finger closes (as for :func:`fit_pad`), those within
     :data:`FLAT_DEG` of their commonest normal and within ``compliance`` of their outermost plane, when they hold
     at least :data:`FLAT_SHARE` of those faces' area. Pressed on a flat surface, such a pad touches over all of
     it, where a sphere fitted to it would touch at one point."""
-    normals, areas, centres, facing = _facing_faces(vertices, faces, axis, closing)
+    normals, areas, centres, facing = _facing_faces(vertices, faces, axis, closing, sliding)
     if facing.sum() < 2:
         return None
     normals, areas, triangles = normals[facing], areas[facing], faces[facing]
@@ -89,6 +91,8 @@ def _flat_pad(point: np.ndarray, normal: np.ndarray, body: np.ndarray, face: np.
     tangent = along - (along @ normal) * normal
     if np.linalg.norm(tangent) < 1e-9:
         tangent = fallback - (fallback @ normal) * normal
+    if np.linalg.norm(tangent) < 1e-9:  # a jaw sliding along its face's normal: any direction in the face
+        tangent = np.cross(normal, [1.0, 0.0, 0.0] if abs(normal[0]) < 0.9 else [0.0, 1.0, 0.0])
     tangent = tangent / np.linalg.norm(tangent)
     across = np.cross(normal, tangent)
     offsets = face - point
@@ -113,14 +117,15 @@ class NoPadError(ValueError):
     """The fingertip has no surface that faces the way the finger closes."""
 
 
-def fit_pad(vertices: np.ndarray, faces: np.ndarray, axis: np.ndarray, closing: float) -> PadFit:
+def fit_pad(vertices: np.ndarray, faces: np.ndarray, axis: np.ndarray, closing: float, sliding: bool = False) -> PadFit:
     """The pad sphere of a fingertip mesh whose ``vertices`` are in its last joint's frame (the joint turning
-    about ``axis`` through the origin; ``closing`` is +1 or -1, the sign of the turn that closes the finger)."""
-    normals, areas, centres, facing = _facing_faces(vertices, faces, axis, closing)
+    about ``axis`` through the origin, or sliding along it; ``closing`` is +1 or -1, the sign of the motion that
+    closes the finger)."""
+    normals, areas, centres, facing = _facing_faces(vertices, faces, axis, closing, sliding)
     along = (areas @ centres) / max(float(areas.sum()), 1e-300)
     along = along / max(float(np.linalg.norm(along)), 1e-300)  # from the joint to the tip's middle
     tip = vertices @ along
-    mid_motion = closing * np.cross(axis, vertices.mean(axis=0))
+    mid_motion = motion(axis, closing, vertices.mean(axis=0), sliding)
     across = mid_motion / max(float(np.linalg.norm(mid_motion)), 1e-300)
     half_width = float(np.ptp(vertices @ across)) / 2
     pad = facing & (centres @ along >= tip.max() - half_width)
@@ -146,8 +151,16 @@ def fit_pad(vertices: np.ndarray, faces: np.ndarray, axis: np.ndarray, closing: 
     return PadFit(centre, radius, error, int(pad.sum()))
 
 
+def motion(axis: np.ndarray, closing: float, points: np.ndarray, sliding: bool = False) -> np.ndarray:
+    """The way ``points`` (in the last joint's frame) move as the joint closes the finger: ``closing a x p`` for
+    a joint turning about ``a``, ``closing a`` for one sliding along it (a gripper's jaw)."""
+    if sliding:
+        return np.broadcast_to(closing * np.asarray(axis, dtype=float), np.shape(points)).copy()
+    return closing * np.cross(axis, points)
+
+
 def _facing_faces(
-    vertices: np.ndarray, faces: np.ndarray, axis: np.ndarray, closing: float
+    vertices: np.ndarray, faces: np.ndarray, axis: np.ndarray, closing: float, sliding: bool = False
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Each face's unit normal, area and centre, and whether it faces the way it moves as the finger closes
     (within :data:`FACING_DEG`)."""
@@ -156,10 +169,10 @@ def _facing_faces(
     cross = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
     areas = np.linalg.norm(cross, axis=1) / 2
     normals = cross / np.maximum(2 * areas, 1e-300)[:, None]
-    motion = closing * np.cross(axis, centres)
-    speed = np.linalg.norm(motion, axis=1)
+    moving = motion(axis, closing, centres, sliding)
+    speed = np.linalg.norm(moving, axis=1)
     facing = (speed > 1e-9) & (areas > 0)
-    facing[facing] = np.einsum("ij,ij->i", normals[facing], motion[facing] / speed[facing, None]) >= np.cos(
+    facing[facing] = np.einsum("ij,ij->i", normals[facing], moving[facing] / speed[facing, None]) >= np.cos(
         np.radians(FACING_DEG)
     )
     return normals, areas, centres, facing

@@ -20,6 +20,8 @@ if TYPE_CHECKING:  # the tree imports this module to find its palm
     from grasptask.hand.tree import HandOptions, Tree, TreeJoint
 
 REVOLUTE = ("revolute", "continuous")
+#: the joints that move a finger: a jaw slides
+MOVING = (*REVOLUTE, "prismatic")
 
 
 def path_from_root(into: dict[str, TreeJoint], link: str) -> list[str]:

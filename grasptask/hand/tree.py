@@ -6,19 +6,21 @@ project's :class:`~grasptask.hand.hand_model.Hand` from it, the same way for bot
 
 - the palm is the root link (or ``palm_link``); links fixed to it are the palm's collision geometry;
 - fingertips are the last link of each chain from the palm that carries collision geometry, behind at least
-  one revolute joint (or the named ``fingertips``); each finger is the chain of revolute joints from the palm to
-  its tip, fixed joints folded into the next joint's origin;
+  one revolute or prismatic joint (or the named ``fingertips``); each finger is the chain of those joints from
+  the palm to its tip, fixed joints folded into the next joint's origin; a prismatic joint slides its link (a
+  gripper's jaw), and its effort is a force;
 - the pad is on the tip's sphere (for a mesh tip, a sphere fitted to the surface that faces the way the
   finger closes: :mod:`grasptask.hand.pad_fit`), facing the way the tip moves as the last joint closes the
   finger, and the first friction-cone edge follows the distal link, from its joint to the tip; the sphere that
   holds the pad is the contact surface, over which the contact rolls, not a collision sphere; a box tip's pad,
-  and a mesh tip's whose pad is flat, is its flat face, which lies on the surface;
+  and a mesh tip's whose pad is flat, is its flat face, which lies on the surface; a sliding jaw's pad faces the
+  other jaws;
 - the approach direction for the starts runs from the palm's origin to the pads' centroid at mid-range;
 - each motor limits ``|tau| <= effort``; a joint that mimics another shares its motor and its limit;
 - a joint on the way to two fingertips (a spread, a palm arch) is in each of their chains, repeated as
   ``<joint>@<finger>`` and coupled one to one: one angle, one motor, one torque limit.
 
-Choices where the files allow more than the NLP can take: prismatic, planar and floating joints are refused;
+Choices where the files allow more than the NLP can take: planar and floating joints are refused;
 a continuous joint is a revolute joint over one turn, [-pi, pi]; links behind a movable joint that leads to no
 fingertip are left out.
 """
@@ -33,8 +35,8 @@ import numpy as np
 from grasptask.errors import BadInputError
 from grasptask.hand.hand_model import DEFAULT_COMPLIANCE_M, Capability, Finger, Hand, Joint, Pad, Palm, Skin, Sphere
 from grasptask.hand.kinematics import forward
-from grasptask.hand.pad_fit import NoPadError, box_pad, boxes_mesh, fit_pad, flat_face, roll_limit_deg
-from grasptask.hand.palm import REVOLUTE, branching_link, fixed_links, fixed_to_palm, held_joints
+from grasptask.hand.pad_fit import NoPadError, box_pad, boxes_mesh, fit_pad, flat_face, motion, roll_limit_deg
+from grasptask.hand.palm import MOVING, branching_link, fixed_links, fixed_to_palm, held_joints
 
 #: how far over a mesh tip's pad sphere the contact may roll from the pad's home point (the pad-angle limit)
 PAD_ROLL_DEG = 45.0
@@ -217,7 +219,7 @@ def _default_tips(tree: Tree, into: dict[str, TreeJoint], palm: str) -> list[str
 
 def _moves(into: dict[str, TreeJoint], link: str, palm: str) -> bool:
     while link != palm:
-        if into[link].kind in REVOLUTE:
+        if into[link].kind in MOVING:
             return True
         link = into[link].parent
     return False
@@ -235,7 +237,7 @@ def _limits(joint: TreeJoint, source: Path) -> tuple[float, float]:
     if joint.kind == "continuous" and (joint.lower is None or joint.upper is None or joint.lower >= joint.upper):
         return -np.pi, np.pi
     if joint.lower is None or joint.upper is None:
-        raise BadInputError(source, f"joint '{joint.name}' has no limits; a revolute joint needs them")
+        raise BadInputError(source, f"joint '{joint.name}' has no limits; a {joint.kind} joint needs them")
     if not joint.lower < joint.upper:
         raise BadInputError(source, f"joint '{joint.name}': lower limit {joint.lower} is not below {joint.upper}")
     return joint.lower, joint.upper
@@ -289,9 +291,11 @@ def _chain(tree: Tree, path: list[TreeJoint], source: Path, on_path: set[str], a
                     spheres.append(Sphere(len(joints) - 1, c, r))
                 skin.append(Skin(len(joints) - 1, _skin(tree.links[tree_joint.child], pending)))
             continue
-        if tree_joint.kind not in REVOLUTE:
+        if tree_joint.kind not in MOVING:
             kind = tree_joint.kind
-            raise BadInputError(source, f"joint '{tree_joint.name}' is {kind}: only revolute joints move fingers")
+            raise BadInputError(
+                source, f"joint '{tree_joint.name}' is {kind}: only revolute and prismatic joints move fingers"
+            )
         frame = pending @ tree_joint.origin
         lower, upper = _limits(tree_joint, source)
         rotation = frame[:3, :3]
@@ -303,6 +307,7 @@ def _chain(tree: Tree, path: list[TreeJoint], source: Path, on_path: set[str], a
                 upper=float(upper),
                 offset=frame[:3, 3].copy(),
                 rotation=None if np.allclose(rotation, np.eye(3), atol=1e-15) else rotation.copy(),
+                sliding=tree_joint.kind == "prismatic",
             )
         )
         pending = np.eye(4)
@@ -318,7 +323,7 @@ def _chain(tree: Tree, path: list[TreeJoint], source: Path, on_path: set[str], a
                 spheres.append(Sphere(k, c, r))
             skin.append(Skin(k, _skin(tree.links[link], link_frame)))
     if not joints:
-        raise BadInputError(source, f"fingertip '{path[-1].child}': no revolute joint between it and the palm")
+        raise BadInputError(source, f"fingertip '{path[-1].child}': no moving joint between it and the palm")
     tip = tree.links[path[-1].child]
     meshes = [(v @ pending[:3, :3].T + pending[:3, 3], f) for v, f in tip.meshes]
     rounded = _transform_spheres(tip.rounded, pending)
@@ -368,7 +373,8 @@ def _mimic(tree: Tree, chains: dict[str, _Chain], source: Path) -> dict[str, tup
 
 
 def _capability(joint_names: list[str], efforts: dict[str, float | None], couplings: dict, source: Path) -> Capability:
-    """A motor per joint that no other joint drives; a mimicking joint adds its torque to its master's row."""
+    """A motor per joint that no other joint drives; a mimicking joint adds its torque to its master's row (a
+    jaw's force to the first jaw's: one motor closes both)."""
     masters = [n for n in joint_names if n not in couplings]
     rows = {n: i for i, n in enumerate(masters)}
     transmission = np.zeros((len(masters), len(joint_names)))
@@ -381,7 +387,10 @@ def _capability(joint_names: list[str], efforts: dict[str, float | None], coupli
     for name in masters:
         effort = efforts.get(name)
         if effort is None or not np.isfinite(effort) or effort <= 0:
-            raise BadInputError(source, f"joint '{name}': effort must be a positive torque (N.m), got {effort}")
+            raise BadInputError(
+                source,
+                f"joint '{name}': effort must be a positive torque (N.m), or force (N) if it slides, got {effort}",
+            )
         limits.append(float(effort))
     return Capability.motors(tuple(masters), np.array(limits), transmission)
 
@@ -397,10 +406,10 @@ def _pads(
     """Each pad on its tip's sphere (for a mesh tip, the sphere fitted to its pad; for a box tip or a mesh tip
     whose pad is flat, its flat face), facing the way the tip moves when the last joint closes it (the flexion
     side), unless the YAML places it; the first friction-cone edge follows the distal link."""
-    out = {}
+    out, jaws = {}, _jaw_closing(hand_fingers, chains)
     for (name, finger), tip in zip(hand_fingers.items(), tips, strict=True):
         chain, last = chains[name], finger.joints[-1]
-        closing = 1.0 if last.upper + last.lower >= 0 else -1.0  # most of the range turns the finger shut
+        closing = jaws.get(name, 1.0 if last.upper + last.lower >= 0 else -1.0)  # most of its range turns it shut
         mesh = _merged(chain.tip_meshes) if chain.tip_meshes and not chain.tip_spheres else None
         flat = None
         if tip in options.pads:
@@ -412,10 +421,10 @@ def _pads(
                 flat = pad
                 mesh = boxes_mesh(chain.tip_boxes) if mesh is None and chain.tip_boxes else mesh
         elif chain.tip_boxes and not (chain.tip_spheres or chain.tip_meshes):
-            flat = box_pad(chain.tip_boxes, last.axis, closing)
+            flat = box_pad(chain.tip_boxes, last.axis, closing, last.sliding)
             mesh = boxes_mesh(chain.tip_boxes) if flat is not None else None
         elif mesh is not None:
-            flat = flat_face(*mesh, last.axis, closing, options.compliance_m)
+            flat = flat_face(*mesh, last.axis, closing, options.compliance_m, last.sliding)
         if flat is not None:
             out[name] = replace(finger, spheres=_behind_the_face(finger, flat, options.compliance_m), pad=flat,
                                 tip_mesh=mesh)  # fmt: skip
@@ -435,27 +444,57 @@ def _pads(
     return out
 
 
+def _jaw_closing(fingers: dict[str, Finger], chains: dict[str, _Chain]) -> dict[str, float]:
+    """For each finger whose last joint slides (a gripper's jaw), the sign of the slide that closes it: the one
+    toward the other fingertips' middle, at mid-range. A jaw's range says nothing of it: the Franka's opens from
+    0, a Robotiq's closes from 0."""
+    jaws = [name for name, finger in fingers.items() if finger.joints[-1].sliding]
+    if not jaws or len(fingers) < 2:
+        return {}
+    hand = _provisional(fingers)
+    pose = forward(hand, hand.mid_range())
+    middles = {}
+    for name, placed in pose.fingers.items():
+        rotation, origin = placed.link_rotations[0, -1], placed.joint_positions[0, fingers[name].n_joints - 1]
+        middles[name] = origin + rotation @ _tip_middle(chains[name])
+    out = {}
+    for name in jaws:
+        others = np.mean([p for other, p in middles.items() if other != name], axis=0)
+        axis = pose.fingers[name].joint_axes[0, -1]
+        out[name] = -1.0 if float(axis @ (others - middles[name])) < 0 else 1.0
+    return out
+
+
+def _tip_middle(chain: _Chain) -> np.ndarray:
+    """The middle of a fingertip's collision geometry in its last joint's frame (its frame's origin if none)."""
+    points = [frame[:3, 3] for _, frame in chain.tip_boxes] + [c for c, _ in chain.tip_spheres]
+    points += [v.mean(axis=0) for v, _ in chain.tip_meshes]
+    return np.mean(points, axis=0) if points else chain.tip_frame[:3, 3]
+
+
 def _rounded_pad(chain: _Chain, last: Joint, closing: float, tip: str, source: Path) -> Pad:
     """The pad on the tip's sphere (a mesh tip's fitted one), or at the tip's frame for a tip with none."""
     error = 0.0
     if chain.tip_spheres:
         centre, radius = chain.tip_spheres[-1]
     elif chain.tip_meshes:
-        centre, radius, error = _mesh_pad(chain.tip_meshes, last.axis, closing, tip, source)
+        centre, radius, error = _mesh_pad(chain.tip_meshes, last, closing, tip, source)
     else:
         centre, radius = chain.tip_frame[:3, 3], 0.0
-    if np.linalg.norm(centre) < 1e-6:  # no way from the joint to the tip: no side it closes on
+    if np.linalg.norm(centre) < 1e-6 and not last.sliding:  # no way from the joint to the tip: no side it closes on
         raise BadInputError(
             source,
             f"fingertip '{tip}' lies on its last joint '{last.name}' (a link of zero length): no pad can "
             "face the way it closes; place the pad under 'pads' in a hand YAML",
         )
-    along = centre / np.linalg.norm(centre)  # from the last joint to the tip, in its frame
-    normal = closing * np.cross(last.axis, centre)
+    along = centre / max(float(np.linalg.norm(centre)), 1e-300)  # from the last joint to the tip, in its frame
+    normal = motion(last.axis, closing, centre, last.sliding)
     if np.linalg.norm(normal) < 1e-9:  # a tip on the joint's axis: face away from the palm
         normal = np.cross(along, [0.0, 0.0, 1.0]) if abs(along[2]) < 0.9 else np.cross(along, [1.0, 0.0, 0.0])
     normal = normal / np.linalg.norm(normal)
     tangent = along - (along @ normal) * normal
+    if np.linalg.norm(tangent) < 1e-9:  # a jaw's tip straight along its slide: any direction across it
+        tangent = np.cross(normal, [1.0, 0.0, 0.0] if abs(normal[0]) < 0.9 else [0.0, 1.0, 0.0])
     tangent = tangent / max(np.linalg.norm(tangent), 1e-12)
     return Pad(centre + radius * normal, normal, tangent, radius, fit_error_m=error)
 
@@ -467,12 +506,12 @@ def _merged(meshes: list[tuple[np.ndarray, np.ndarray]]) -> tuple[np.ndarray, np
 
 
 def _mesh_pad(
-    meshes: list[tuple[np.ndarray, np.ndarray]], axis: np.ndarray, closing: float, tip: str, source: Path
+    meshes: list[tuple[np.ndarray, np.ndarray]], last: Joint, closing: float, tip: str, source: Path
 ) -> tuple[np.ndarray, float, float]:
     """The centre, radius and fit error of the sphere fitted to a mesh fingertip's pad."""
     vertices, faces = _merged(meshes)
     try:
-        fit = fit_pad(vertices, faces, axis, closing)
+        fit = fit_pad(vertices, faces, last.axis, closing, last.sliding)
     except NoPadError as exc:
         raise BadInputError(source, f"fingertip '{tip}': {exc}; place its pad under 'pads' in a hand YAML") from exc
     return fit.centre, fit.radius, fit.error_m

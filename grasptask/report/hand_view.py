@@ -30,12 +30,20 @@ def _unit(vector: np.ndarray) -> str:
     return "(" + ", ".join(f"{v + 0.0:.2f}" for v in np.round(vector, 2)) + ")"
 
 
+def _range(joint: Joint) -> str:
+    """A joint's range in its own unit: degrees for a turning joint, millimetres for a sliding one."""
+    if joint.sliding:
+        return f"[{1e3 * joint.lower:.0f}, {1e3 * joint.upper:.0f}] mm, sliding"
+    return f"[{np.degrees(joint.lower):.0f}, {np.degrees(joint.upper):.0f}] deg"
+
+
 def _coupling(joint: Joint) -> str:
     if joint.coupled_to is None:
         return ""
     if joint.shared:
         return f" (is {joint.coupled_to})"
-    offset = f" {'+' if joint.coupling_offset >= 0 else '-'} {abs(np.degrees(joint.coupling_offset)):.1f} deg"
+    size, unit = (1e3, "mm") if joint.sliding else (np.degrees(1.0), "deg")
+    offset = f" {'+' if joint.coupling_offset >= 0 else '-'} {size * abs(joint.coupling_offset):.1f} {unit}"
     return f" = {joint.ratio:g} x {joint.coupled_to}" + (offset if joint.coupling_offset else "")
 
 
@@ -88,9 +96,7 @@ def hand_lines(hand: Hand) -> list[str]:
     for joint, fingers in hand.shared_joints().items():
         lines.append(f"joint {joint} moves fingers {' and '.join(fingers)} together: one angle, one motor")
     for name, finger in hand.fingers.items():
-        joints = ", ".join(
-            f"{j.name} [{np.degrees(j.lower):.0f}, {np.degrees(j.upper):.0f}] deg" + _coupling(j) for j in finger.joints
-        )
+        joints = ", ".join(f"{j.name} {_range(j)}" + _coupling(j) for j in finger.joints)
         pad = finger.pad
         link = hand.fingertip_links.get(name, name)
         lines.append(f"finger {name}: joints {joints}")
@@ -142,9 +148,10 @@ def joint_table(hand: Hand) -> pd.DataFrame:
                 {
                     "finger": name,
                     "joint": joint.name,
-                    "lower (deg)": np.degrees(joint.lower),
-                    "upper (deg)": np.degrees(joint.upper),
-                    "effort (N.m)": efforts.get(joint.name, np.nan),
+                    "range": _range(joint),
+                    "effort": f"{efforts[joint.name]:g} {'N' if joint.sliding else 'N.m'}"
+                    if joint.name in efforts
+                    else "",
                     "coupled to": _coupling(joint).removeprefix(" = ").strip(" ()"),
                 }
             )

@@ -43,6 +43,7 @@ import pyomo.environ as pyo
 
 from grasptask.grasp.grasp_settings import GraspSettings
 from grasptask.hand.hand_model import Finger, GraspingHand, Hand, Pad, Sphere
+from grasptask.hand.kinematics import forward
 from grasptask.objects.surface import ImplicitObject
 from grasptask.synthesis.algebra import XYZ, axis_rotation, constant_times, cross, cross_matrix, dot
 from grasptask.synthesis.compiled import CompiledExpressions
@@ -74,6 +75,9 @@ class NLPBuilder:
     held_axis: tuple[np.ndarray, np.ndarray] | None = None
     #: eq. 10's rows kept by a slack of this weight (the search's, as the force problem's); 0: exact, the paper's
     eq10_slack_weight: float = 0.0
+    #: a two-contact grasp's line between its pads, in the palm frame, whose turn the objective holds near the
+    #: start's (:func:`pair_turn`); None: more contacts, or no such term
+    pair_line: np.ndarray | None = None
     #: ``(variable, expression)`` pairs in dependency order, for :meth:`GraspNLP.initialise`
     definitions: list[tuple[Any, Any]] = field(default_factory=list)
     #: per finger, the distance from its fingertip sphere's centre to a rolling contact (0: a fixed pad point)
@@ -103,9 +107,26 @@ class NLPBuilder:
         return len(self.hand.fingers)
 
     @property
+    def twisting(self) -> list[int]:
+        """The fingers whose contact is a soft finger's (a flat pad pressed on the surface): it resists a twist
+        about its normal up to :attr:`twist_coefficient` times its normal force; a point contact does not."""
+        if self.settings.torsional_friction_m <= 0:
+            return []
+        return [j for j, f in enumerate(self.fingers) if f.pad.flat]
+
+    @property
+    def twist_coefficient(self) -> float:
+        """The margin's torsional friction (m): the grasp config's, scaled as its friction is (eq. 4, 10)."""
+        return self.settings.friction_scale * self.settings.torsional_friction_m
+
+    def edge_count(self, j: int) -> int:
+        """Finger ``j``'s primitive wrenches: its cone's edges, and a soft finger's two twists (+ and -)."""
+        return self.settings.cone_edges + (2 if j in self.twisting else 0)
+
+    @property
     def cells(self) -> list[tuple[int, int]]:
-        """(finger, cone edge) pairs."""
-        return [(j, e) for j in range(self.b) for e in range(self.settings.cone_edges)]
+        """(finger, primitive wrench) pairs: the cone edges, then a soft finger's two twists."""
+        return [(j, e) for j in range(self.b) for e in range(self.edge_count(j))]
 
     def define(self, constraints: pyo.ConstraintList, var: Any, expr: Any) -> None:
         """``var == expr`` as a constraint, and ``var`` set from ``expr`` by :meth:`GraspNLP.initialise`."""
@@ -150,13 +171,15 @@ def held_axis_rotation(nlp: NLPBuilder) -> None:
     small steps (docs/design/synthesis.md). The reference is 12 variables (palm position, then the rotation's
     columns) that each solve pins to its own starting pose through their bounds, so IPOPT treats them as
     parameters (:meth:`GraspNLP.held_positions`)."""
-    if nlp.held_axis is None:
+    if nlp.held_axis is None and nlp.pair_line is None:
         return
     m = nlp.model
-    axis, point = (np.asarray(v, dtype=float) for v in nlp.held_axis)
     m.held_reference = pyo.Var(
         range(12), initialize=0.0, doc="the palm pose the turn is held at: d_h, then R_h's columns"
     )
+    if nlp.held_axis is None:  # the reference only, for a two-contact grasp's turn (pair_turn)
+        return
+    axis, point = (np.asarray(v, dtype=float) for v in nlp.held_axis)
     reference = [[m.held_reference[3 * c + i] for i in XYZ] for c in range(4)]
     current = [[m.d_h[i] for i in XYZ]] + [[m.R_h[i, j] for i in XYZ] for j in XYZ]
     centred = [[r[i] - point[i] for i in XYZ] for r in reference[:1]] + reference[1:]
@@ -213,11 +236,16 @@ def _finger_chain(nlp: NLPBuilder, j: int, finger: Finger, first_column: int) ->
             previous = _turned(previous, joint.rotation)
         theta = m.theta[first_column + k]
         axes_j.append([sum(previous[i][c] * joint.axis[c] for c in XYZ) for i in XYZ])
+        if joint.sliding:  # a gripper's jaw: the link slides along the axis, its frame unturned
+            position = [position[i] + theta * axes_j[-1][i] for i in XYZ]
+            turned = previous
+        else:
+            rot = axis_rotation(joint.axis, pyo.cos(theta), pyo.sin(theta))
+            turned = [[sum(previous[r][q] * rot[q][c] for q in XYZ) for c in XYZ] for r in XYZ]
         positions_j.append(position)
-        rot = axis_rotation(joint.axis, pyo.cos(theta), pyo.sin(theta))
         for r in XYZ:
             for c in XYZ:
-                nlp.define(m.eq2_frame, m.frame[j, k, r, c], sum(previous[r][q] * rot[q][c] for q in XYZ))
+                nlp.define(m.eq2_frame, m.frame[j, k, r, c], turned[r][c])
         previous = [[m.frame[j, k, r, c] for c in XYZ] for r in XYZ]
         for sphere in finger.spheres:
             if sphere.link == k:
@@ -336,12 +364,15 @@ def contacts_and_collisions(nlp: NLPBuilder) -> None:
 
 def cones_and_wrenches(nlp: NLPBuilder) -> None:
     """Eq. 24 and 5: the linearised friction cone's edges l_i^j about the true normal, and the torque parts
-    p^j x l_i^j of the primitive wrenches, each a variable."""
+    p^j x l_i^j of the primitive wrenches, each a variable. A soft finger's (a flat pad's) two more wrenches
+    press along the normal and twist about it, ``(n, p x n +- mu_t n)``: the soft-finger model of Salisbury and
+    Mason, linearised as its cone's edges and the two pure twists; their hull holds |f_t| / mu + |m| / mu_t <= f_n.
+    """
     m, m_edges = nlp.model, nlp.settings.cone_edges
     mu = nlp.settings.friction_scale * nlp.settings.friction_coefficient  # the margin's cones (eq. 4 and 10)
     angles = 2 * np.pi * np.arange(1, m_edges + 1) / m_edges
     scale = 1.0 / np.sqrt(1 + mu**2)
-    cells = nlp.cells
+    cells, twist = nlp.cells, nlp.twist_coefficient
     m.l = pyo.Var(cells, XYZ, doc="friction cone edges l_i^j (eq. 24)")
     m.l_torque = pyo.Var(cells, XYZ, doc="p^j x l_i^j, the torque part of the primitive wrench (eq. 5)")
     m.eq24_cone_edge = pyo.ConstraintList()
@@ -350,41 +381,59 @@ def cones_and_wrenches(nlp: NLPBuilder) -> None:
         n_j = [m.n[j, i] for i in XYZ]
         t1 = [m.t[j, i] for i in XYZ]
         t2 = cross(n_j, t1)
-        for e, angle in enumerate(angles):
-            edge = [scale * (n_j[i] + mu * (np.cos(angle) * t1[i] + np.sin(angle) * t2[i])) for i in XYZ]
+        for e in range(nlp.edge_count(j)):
+            if e < m_edges:
+                edge = [scale * (n_j[i] + mu * (np.cos(angles[e]) * t1[i] + np.sin(angles[e]) * t2[i])) for i in XYZ]
+            else:  # a soft finger's twist: pressing along the normal, turning about it
+                edge = n_j
             torque = cross(nlp.contacts[j], [m.l[j, e, i] for i in XYZ])
+            if e >= m_edges:
+                torque = [torque[i] + _twist_sign(nlp, e) * twist * m.l[j, e, i] for i in XYZ]
             for i in XYZ:
                 nlp.define(m.eq24_cone_edge, m.l[j, e, i], edge[i])
             for i in XYZ:
                 nlp.define(m.eq5_wrench, m.l_torque[j, e, i], torque[i])
-    nlp.edges = [[[m.l[j, e, i] for i in XYZ] for e in range(m_edges)] for j in range(nlp.b)]
+    nlp.edges = [[[m.l[j, e, i] for i in XYZ] for e in range(nlp.edge_count(j))] for j in range(nlp.b)]
     nlp.wrenches = [
-        [nlp.edges[j][e] + [m.l_torque[j, e, i] for i in XYZ] for e in range(m_edges)] for j in range(nlp.b)
+        [nlp.edges[j][e] + [m.l_torque[j, e, i] for i in XYZ] for e in range(nlp.edge_count(j))] for j in range(nlp.b)
     ]
 
 
+def _twist_sign(nlp: NLPBuilder, e: int) -> float:
+    """+1 for a soft finger's first twist, -1 for its second."""
+    return 1.0 if e == nlp.settings.cone_edges else -1.0
+
+
 def jacobians(nlp: NLPBuilder) -> None:
-    """Eq. 7: the finger Jacobians J^j, columns a_k x (p^j - P_k)."""
+    """Eq. 7: the finger Jacobians J^j, columns a_k x (p^j - P_k) (a_k for a sliding joint)."""
     m, fingers, p = nlp.model, nlp.fingers, nlp.contacts
     joints = [(j, k) for j in range(nlp.b) for k in range(fingers[j].n_joints)]
     m.J = pyo.Var(joints, XYZ, doc="finger Jacobian columns a_k x (p^j - P_k) (eq. 7)")
     m.eq7_jacobian = pyo.ConstraintList()
     for j, k in joints:
-        column = cross(nlp.joint_axes[j][k], [p[j][i] - nlp.joint_positions[j][k][i] for i in XYZ])
+        axis = nlp.joint_axes[j][k]
+        if fingers[j].joints[k].sliding:  # a sliding joint moves every point of its link along its axis
+            column = axis
+        else:
+            column = cross(axis, [p[j][i] - nlp.joint_positions[j][k][i] for i in XYZ])
         for i in XYZ:
             nlp.define(m.eq7_jacobian, m.J[j, k, i], column[i])
 
 
 def edge_torques(nlp: NLPBuilder) -> None:
     """Eq. 7: the joint torques J^j^T l_i^j of a unit force along each cone edge, of which eq. 10's torques are
-    linear combinations."""
-    m, fingers = nlp.model, nlp.fingers
+    linear combinations; a soft finger's twist adds its torque about the normal, +-mu_t a_k . n, on each turning
+    joint (a sliding joint carries none)."""
+    m, fingers, twist = nlp.model, nlp.fingers, nlp.twist_coefficient
     m.edge_torque = pyo.Var(
         [(j, e, k) for j, e in nlp.cells for k in range(fingers[j].n_joints)], doc="J^j^T l_i^j (eq. 1, 7)"
     )
     m.eq7_edge_torque = pyo.ConstraintList()
     for j, e, k in m.edge_torque.index_set():
-        nlp.define(m.eq7_edge_torque, m.edge_torque[j, e, k], dot([m.J[j, k, i] for i in XYZ], nlp.edges[j][e]))
+        torque = dot([m.J[j, k, i] for i in XYZ], nlp.edges[j][e])
+        if e >= nlp.settings.cone_edges and not fingers[j].joints[k].sliding:
+            torque = torque + _twist_sign(nlp, e) * twist * dot(nlp.joint_axes[j][k], nlp.edges[j][e])
+        nlp.define(m.eq7_edge_torque, m.edge_torque[j, e, k], torque)
 
 
 def force_closure(nlp: NLPBuilder) -> None:
@@ -399,7 +448,8 @@ def force_closure(nlp: NLPBuilder) -> None:
 
 def task_forces_and_quality(nlp: NLPBuilder) -> None:
     """Eq. 8 and 12-13: contact forces f_i with G f_i = u_i for each unit task axis (eq. 8's G^R u_i + A x,
-    without a matrix inverse), and Q = sum_i gamma_i sum_j |J^j^T f_i^j|^2 as an expression."""
+    without a matrix inverse), and Q = sum_i gamma_i sum_j |J^j^T f_i^j|^2 as an expression. A soft finger adds
+    a twist about its normal to G f_i, and its torque on the finger's turning joints to J^T f_i."""
     m, b, p = nlp.model, nlp.b, nlp.contacts
     axes, weights = nlp.task.axes, nlp.task.weights
     f_max = nlp.bounds.task_force_n
@@ -411,15 +461,29 @@ def task_forces_and_quality(nlp: NLPBuilder) -> None:
         doc="task contact forces f_i",
     )
     m.eq8_task_force = pyo.ConstraintList()
+    twisting = nlp.twisting
+    if twisting:  # only then: the paper's model keeps its components as they were
+        m.task_twist = pyo.Var(range(len(weights)), twisting, doc="task twist about each soft finger's normal")
+    normals = [[m.n[j, i] for i in XYZ] for j in range(b)]
     quality = 0
     for a in range(len(weights)):
         forces = [[m.force[a, j, i] for i in XYZ] for j in range(b)]
         total_force = [sum(forces[j][i] for j in range(b)) for i in XYZ]
         total_torque = [sum(cross(p[j], forces[j])[i] for j in range(b)) for i in XYZ]
+        for j in twisting:
+            total_torque = [total_torque[i] + m.task_twist[a, j] * normals[j][i] for i in XYZ]
         for r in range(6):
             m.eq8_task_force.add((total_force + total_torque)[r] == float(axes[a][r]))
         for j in range(b):
-            quality += float(weights[a]) * sum(t * t for t in nlp.joint_torques(j, forces[j]))
+            torques = nlp.joint_torques(j, forces[j])
+            if j in twisting:  # the twist's torque on each turning joint, a_k . n
+                torques = [
+                    t + m.task_twist[a, j] * dot(nlp.joint_axes[j][k], normals[j])
+                    if not nlp.fingers[j].joints[k].sliding
+                    else t
+                    for k, t in enumerate(torques)
+                ]
+            quality += float(weights[a]) * sum(t * t for t in torques)
     m.eq12_Q = pyo.Expression(expr=quality, doc="Q, eq. 12")
 
 
@@ -461,8 +525,11 @@ def torque_feasibility(nlp: NLPBuilder) -> None:
             m.eq10_wrench.add(exact(applied, float(target[r]), a, s, r))
         if floor > 0:  # each contact presses with at least the margin's normal force
             for j in range(nlp.b):
-                m.eq10_normal.add(sum(m.lam[a, s, j, e] for e in range(m_edges)) * along_normal >= floor)
-        taus = [sum(m.lam[a, s, j, e] * m.edge_torque[j, e, k] for e in range(m_edges)) for j, k in joints]
+                pressing = sum(
+                    m.lam[a, s, j, e] * (along_normal if e < m_edges else 1.0) for e in range(nlp.edge_count(j))
+                )
+                m.eq10_normal.add(pressing >= floor)
+        taus = [sum(m.lam[a, s, j, e] * m.edge_torque[j, e, k] for e in range(nlp.edge_count(j))) for j, k in joints]
         for r, row in enumerate(capability.transmission):
             used = np.flatnonzero(row)
             carried = taus[used[0]] if len(used) == 1 and row[used[0]] == 1 else sum(row[k] * taus[k] for k in used)
@@ -478,7 +545,29 @@ def objective(nlp: NLPBuilder) -> None:
     paper's objective; the Q a solution reports is eq. 12 alone."""
     m = nlp.model
     closure, feasibility = _regularising(nlp)
-    m.eq12_objective = pyo.Objective(expr=m.eq12_Q + closure + feasibility, doc="eq. 12 and the regularising terms")
+    turn = pair_turn(nlp)
+    m.eq12_objective = pyo.Objective(
+        expr=m.eq12_Q + closure + feasibility + turn, doc="eq. 12 and the regularising terms"
+    )
+
+
+def pair_turn(nlp: NLPBuilder) -> Any:
+    """A two-contact grasp's turn about the line joining its contacts, from its start's, squared and weighted
+    (0 for more contacts). Turning a two-jaw grasp about that line moves neither contact nor normal, so Q and
+    every force stay as they are, and without this term each optimum was a circle of grasps along which IPOPT
+    crept for 750-2,000 iterations. The turn is the palm's to first order, ``a . vee(skew(R_0^T R_h))`` about
+    the line ``a`` in the palm frame, against the reference pose each solve pins to its start's."""
+    if nlp.pair_line is None or nlp.regularisation.pair_turn <= 0:
+        return 0
+    m, a = nlp.model, nlp.pair_line
+    start = [[m.held_reference[3 + 3 * c + i] for i in XYZ] for c in XYZ]  # R_0's columns
+    now = [[m.R_h[i, c] for i in XYZ] for c in XYZ]
+
+    def entry(r: int, c: int) -> Any:  # (R_0^T R_h)[r, c]
+        return dot(start[r], now[c])
+
+    turn = [0.5 * (entry(2, 1) - entry(1, 2)), 0.5 * (entry(0, 2) - entry(2, 0)), 0.5 * (entry(1, 0) - entry(0, 1))]
+    return nlp.regularisation.pair_turn * sum(float(a[i]) * turn[i] for i in XYZ) ** 2
 
 
 def _regularising(nlp: NLPBuilder) -> tuple[Any, Any]:
@@ -520,7 +609,9 @@ def search_objective(nlp: NLPBuilder) -> None:
     m, weight = nlp.model, nlp.eq10_slack_weight
     residuals = weight * sum(v**2 for v in m.eq10_slack.values()) if m.component("eq10_slack") is not None else 0
     closure, feasibility = _regularising(nlp)
-    m.eq12_objective = pyo.Objective(expr=closure + feasibility + residuals, doc="eq. 10's residuals, regularised")
+    m.eq12_objective = pyo.Objective(
+        expr=closure + feasibility + residuals + pair_turn(nlp), doc="eq. 10's residuals, regularised"
+    )
 
 
 def search_equations(torque_axes: int = 0) -> tuple[Callable[[NLPBuilder], None], ...]:
@@ -549,7 +640,8 @@ class GraspNLP:
         variables = self.model.component_data_objects(pyo.Var, active=True)
         n_vars = sum(1 for v in variables if not v.fixed and id(v) not in reference)
         n_cons = sum(1 for _ in self.model.component_data_objects(pyo.Constraint, active=True))
-        return {"variables": n_vars, "constraints": n_cons, "held_axis_rotation": held is not None}
+        turn = self.model.component("held_axis_rotation")
+        return {"variables": n_vars, "constraints": n_cons, "held_axis_rotation": turn is not None}
 
     def compile(self) -> CompiledExpressions:
         """The defined variables and eq. 14's margins as one CasADi function of the palm pose and joints, built
@@ -624,6 +716,8 @@ class GraspNLP:
             var.set_value(1.0 / len(m.phi))
         for var in m.force.values() if m.component("force") is not None else []:  # the search's model has none
             var.set_value(0.0)
+        for var in m.task_twist.values() if m.component("task_twist") is not None else []:
+            var.set_value(0.0)
         if m.component("lam") is None:
             return
         for var in m.lam.values():
@@ -689,6 +783,16 @@ class GraspNLP:
         }
 
 
+def _pair_line(hand: GraspingHand) -> np.ndarray | None:
+    """The unit line from the first pad to the second at mid-range, in the palm frame, for a two-contact hand."""
+    if len(hand.fingers) != 2:
+        return None
+    pads = forward(hand, hand.mid_range()).contacts()[0]
+    line = pads[1] - pads[0]
+    length = float(np.linalg.norm(line))
+    return line / length if length > 1e-9 else None
+
+
 def build_model(
     hand: Hand,
     obj: ImplicitObject,
@@ -727,6 +831,7 @@ def build_model(
         range(n_axes if torque_axes is None else min(torque_axes, n_axes)),
         held_axis,
         eq10_slack_weight,
+        _pair_line(grasping) if regularisation.pair_turn > 0 else None,
         contact_offsets=grasping.contact_offsets(settings.rolling_contacts),
     )
     builder.surface.attach(builder.model, builder.definitions)

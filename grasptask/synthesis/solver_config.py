@@ -70,7 +70,8 @@ class SearchBounds:
 @dataclass(frozen=True, config=SCHEMA)
 class Regularisation:
     """Weights of small quadratic terms added to eq. 12 for the variables Q does not depend on: eq. 4's
-    force-closure weights phi (about their mean), eq. 10's cone-edge magnitudes and its tendon activations.
+    force-closure weights phi (about their mean), eq. 10's cone-edge magnitudes and its tendon activations, and a
+    two-contact grasp's turn about its contacts' line.
 
     Those variables only have to be feasible, so without these terms every optimum lies on a manifold of them
     along which the Lagrangian is flat, and IPOPT crept along it. The terms make each optimum isolated. Q as
@@ -79,6 +80,9 @@ class Regularisation:
     closure_weight: NonNegative = 1e-5  # on sum (phi - 1/n)^2
     edge_force: NonNegative = 1e-7  # on sum lambda^2 (N^2)
     activation: NonNegative = 1e-6  # on sum a^2
+    #: on the squared turn (rad^2) of a two-contact grasp (a gripper's) about the line joining its contacts, from
+    #: its start's: a turn that moves neither contact, so that neither Q nor any force sees it
+    pair_turn: NonNegative = 1e-3
 
 
 @dataclass(frozen=True, config=SCHEMA)

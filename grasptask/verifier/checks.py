@@ -18,7 +18,7 @@ from grasptask.objects.surface import ImplicitObject
 from grasptask.task.task_model import TaskModel
 from grasptask.verifier.epsilon import ferrari_canny
 from grasptask.verifier.fingertip import outside_distance
-from grasptask.verifier.loads_lp import load_block, normal_rows, solve_loads
+from grasptask.verifier.loads_lp import contact_forces, load_block, normal_rows, solve_loads
 from grasptask.verifier.mechanics import (
     friction_cone_edges,
     grasp_matrix,
@@ -27,6 +27,7 @@ from grasptask.verifier.mechanics import (
     primitive_wrenches,
     task_quality,
 )
+from grasptask.verifier.soft_contacts import Twists
 from grasptask.verifier.verification import Tolerances, WrenchLoad
 
 #: a point further than this (m) outside the object's bounds, or out along its nearest sample's normal, is not in
@@ -83,6 +84,13 @@ class Inspection:
     def cone_edges(self, friction_scale: float = 1.0) -> np.ndarray:
         mu = friction_scale * self.settings.friction_coefficient
         return friction_cone_edges(self.inward, mu, self.settings.cone_edges, self.tangents)
+
+    def twists(self, friction_scale: float = 1.0) -> Twists:
+        """The flat pads' soft contacts (the grasp config's torsional friction, times ``friction_scale`` as
+        the cones' mu); every other contact a point contact."""
+        flat = np.array([f.pad.flat for f in self.hand.fingers.values()], dtype=bool)
+        coefficients = np.where(flat, friction_scale * self.settings.torsional_friction_m, 0.0)
+        return Twists(self.inward, coefficients, [t[0] for t in self.pose.turn_jacobians()])
 
 
 Figures = dict[str, Any]
@@ -202,13 +210,17 @@ class ForceClosure(Check):
     name = "force_closure"
 
     def judge(self, s: Inspection) -> tuple[bool, Figures]:
-        wrenches = primitive_wrenches(s.contacts, s.cone_edges(), s.obj.centre, s.obj.characteristic_length)
-        epsilon = ferrari_canny(wrenches)
+        centre, length = s.obj.centre, s.obj.characteristic_length
+        wrenches = primitive_wrenches(s.contacts, s.cone_edges(), centre, length).reshape(-1, 6)
+        twists = s.twists().wrenches(s.contacts, centre, length).reshape(-1, 6)
+        epsilon = ferrari_canny(np.vstack([wrenches, twists]))
         return bool(epsilon > s.tolerances.epsilon_min), {"epsilon": epsilon}
 
 
 class RankCondition(Check):
-    """Eq. 9: the fingers can squeeze in every internal-force direction, ``rank(J^T A)`` full."""
+    """Eq. 9: the fingers can squeeze in every internal-force direction, ``rank(J^T A)`` full. Over the contact
+    forces only: a soft contact's twist is friction, which the fingers hold as they hold a tangential force, and a
+    gripper's sliding jaws could not squeeze a twist at all."""
 
     name = "rank_condition"
 
@@ -227,21 +239,26 @@ class TorqueFeasibility(Check):
     name = "torque_feasibility"
 
     def judge(self, s: Inspection) -> tuple[bool, Figures]:
-        held = s.cone_edges(s.settings.friction_scale)
+        scale = s.settings.friction_scale
         effort, loads = torque_effort(
-            held, s.contacts, s.jacobians, s.hand, s.task, s.inward, s.settings.min_normal_force_n
-        )
+            s.cone_edges(scale), s.contacts, s.jacobians, s.hand, s.task, s.inward, s.settings.min_normal_force_n,
+            s.twists(scale),
+        )  # fmt: skip
         passed = effort <= s.settings.activation_cap(s.hand.capability.kind) + s.tolerances.effort_slack
         return bool(passed), {"torque_effort": effort, "loads": loads}
 
 
 class Quality(Check):
-    """Q, recomputed from the contact geometry, is a number."""
+    """Q, recomputed from the contact geometry, is a number. A soft contact's twist about its normal is one more
+    force the contacts may apply, and its joint torques count in Q."""
 
     name = "quality"
 
     def judge(self, s: Inspection) -> tuple[bool, Figures]:
-        Q, _ = task_quality(s.grasp_matrix, s.hand_jacobian, s.task.axes, s.task.weights)
+        twists = s.twists()
+        G = np.hstack([s.grasp_matrix, twists.grasp_columns()])
+        J = np.vstack([s.hand_jacobian, twists.torque_rows([f.n_joints for f in s.hand.fingers.values()])])
+        Q, _ = task_quality(G, J, s.task.axes, s.task.weights)
         return bool(np.isfinite(Q)), {"Q": float(Q)}
 
 
@@ -275,25 +292,25 @@ def torque_effort(
     task: TaskModel,
     inward: np.ndarray | None = None,
     minimum_normal: float = 0.0,
+    twists: Twists | None = None,
 ) -> tuple[float, list[WrenchLoad]]:
     """Smallest ``t`` such that, for every task axis and both signs, contact forces inside the friction cones
     apply ``+-gamma_i u_i`` to the object with joint torques ``T J^T f = A a``, ``0 <= a <= t`` (eq. 1, 10;
     ``T`` and ``A`` are the hand's :class:`~grasptask.hand.hand_model.Capability`: tendons or motors), and each
-    contact at least ``minimum_normal`` of normal force.
+    contact at least ``minimum_normal`` of normal force; a soft contact may twist too (``twists``).
 
     One LP over all twelve wrenches (each with its own forces and activations, sharing ``t``); infinite, with
     no loads, when some wrench cannot be applied at all."""
-    block = load_block(edges, points, jacobians, hand)
+    block = load_block(edges, points, jacobians, hand, twists)
     targets = task_targets(task)
     floor = (normal_rows(edges, inward, block), minimum_normal) if minimum_normal > 0 and inward is not None else None
     result = solve_loads(block, targets, scale_wrenches=False, activation_max=None, minimum_normal=floor)
     if result.status != 0:
         return float("inf"), []
-    b, m, _ = edges.shape
     loads = []
     for i, w in enumerate(targets):
         x = result.x[i * block.width : (i + 1) * block.width]
-        forces = np.einsum("jm,jmk->jk", x[: block.forces].reshape(b, m), edges)
+        forces = contact_forces(edges, block, x)
         loads.append(WrenchLoad(w, forces, block.edge_torques @ x[: block.forces], x[block.forces :].copy()))
     return float(result.x[-1]), loads
 

@@ -2,7 +2,8 @@
 with contact forces in the linearised friction cones and joint torques its tendons or motors carry (eq. 1, 10).
 
 Per wrench, the variables are the cone-edge magnitudes ``lam >= 0`` and the activations ``a >= 0``; one block
-of rows asks ``sum lam l = w`` (the wrench) and ``T J^T L lam = A a`` (the torques carried). The effort LP finds
+of rows asks ``sum lam l = w`` (the wrench) and ``T J^T L lam = A a`` (the torques carried); a soft contact's
+two twists (:mod:`grasptask.verifier.soft_contacts`) are two more columns ``lam``. The effort LP finds
 the least peak activation over all wrenches; the strength-margin LP the largest scale of the wrenches held at
 full strength (:mod:`grasptask.verifier.margins`)."""
 
@@ -16,6 +17,7 @@ from scipy.optimize import linprog
 
 from grasptask.hand.hand_model import Hand
 from grasptask.verifier.mechanics import primitive_wrenches
+from grasptask.verifier.soft_contacts import Twists
 
 
 @dataclass(frozen=True)
@@ -27,38 +29,59 @@ class LoadBlock:
     edge_torques: np.ndarray
     forces: int
     actuators: int
+    #: the soft contacts' twists, whose columns follow the cone edges' (None: point contacts only)
+    twists: Twists | None = None
 
     @property
     def width(self) -> int:
         return self.forces + self.actuators
 
 
-def load_block(edges: np.ndarray, points: np.ndarray, jacobians: list[np.ndarray], hand: Hand) -> LoadBlock:
+def load_block(
+    edges: np.ndarray, points: np.ndarray, jacobians: list[np.ndarray], hand: Hand, twists: Twists | None = None
+) -> LoadBlock:
     b, m, _ = edges.shape
     capability = hand.capability
     n_act = capability.torque_map.shape[1]
-    n_force = b * m
+    soft = [] if twists is None else list(twists.soft)
+    n_force = b * m + 2 * len(soft)
     edge_torques = np.zeros((sum(j.shape[1] for j in jacobians), n_force))
-    row = 0
+    starts = np.concatenate([[0], np.cumsum([jac.shape[1] for jac in jacobians])])
     for j, jac in enumerate(jacobians):
-        edge_torques[row : row + jac.shape[1], j * m : (j + 1) * m] = jac.T @ edges[j].T
-        row += jac.shape[1]
+        edge_torques[starts[j] : starts[j + 1], j * m : (j + 1) * m] = jac.T @ edges[j].T
     rows_q = capability.transmission.shape[0]
     block = np.zeros((6 + rows_q, n_force + n_act))
-    block[:6, :n_force] = primitive_wrenches(points, edges).reshape(n_force, 6).T
+    block[:6, : b * m] = primitive_wrenches(points, edges).reshape(b * m, 6).T
+    if twists is not None and soft:
+        block[:6, b * m : n_force] = twists.wrenches(points).reshape(-1, 6).T
+        for row, (j, torques) in enumerate(zip(soft, twists.joint_torques(jacobians), strict=True)):
+            edge_torques[starts[j] : starts[j + 1], b * m + 2 * row : b * m + 2 * row + 2] = torques
     block[6:, :n_force] = capability.transmission @ edge_torques
     block[6:, n_force:] = -capability.torque_map
-    return LoadBlock(block, edge_torques, n_force, n_act)
+    return LoadBlock(block, edge_torques, n_force, n_act, twists if soft else None)
 
 
 def normal_rows(edges: np.ndarray, normals: np.ndarray, block: LoadBlock) -> np.ndarray:
     """``(b, width)``: each contact's normal force ``sum_e lam_e (l_e . n)`` as a row over one block's
-    variables."""
+    variables (a twist presses with its whole magnitude)."""
     b, m, _ = edges.shape
     rows = np.zeros((b, block.width))
     for j in range(b):
         rows[j, j * m : (j + 1) * m] = edges[j] @ normals[j]
+    if block.twists is not None:
+        for row, j in enumerate(block.twists.soft):
+            rows[j, b * m + 2 * row : b * m + 2 * row + 2] = 1.0
     return rows
+
+
+def contact_forces(edges: np.ndarray, block: LoadBlock, x: np.ndarray) -> np.ndarray:
+    """``(b, 3)``: each contact's force from one block's solution ``x``, its twists' pushes included."""
+    b, m, _ = edges.shape
+    forces = np.einsum("jm,jmk->jk", x[: b * m].reshape(b, m), edges)
+    if block.twists is not None:
+        for row, j in enumerate(block.twists.soft):
+            forces[j] += x[b * m + 2 * row : b * m + 2 * row + 2].sum() * block.twists.normals[j]
+    return forces
 
 
 def solve_loads(

@@ -14,6 +14,7 @@ import numpy as np
 from grasptask.hand.hand_model import Hand
 from grasptask.verifier.loads_lp import MARGIN_CAP, LoadBlock, load_block, solve_loads
 from grasptask.verifier.mechanics import friction_cone_edges
+from grasptask.verifier.soft_contacts import Twists
 
 #: bisection steps of the friction margin: its resolution is 1/32 of its bracket (0.0125 at a bracket of 0.4),
 #: finer than a friction coefficient is known; each step is an LP, and 7 of them were 60% of the verifier's time
@@ -28,9 +29,9 @@ def strength_margin(block: LoadBlock, targets: list[np.ndarray]) -> float:
     return float(min(result.x[-1], MARGIN_CAP)) if result.status == 0 else 0.0
 
 
-def _holds(mu: float, inward, tangents, points, jacobians, hand: Hand, edges: int, targets) -> bool:
+def _holds(mu: float, inward, tangents, points, jacobians, hand: Hand, edges: int, targets, twists=None) -> bool:
     cones = friction_cone_edges(inward, mu, edges, tangents)
-    result = solve_loads(load_block(cones, points, jacobians, hand), targets, scale_wrenches=False,
+    result = solve_loads(load_block(cones, points, jacobians, hand, twists), targets, scale_wrenches=False,
                          activation_max=None)  # fmt: skip
     return result.status == 0 and result.x[-1] <= 1.0 + 1e-9
 
@@ -45,19 +46,21 @@ def friction_margin(
     edges: int,
     targets: list[np.ndarray],
     known: float | None = None,
+    twists: Twists | None = None,
 ) -> float:
     """The smallest friction coefficient (to 1/32 of its bracket) with which the cones of ``edges`` edges about
     ``inward`` hold every target at full strength; inf above ``FRICTION_CEILING mu``. ``known``: a coefficient
-    already known to hold them, which brackets the search without an LP."""
+    already known to hold them, which brackets the search without an LP. A soft contact's ``twists`` keep their
+    own coefficient."""
     low, high = 0.0, mu if known is None else known
     while (known is None or high > known) and not _holds(high, inward, tangents, points, jacobians, hand, edges,
-                                                          targets):  # fmt: skip
+                                                          targets, twists):  # fmt: skip
         low, high = high, 2.0 * high
         if high > FRICTION_CEILING * mu:
             return float("inf")
     for _ in range(FRICTION_STEPS):
         middle = 0.5 * (low + high)
-        if _holds(middle, inward, tangents, points, jacobians, hand, edges, targets):
+        if _holds(middle, inward, tangents, points, jacobians, hand, edges, targets, twists):
             high = middle
         else:
             low = middle

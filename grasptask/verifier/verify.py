@@ -65,11 +65,11 @@ def verify(
     strength = friction = float("nan")
     if not failures:
         targets = task_targets(task)
-        edges, mu = s.cone_edges(), settings.friction_coefficient
-        strength = strength_margin(load_block(edges, s.contacts, s.jacobians, s.hand), targets)
+        edges, mu, twists = s.cone_edges(), settings.friction_coefficient, s.twists()
+        strength = strength_margin(load_block(edges, s.contacts, s.jacobians, s.hand, twists), targets)
         known = settings.friction_scale * mu if figures["torque_effort"] <= 1.0 else None  # held at full strength
         friction = friction_margin(
-            s.inward, s.tangents, s.contacts, s.jacobians, s.hand, mu, settings.cone_edges, targets, known
+            s.inward, s.tangents, s.contacts, s.jacobians, s.hand, mu, settings.cone_edges, targets, known, twists
         )
     return Verification(
         **figures,
