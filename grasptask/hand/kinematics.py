@@ -1,7 +1,8 @@
 """Forward kinematics of the hand, vectorised over configurations (paper eq. 2, Appendix 10.2).
 
 Each finger is a chain from the palm frame: joint k sits at its offset in the frame of the link before it,
-turned by its fixed rotation, and turns about its axis (a sliding joint moves along it); its collision spheres and, on the last link, the pad
+turned by its fixed rotation, and turns about its axis (a sliding joint moves along it); its collision spheres
+and, on the last link, the pad
 move with the link after it. Everything is computed for a batch of ``N`` configurations at once and returned
 in the object frame, given the palm pose ``(R_h, d_h)``.
 """
