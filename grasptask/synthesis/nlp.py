@@ -545,10 +545,24 @@ def objective(nlp: NLPBuilder) -> None:
     paper's objective; the Q a solution reports is eq. 12 alone."""
     m = nlp.model
     closure, feasibility = _regularising(nlp)
-    turn = pair_turn(nlp)
+    turn, unseen = pair_turn(nlp), _unseen_task_forces(nlp)
     m.eq12_objective = pyo.Objective(
-        expr=m.eq12_Q + closure + feasibility + turn, doc="eq. 12 and the regularising terms"
+        expr=m.eq12_Q + closure + feasibility + turn + unseen, doc="eq. 12 and the regularising terms"
     )
+
+
+def _unseen_task_forces(nlp: NLPBuilder) -> Any:
+    """Eq. 8's task forces (and twists) of the fingers whose joints cannot feel every direction of a contact
+    force, squared and weighted: a jaw's slide feels only the force along it, so Q is flat in the rest and
+    IPOPT regularised its Hessian by 1e3-1e4 for a thousand iterations. Fingers of three or more turning joints
+    (the human hand's, the Allegro's) get no such term: the paper's objective is theirs as it was."""
+    m, weight = nlp.model, nlp.regularisation.task_force
+    blind = [j for j, f in enumerate(nlp.fingers) if sum(not joint.sliding for joint in f.joints) < 3]
+    if weight <= 0 or not blind:
+        return 0
+    forces = [v for (a, j, i), v in m.force.items() if j in blind]
+    twists = [v for (a, j), v in m.task_twist.items()] if m.component("task_twist") is not None else []
+    return weight * sum(v**2 for v in forces + twists)
 
 
 def pair_turn(nlp: NLPBuilder) -> Any:

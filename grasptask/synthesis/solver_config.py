@@ -83,6 +83,9 @@ class Regularisation:
     #: on the squared turn (rad^2) of a two-contact grasp (a gripper's) about the line joining its contacts, from
     #: its start's: a turn that moves neither contact, so that neither Q nor any force sees it
     pair_turn: NonNegative = 1e-3
+    #: on sum |f_i|^2 (N^2) of eq. 8's task forces at fingers of fewer than three turning joints (a jaw's), which
+    #: Q sees in part only, and on the soft contacts' task twists
+    task_force: NonNegative = 1e-6
 
 
 @dataclass(frozen=True, config=SCHEMA)
