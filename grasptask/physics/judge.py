@@ -35,18 +35,29 @@ class Holding:
     body: ObjectBody
     #: the hand's actuators this many times as strong as its model (the judge's validity protocol)
     strength: float = 1.0
+    #: a flat pad's torsional friction (m): the grasp config's soft-finger coefficient
+    pad_torsion: float = 0.0
 
     @classmethod
-    def of(cls, obj: ImplicitObject, friction: float, settings: PhysicsSettings, strength: float = 1.0) -> Holding:
+    def of(
+        cls,
+        obj: ImplicitObject,
+        friction: float,
+        settings: PhysicsSettings,
+        strength: float = 1.0,
+        pad_torsion: float = 0.0,
+    ) -> Holding:
         from grasptask.physics.scene import object_body  # deferred: MuJoCo
 
-        return cls(obj, friction, settings, object_body(obj, settings), strength)
+        return cls(obj, friction, settings, object_body(obj, settings), strength, pad_torsion)
 
     def hold(self, hand: Hand, grasp: Grasp, task: TaskModel, trace: bool = False) -> PhysicsResult:
         from grasptask.physics.protocol import hold_grasp  # deferred: MuJoCo
 
         body, friction = self.body, self.friction
-        return hold_grasp(hand, self.obj, body, grasp, friction, task, self.settings, trace, self.strength)
+        return hold_grasp(
+            hand, self.obj, body, grasp, friction, task, self.settings, trace, self.strength, self.pad_torsion
+        )
 
 
 @dataclass(frozen=True)
@@ -67,8 +78,9 @@ class Judge:
         friction: float,
         settings: PhysicsSettings,
         strength: float = 1.0,
+        pad_torsion: float = 0.0,
     ) -> Judge:
-        return cls(solved, task, Holding.of(obj, friction, settings, strength))
+        return cls(solved, task, Holding.of(obj, friction, settings, strength, pad_torsion))
 
     def check_scene(self) -> None:
         """Build the first solved grasp's scene, so that a hand file MuJoCo cannot compile is one line here,
@@ -78,7 +90,7 @@ class Judge:
         grasp = next((grasp for _, grasp in self.solved.rows if grasp is not None), None)
         if grasp is not None:
             h = self.holding
-            build_scene(self.solved.hand, h.obj, h.body, grasp, h.friction, h.settings, h.strength)
+            build_scene(self.solved.hand, h.obj, h.body, grasp, h.friction, h.settings, h.strength, h.pad_torsion)
 
     def hold(self, grasp: Grasp, trace: bool = False) -> PhysicsResult:
         return self.holding.hold(self.solved.hand, grasp, self.task, trace)

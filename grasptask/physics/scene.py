@@ -236,12 +236,17 @@ def build_scene(
     friction: float,
     settings: PhysicsSettings,
     strength: float = 1.0,
+    pad_torsion: float = 0.0,
 ) -> Scene:
     """The scene of ``grasp`` by ``hand`` (its grasping fingers only, as the NLP sees it) on ``obj``, the hand's
-    actuators ``strength`` times as strong as the hand model's."""
+    actuators ``strength`` times as strong as the hand model's. A flat pad's geoms resist a twist about the
+    contact normal with ``pad_torsion`` (m; the grasp config's soft-finger coefficient) where it is more than
+    the physics settings' own, as the verifier credits them (MuJoCo takes the larger of two geoms')."""
     contact = [friction, settings.torsional_friction_m, 0.0]
     contacts, normals = pad_contacts(hand, obj, grasp)
     spec, source, prefix = _hand_spec(hand, grasp, settings, contact, contacts, normals)
+    if source is not None:
+        _soft_pads(spec, hand, [friction, max(settings.torsional_friction_m, pad_torsion), 0.0])
     _add_object(spec, body, contact)
     # a hand file's joint two fingers share is one joint in MuJoCo: its copies' columns go (T's columns for a
     # copy and its original are equal, so T tau stays the joint's whole torque)
@@ -288,6 +293,14 @@ def build_scene(
         finger_names=tuple(hand.fingers),
         strength=strength,
     )
+
+
+def _soft_pads(spec: mujoco.MjSpec, hand: Hand, contact: list[float]) -> None:
+    """The collision geoms of each flat-padded fingertip link of a hand file, given ``contact``'s friction."""
+    links = {hand.fingertip_links.get(name, name) for name, f in hand.fingers.items() if f.pad.flat}
+    for geom in spec.geoms:
+        if geom.parent.name in links and (geom.contype or geom.conaffinity):
+            geom.friction = contact
 
 
 def _hand_spec(

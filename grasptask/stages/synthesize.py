@@ -705,5 +705,6 @@ def _physics_judge(solutions: pd.DataFrame, job: Job) -> Any:
     from grasptask.physics.judge import Judge  # deferred: MuJoCo
 
     assert job.physics is not None
-    friction = job.settings.friction_coefficient
-    return Judge.of(SolvedGrasps.of(solutions, job.hand.grasping_hand()), job.task, job.obj, friction, job.physics)
+    friction, torsion = job.settings.friction_coefficient, job.settings.torsional_friction_m
+    solved = SolvedGrasps.of(solutions, job.hand.grasping_hand())
+    return Judge.of(solved, job.task, job.obj, friction, job.physics, pad_torsion=torsion)

@@ -48,7 +48,9 @@ class Judges:
         self.surrogate = distance_function(nlp.surrogate.grid) if nlp.surrogate is not None else None
         self.physics: Holding | None = None
         if physics is not None:  # MuJoCo and CoACD load here, only when asked
-            self.physics = Holding.of(obj, settings.friction_coefficient, physics)
+            self.physics = Holding.of(
+                obj, settings.friction_coefficient, physics, pad_torsion=settings.torsional_friction_m
+            )
 
     def judge(self, solver: Solver, result: SolveResult) -> tuple[dict, Verification, np.ndarray] | None:
         """IPOPT's point read back and checked by the verifier (None: no point), with the point itself."""
