@@ -284,8 +284,8 @@ def hold_grasp(
     pad_torsion: float = 0.0,
 ) -> PhysicsResult:
     """``grasp`` by ``hand`` on ``obj`` (``body`` its MuJoCo parts) built into a scene, the hand ``strength``
-    times as strong as its model (its flat pads twisting with ``pad_torsion``), its fingers seated at rest on the object (:mod:`grasptask.physics.seating`),
-    and put through :func:`check_grasp`."""
+    times as strong as its model (its flat pads twisting with ``pad_torsion``), its fingers seated at rest on
+    the object (:mod:`grasptask.physics.seating`), and put through :func:`check_grasp`."""
     scene = build_scene(hand, obj, body, grasp, friction, settings, strength, pad_torsion)
     seating = seat(scene, hand, scene.posture)
     if seating.joints is not None:
