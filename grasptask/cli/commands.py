@@ -202,7 +202,12 @@ def _hand_said(options, described) -> None:
 def synthesize(**params):
     """Synthesize task-oriented grasps: the NLP of the paper's Sections 5-6 solved from many starts, every
     solution checked by the independent verifier. Writes OUT/TASK/solutions.parquet (one row per start),
-    optima.parquet (distinct verified optima) and run.json."""
+    optima.parquet (distinct verified optima) and run.json.
+
+    \b
+    Exit codes: 0 some grasp verified; 2 a bad input, or grasping contacts that cannot resist the task
+    wherever they are placed (said before solving; see --anyway); 3 the sweep verified nothing (its last line
+    says why), so that a pipeline stops there; 130 stopped (what was solved is kept)."""
     run_command("synthesize", params)
 
 
@@ -226,9 +231,14 @@ def _synthesize(options):
 
 def _synthesis_said(options, done) -> None:
     click.echo(synthesis_line(done.task, done.run))
-    if done.run.get("why_few_verified"):
+    nothing = done.run["distinct_optima"] == 0
+    if done.run.get("why_few_verified") and not nothing:
         click.echo(f"{done.task}: few starts verified: {done.run['why_few_verified']}")
     click.echo(f"wrote {done.folder}/solutions.parquet, optima.parquet, run.json")
+    if nothing:
+        why = done.run.get("why_few_verified") or "every start failed to solve"
+        click.echo(f"{done.task}: no grasp verified (exit code 3): {why}", err=True)
+        raise click.exceptions.Exit(3)
 
 
 @main.command("verify")

@@ -204,6 +204,12 @@ _SYNTHESIS = [
     ),
     fingers_option("the hand file's choice; for a URDF or MJCF hand, all its fingers"),
     click.option(
+        "--anyway",
+        is_flag=True,
+        help="Solve even when the grasping contacts cannot resist the task wherever they are placed (two point "
+        "contacts and a task with torque about every axis), which synthesize otherwise refuses before solving.",
+    ),
+    click.option(
         "--physics",
         "physics_flag",
         is_flag=True,

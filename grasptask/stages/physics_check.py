@@ -66,9 +66,7 @@ def _judge_for(options: PhysicsOptions, sweep: Sweep) -> Judge:
     settings = replace(settings, controller=options.controller or settings.controller)
     friction = sweep.settings.friction_coefficient * options.friction_scale
     torsion = sweep.settings.torsional_friction_m
-    judge = Judge.of(
-        sweep.solved, sweep.task_model, sweep.load_object(), friction, settings, options.strength, torsion
-    )
+    judge = Judge.of(sweep.solved, sweep.task_model, sweep.load_object(), friction, settings, options.strength, torsion)
     judge.check_scene()
     return judge
 

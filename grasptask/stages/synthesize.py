@@ -57,6 +57,7 @@ from grasptask.records.run_record import RUN_FILE, read_run, run_outcome, throug
 from grasptask.records.sweeps import SolvedGrasps
 from grasptask.synthesis.clustering import cluster
 from grasptask.synthesis.context import Job
+from grasptask.synthesis.resistance import unresistable
 from grasptask.synthesis.solver_config import load_solver_config
 from grasptask.synthesis.starts import Start, make_starts, subset, surface_starts, warm_starts
 from grasptask.synthesis.sweep import graceful_stop, make_executor
@@ -99,6 +100,8 @@ class SynthesisOptions(BareObjectFacts):
     #: a grasp library folder (grasptask.records.grasp_library): warm starts from the optima of the nearest task
     #: it holds for this setup, and this sweep's optima added to it; None: none, and the sweep reproducible
     library: Path | None = None
+    #: solve even when the grasping contacts cannot resist the task wherever they are placed (refused otherwise)
+    anyway: bool = False
 
     def __post_init__(self) -> None:
         as_paths(
@@ -369,6 +372,12 @@ def run_synthesize(options: SynthesisOptions, echo: Callable[[str], Any] = print
     refuse_in_worker_import()  # a script without a __main__ guard, re-imported by a solver worker: ends it
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # inherited by the solver processes
     prepared = _prepare(options)
+    job = prepared.job
+    why = unresistable(job.hand.grasping_hand(), job.task, job.settings)
+    if why is not None and not options.anyway:
+        raise BadInputError("synthesize", f"{why}; no start can hold it: solve anyway with --anyway")
+    if why is not None:
+        echo(f"note: {why}; solving anyway (--anyway)")
     with folder_lock(options.folder, f"synthesize {options.task}"):
         log = _log_to_write(options, prepared)
         done = read_log(log)
