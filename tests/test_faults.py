@@ -22,6 +22,9 @@ from grasptask.io.locking import lock_path
 from grasptask.io.sweep_log import read_log
 
 TINY = Path("tests/data/solver_tiny.yaml")  # rows and files are checked here, not grasps
+#: the exit codes of a sweep that ran to its end: 3 when none of its starts verified, as TINY's 30 iterations make
+#: likely
+ENDED = (0, 3)
 
 
 def command(tasks, out, *extra):
@@ -90,17 +93,17 @@ def test_a_second_run_on_a_folder_in_use_is_refused(tasks, tmp_path):
             assert "in use by another run" in one_error_line(second)
     finally:
         os.kill(first.pid, signal.SIGCONT)
-    assert first.wait(timeout=1800) == 0, first.stderr  # a guard against a hang, not a measure of speed
+    assert first.wait(timeout=1800) in ENDED, first.stderr  # a guard against a hang, not a measure of speed
     rows = log_rows(tmp_path)
     assert len(rows) == 2 and len({r["start_id"] for r in rows}) == 2  # each start once
     assert not lock_path(tmp_path / "drawing").exists()
 
 
 def test_resuming_a_finished_sweep_solves_nothing_and_keeps_it(tasks, tmp_path):
-    assert run_sweep(tasks, tmp_path, "--starts", "1", "--executor", "serial").returncode == 0
+    assert run_sweep(tasks, tmp_path, "--starts", "1", "--executor", "serial").returncode in ENDED
     before = (tmp_path / "drawing" / "solutions.jsonl").read_bytes()
     result = run_sweep(tasks, tmp_path, "--starts", "1", "--executor", "serial", "--resume")
-    assert result.returncode == 0, result.stderr
+    assert result.returncode in ENDED, result.stderr
     assert (tmp_path / "drawing" / "solutions.jsonl").read_bytes() == before
 
 
@@ -109,12 +112,12 @@ def test_a_stale_lock_of_a_dead_process_is_taken_over(tasks, tmp_path):
     lock.parent.mkdir(parents=True, exist_ok=True)
     lock.write_text(json.dumps({"pid": dead_pid(), "start": "1", "host": os.uname().nodename, "purpose": "x"}))
     result = run_sweep(tasks, tmp_path, "--starts", "1", "--executor", "serial")
-    assert result.returncode == 0, result.stderr
+    assert result.returncode in ENDED, result.stderr
     assert not lock.exists()
 
 
 def test_resume_refuses_another_run(tasks, tmp_path):
-    assert run_sweep(tasks, tmp_path, "--starts", "3", "--executor", "serial").returncode == 0
+    assert run_sweep(tasks, tmp_path, "--starts", "3", "--executor", "serial").returncode in ENDED
     before = (tmp_path / "drawing" / "solutions.jsonl").read_bytes()
     other_solver = tmp_path / "solver.yaml"
     other_solver.write_text(TINY.read_text().replace("max_iter: 30", "max_iter: 29"))
@@ -130,13 +133,13 @@ def test_resume_refuses_another_run(tasks, tmp_path):
 
 
 def test_a_cut_short_last_line_is_dropped_and_every_start_stays_unique(tasks, tmp_path):
-    assert run_sweep(tasks, tmp_path, "--starts", "2", "--executor", "serial").returncode == 0
+    assert run_sweep(tasks, tmp_path, "--starts", "2", "--executor", "serial").returncode in ENDED
     log = tmp_path / "drawing" / "solutions.jsonl"
     first = log.read_text().splitlines()[0]
     with open(log, "a") as handle:  # a duplicate row, then what a full disk leaves: half a line
         handle.write(first + "\n" + '{"start_id": 62, "status": "opt')
     result = run_sweep(tasks, tmp_path, "--starts", "3", "--executor", "serial", "--resume")
-    assert result.returncode == 0, result.stderr
+    assert result.returncode in ENDED, result.stderr
     assert "dropped an incomplete last line" in result.stdout and "kept the first" in result.stdout
     rows = log_rows(tmp_path)
     assert sorted(r["start_id"] for r in rows) == [0, 62, 125]
@@ -144,7 +147,7 @@ def test_a_cut_short_last_line_is_dropped_and_every_start_stays_unique(tasks, tm
 
 
 def test_nothing_is_touched_before_the_run_is_known_to_work(tasks, tmp_path):
-    assert run_sweep(tasks, tmp_path, "--starts", "1", "--executor", "serial").returncode == 0
+    assert run_sweep(tasks, tmp_path, "--starts", "1", "--executor", "serial").returncode in ENDED
     folder = tmp_path / "drawing"
     before = {p.name: p.read_bytes() for p in folder.iterdir()}
     bad_ipopt = tmp_path / "bad_ipopt.yaml"
@@ -177,7 +180,7 @@ def test_kill_9_of_the_parent_then_resume(tasks, tmp_path):
     wait_for(lambda: not any(alive(w) for w in workers), timeout=40, what="the orphaned workers to exit")
     kept = [r["start_id"] for r in log_rows(tmp_path)]
     result = run_sweep(tasks, tmp_path, "--starts", "4", "--workers", "2", "--resume")
-    assert result.returncode == 0, result.stderr
+    assert result.returncode in ENDED, result.stderr
     rows = [r["start_id"] for r in log_rows(tmp_path)]
     assert rows[: len(kept)] == kept and sorted(rows) == [0, 42, 83, 125]
 
@@ -187,7 +190,7 @@ def test_kill_9_of_a_worker_is_recorded_and_the_sweep_goes_on(tasks, tmp_path):
     wait_for(lambda: len(workers_of(sweep.pid)) == 2 and len(log_rows(tmp_path)) >= 1, what="two busy workers")
     os.kill(workers_of(sweep.pid)[0], signal.SIGKILL)
     _, err = sweep.communicate(timeout=300)
-    assert sweep.returncode == 0, err
+    assert sweep.returncode in ENDED, err
     solutions = pd.read_parquet(tmp_path / "drawing" / "solutions.parquet")
     assert sorted(solutions["start_id"]) == [0, 42, 83, 125]
     assert (solutions["status"] == "crashed").sum() <= 1
@@ -209,7 +212,7 @@ def test_sigterm_finishes_the_starts_in_progress_then_resume_completes(tasks, tm
     assert 1 <= len(kept) < 6 and all(r["status"] not in ("crashed", "hung") for r in kept)
     assert not lock_path(tmp_path / "drawing").exists()
     result = run_sweep(tasks, tmp_path, "--starts", "6", *extra, "--resume")
-    assert result.returncode == 0, result.stderr
+    assert result.returncode in ENDED, result.stderr
     assert sorted(r["start_id"] for r in log_rows(tmp_path)) == [0, 25, 50, 75, 100, 125]
 
 
@@ -249,7 +252,7 @@ def test_a_full_disk_keeps_the_finished_starts(tasks, small_disk):
     assert contents.rows and not contents.repairs  # every finished row kept, no fragment left
     filler.unlink()
     result = run_sweep(tasks, small_disk, "--starts", "3", "--executor", "serial", "--resume")
-    assert result.returncode == 0, result.stderr
+    assert result.returncode in ENDED, result.stderr
     assert sorted(r["start_id"] for r in log_rows(small_disk)) == [0, 62, 125]
 
 
@@ -336,7 +339,7 @@ def test_a_killed_stage_leaves_nothing_that_the_next_run_does_not_clean(tmp_path
         capture_output=True,
         text=True,
     )
-    assert done.returncode == 0, done.stderr
+    assert done.returncode in ENDED, done.stderr
     assert sorted(p.name for p in tmp_path.iterdir()) == ["report"]
 
 
@@ -399,7 +402,7 @@ def test_a_ctrl_c_before_any_start_is_solved_says_nothing_was_kept(tasks, tmp_pa
 def test_a_rerun_that_fails_on_a_full_disk_leaves_the_finished_sweep_resumable(tasks, small_disk):
     """A finished seed-0 sweep run again with another seed on a full disk: the rerun fails, and the finished
     sweep's log, sweep.json and results are as they were, so that --resume with seed 0 still takes it."""
-    assert run_sweep(tasks, small_disk, "--starts", "2", "--executor", "serial").returncode == 0
+    assert run_sweep(tasks, small_disk, "--starts", "2", "--executor", "serial").returncode in ENDED
     folder = small_disk / "drawing"
     before = {name: (folder / name).read_bytes() for name in ("solutions.jsonl", "sweep.json", "run.json")}
     filler = fill(small_disk)
@@ -409,13 +412,13 @@ def test_a_rerun_that_fails_on_a_full_disk_leaves_the_finished_sweep_resumable(t
     assert not list(folder.glob(".*.new"))
     filler.unlink()
     resumed = run_sweep(tasks, small_disk, "--starts", "2", "--executor", "serial", "--resume")
-    assert resumed.returncode == 0 and "2 already done" in resumed.stdout, resumed.stderr
+    assert resumed.returncode in ENDED and "2 already done" in resumed.stdout, resumed.stderr
 
 
 def test_a_rerun_stopped_part_way_leaves_the_finished_sweep_and_its_own_rows(tasks, tmp_path):
     """A seed-5 rerun over a finished seed-0 sweep stopped after its first rows: the seed-0 sweep's files are as
     they were (its --resume takes it), and the rerun's rows are kept beside them (its own --resume goes on)."""
-    assert run_sweep(tasks, tmp_path, "--starts", "2", "--executor", "serial").returncode == 0
+    assert run_sweep(tasks, tmp_path, "--starts", "2", "--executor", "serial").returncode in ENDED
     folder = tmp_path / "drawing"
     names = ("solutions.jsonl", "sweep.json", "run.json", "solutions.parquet")
     before = {name: (folder / name).read_bytes() for name in names}
@@ -427,16 +430,16 @@ def test_a_rerun_stopped_part_way_leaves_the_finished_sweep_and_its_own_rows(tas
     assert rerun.returncode == 130 and ".solutions.jsonl.new" in err, err
     assert {name: (folder / name).read_bytes() for name in names} == before
     original = run_sweep(tasks, tmp_path, "--starts", "2", "--executor", "serial", "--resume")
-    assert original.returncode == 0 and "2 already done" in original.stdout, original.stderr
+    assert original.returncode in ENDED and "2 already done" in original.stdout, original.stderr
     kept = staged.read_text().count("\n")
     again = run_sweep(tasks, tmp_path, "--starts", "4", "--executor", "serial", "--seed", "5", "--resume")
-    assert again.returncode == 0 and f"{kept} already done" in again.stdout, again.stderr
+    assert again.returncode in ENDED and f"{kept} already done" in again.stdout, again.stderr
     assert not staged.exists() and len(log_rows(tmp_path)) == 4
     assert json.loads((folder / "sweep.json").read_text())["definition"]["seed"] == 5
 
 
 def test_a_rerun_stopped_before_its_first_row_leaves_the_finished_sweep(tasks, tmp_path):
-    assert run_sweep(tasks, tmp_path, "--starts", "2", "--executor", "serial").returncode == 0
+    assert run_sweep(tasks, tmp_path, "--starts", "2", "--executor", "serial").returncode in ENDED
     folder = tmp_path / "drawing"
     before = {name: (folder / name).read_bytes() for name in ("solutions.jsonl", "sweep.json")}
     sweep = start_sweep(tasks, tmp_path, "--starts", "2", "--executor", "serial", "--seed", "5")
@@ -468,7 +471,7 @@ def test_a_pipeline_goes_on_with_a_sweep_stage_stopped_part_way(tasks, tmp_path)
     kept = {r["start_id"]: r for r in log_rows(out)}
     assert 1 <= len(kept) < 6 and json.loads(state.read_text())["sweep"]["running"]
     again = subprocess.run(command, capture_output=True, text=True, timeout=300)
-    assert again.returncode == 0, again.stderr
+    assert again.returncode in ENDED, again.stderr
     assert "going on from there" in again.stdout and f"{len(kept)} already done" in again.stdout
     rows = {r["start_id"]: r for r in log_rows(out)}
     assert len(rows) == 6 and all(rows[k] == row for k, row in kept.items())

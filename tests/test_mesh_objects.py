@@ -309,7 +309,7 @@ def test_synthesize_takes_a_mesh_file_directly(cli, simulated, tmp_path):
         "synthesize", "--tasks", tasks, "--task", "drawing", "--out", out, "--object", tmp_path / "handle.stl",
         "--solver-config", "tests/data/solver_fast.yaml", "--starts", "1", "--executor", "serial",
     )  # fmt: skip
-    assert result.exit_code == 0, result.output
+    assert result.exit_code in (0, 3), result.output  # 3: the start verified nothing, said
     solutions = pd.read_parquet(out / "drawing" / "solutions.parquet")
     assert len(solutions) == 1 and set(solutions["status"]) <= set(STATUSES)
 

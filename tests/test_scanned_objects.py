@@ -142,7 +142,7 @@ def test_unit_mass_and_task_frame_reach_run_json(cli, simulated, tmp_path):
     args = ["synthesize", "--tasks", tasks, "--task", "drawing", "--out", out, "--object", path, "--starts", "1",
             "--solver-config", "tests/data/solver_tiny.yaml", "--executor", "serial"]  # fmt: skip
     result = cli(*args, "--unit", "mm", "--mass", "0.45", "--task-frame", "centre")
-    assert result.exit_code == 0, result.output
+    assert result.exit_code in (0, 3), result.output  # 3: its one start verified nothing
     run = json.loads((out / "drawing" / "run.json").read_text())
     assert run["object_options"] == {"unit": "mm", "mass_kg": 0.45, "task_frame": "centre"}
     assert run["object_mass_kg"] == 0.45 and run["task_frame"]["rule"] == "centre"
@@ -156,7 +156,7 @@ def test_unit_mass_and_task_frame_reach_run_json(cli, simulated, tmp_path):
     again = cli(*args, "--unit", "mm")  # no mass: said
     assert "the object's mass is not given" in again.output
     base = cli(*args, "--unit", "mm", "--task-frame", "origin", "--task-frame-outside")  # on its base: taken
-    assert base.exit_code == 0, base.output
+    assert base.exit_code in (0, 3), base.output
     assert "is 0.0 mm inside it; taken: the task's torques act about it" in base.output
     run = json.loads((out / "drawing" / "run.json").read_text())
     assert run["object_options"] == {"unit": "mm", "task_frame": "origin", "task_frame_outside": True}

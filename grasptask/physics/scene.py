@@ -239,20 +239,13 @@ def build_scene(
     pad_torsion: float = 0.0,
 ) -> Scene:
     """The scene of ``grasp`` by ``hand`` (its grasping fingers only, as the NLP sees it) on ``obj``, the hand's
-    actuators ``strength`` times as strong as the hand model's. A flat pad's geoms resist a twist about the
-    contact normal with ``pad_torsion`` (m; the grasp config's soft-finger coefficient) where it is more than
-    the physics settings' own, as the verifier credits them (MuJoCo takes the larger of two geoms')."""
+    actuators ``strength`` times as strong as the hand model's, its flat pads twisting with ``pad_torsion`` (m,
+    the grasp config's soft-finger coefficient, where more than the scene's: MuJoCo takes the larger)."""
     contact = [friction, settings.torsional_friction_m, 0.0]
     contacts, normals = pad_contacts(hand, obj, grasp)
-    spec, source, prefix = _hand_spec(hand, grasp, settings, contact, contacts, normals)
-    if source is not None:
-        _soft_pads(spec, hand, [friction, max(settings.torsional_friction_m, pad_torsion), 0.0])
+    spec, source, prefix = _hand_spec(hand, grasp, settings, contact, contacts, normals, pad_torsion)
     _add_object(spec, body, contact)
-    # a hand file's joint two fingers share is one joint in MuJoCo: its copies' columns go (T's columns for a
-    # copy and its original are equal, so T tau stays the joint's whole torque)
-    names = hand.file_joint_names if source is not None else hand.joint_names
-    unique = list(dict.fromkeys(names))
-    columns, expand = np.array([names.index(n) for n in unique]), np.array([unique.index(n) for n in names])
+    unique, columns, expand = _scene_joints(hand.file_joint_names if source is not None else hand.joint_names)
     capability = hand.capability
     transmission, torque_map = capability.transmission[:, columns], strength * capability.torque_map
     actuation = transmission.T @ torque_map
@@ -295,6 +288,14 @@ def build_scene(
     )
 
 
+def _scene_joints(names: list[str]) -> tuple[list[str], np.ndarray, np.ndarray]:
+    """The scene's joints, and the hand's columns each takes and each column's joint: a hand file's joint two
+    fingers share is one joint in MuJoCo, so its copies' columns go (T's columns for a copy and its original
+    are equal, so T tau stays the joint's whole torque)."""
+    unique = list(dict.fromkeys(names))
+    return unique, np.array([names.index(n) for n in unique]), np.array([unique.index(n) for n in names])
+
+
 def _soft_pads(spec: mujoco.MjSpec, hand: Hand, contact: list[float]) -> None:
     """The collision geoms of each flat-padded fingertip link of a hand file, given ``contact``'s friction."""
     links = {hand.fingertip_links.get(name, name) for name, f in hand.fingers.items() if f.pad.flat}
@@ -310,12 +311,14 @@ def _hand_spec(
     contact: list[float],
     contacts: np.ndarray,
     normals: np.ndarray,
+    pad_torsion: float = 0.0,
 ) -> tuple[mujoco.MjSpec, Path | None, str]:
-    """The scene's spec with the hand in it: a hand file's own bodies (its source file, no prefix), or the
-    project's hand built from its model (no file, its joints prefixed)."""
+    """The scene's spec with the hand in it: a hand file's own bodies (its source file, no prefix; its flat pads
+    twisting with ``pad_torsion``), or the project's hand built from its model (no file, its joints prefixed)."""
     if hand.model_file is not None:
         solref = [CONTACT_TIME_CONSTANT_S, 1.0]
         spec = _configure(file_hand_spec(hand, grasp, settings, contact, solref, (HAND_BIT, OBJECT_BIT)), settings)
+        _soft_pads(spec, hand, [contact[0], max(contact[1], pad_torsion), 0.0])
         return spec, hand.model_file, ""
     spec = _configure(mujoco.MjSpec(), settings)
     _add_project_hand(spec, hand, grasp, contacts, normals, settings, contact)
