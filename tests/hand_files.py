@@ -190,3 +190,47 @@ def write_mesh_allegro(root: Path, tips: str = "mesh") -> Path:
     path = package / "urdf" / "hand.urdf"
     path.write_text('<?xml version="1.0"?>\n<robot name="hand">\n' + "\n".join(links + joints) + "\n</robot>\n")
     return path
+
+
+#: the published-gripper layout's jaw: its pad box (m), depth x thickness x length, and its stroke and force
+JAW_BOX_M = (0.02, 0.01, 0.05)
+JAW_STROKE_M = 0.04
+JAW_EFFORT_N = 100.0
+
+
+def write_jaw_gripper(root: Path, effort_n: float = JAW_EFFORT_N) -> Path:
+    """A parallel-jaw gripper laid out as dex-urdf publishes the Franka's (``panda_gripper_glb.urdf``), as a ROS
+    package under ``root``: the hand an STL mesh, two prismatic finger joints 58.4 mm above it sliding apart along
+    y over :data:`JAW_STROKE_M`, the second's axis reversed and a ``<mimic>`` of the first, each finger a box pad
+    whose inner face is on the midplane when shut, an empty ``tcp`` frame hung off the hand, and no YAML."""
+    package = root / "jaws"
+    (package / "meshes").mkdir(parents=True, exist_ok=True)
+    (package / "urdf").mkdir(parents=True, exist_ok=True)
+    body = trimesh.creation.box([0.06, 0.2, 0.058])
+    body.apply_translation([0.0, 0.0, 0.029])
+    body.export(package / "meshes" / "hand.stl")
+    depth, thickness, length = JAW_BOX_M
+    fingers = []
+    for side, (name, sign) in enumerate((("panda_leftfinger", 1.0), ("panda_rightfinger", -1.0))):
+        mimic = '<mimic joint="panda_finger_joint1" multiplier="1" offset="0"/>' if side else ""
+        fingers.append(
+            f'<link name="{name}"><inertial><mass value="0.015"/><inertia ixx="3e-6" iyy="3e-6" izz="1e-6" '
+            'ixy="0" ixz="0" iyz="0"/></inertial><collision>'
+            f'<origin xyz="0 {sign * thickness / 2} {length / 2}"/><geometry><box size="{depth} {thickness} {length}"/>'
+            f"</geometry></collision></link>\n"
+            f'<joint name="panda_finger_joint{side + 1}" type="prismatic"><parent link="panda_hand"/>'
+            f'<child link="{name}"/><origin xyz="0 0 0.0584" rpy="0 0 0"/><axis xyz="0 {sign:g} 0"/>'
+            f'<limit effort="{effort_n}" lower="0.0" upper="{JAW_STROKE_M}" velocity="0.2"/>{mimic}</joint>'
+        )
+    text = (
+        '<?xml version="1.0"?>\n<robot name="panda_gripper">\n'
+        '<link name="panda_hand"><inertial><origin xyz="0 0 0.029"/><mass value="0.7"/><inertia ixx="0.0025" '
+        'iyy="0.0004" izz="0.0025" ixy="0" ixz="0" iyz="0"/></inertial><visual><geometry>'
+        '<mesh filename="package://jaws/meshes/hand_visual.glb"/></geometry></visual><collision><geometry>'
+        '<mesh filename="package://jaws/meshes/hand.stl"/></geometry></collision></link>\n'
+        '<link name="panda_hand_tcp"/>\n<joint name="panda_hand_tcp_joint" type="fixed"><parent link="panda_hand"/>'
+        '<child link="panda_hand_tcp"/><origin xyz="0 0 0.1034"/></joint>\n' + "\n".join(fingers) + "\n</robot>\n"
+    )
+    path = package / "urdf" / "panda_gripper.urdf"
+    path.write_text(text)
+    return path

@@ -645,6 +645,8 @@ class GraspNLP:
     definitions: list[tuple[Any, Any]] = field(default_factory=list)  # (variable, expression), dependency order
     #: a mesh's or point cloud's surface, whose placeholder rows the backend fills (None: all Pyomo)
     surrogate: GridSurface | None = None
+    #: the (finger, wrench) cells of the soft fingers' twists, which follow their cone edges
+    twists: frozenset[tuple[int, int]] = frozenset()
 
     def size(self) -> dict[str, Any]:
         """Variables and constraints as IPOPT sees them (the held turn's reference is pinned, so not counted),
@@ -750,8 +752,9 @@ class GraspNLP:
                 var.set_value(float(value), skip_validation=True)  # IPOPT's point may sit a hair past a bound
         for (a, j, i), var in m.force.items():
             var.set_value(float(forces.forces[a, j, i]), skip_validation=True)
-        for (a, s, j, e), var in m.lam.items():
-            var.set_value(float(forces.edge_forces[a, s, j, e]), skip_validation=True)
+        for (a, s, j, e), var in m.lam.items():  # a soft finger's twists keep theirs: the force problem has none
+            if (j, e) not in self.twists:
+                var.set_value(float(forces.edge_forces[a, s, j, e]), skip_validation=True)
         for (a, s, q), var in m.act.items():
             var.set_value(float(forces.activations[a, s, q]), skip_validation=True)
 
@@ -767,7 +770,7 @@ class GraspNLP:
     def geometry(self) -> GraspGeometry:
         """The contacts, cone edges and Jacobians at the current values: what the force problem holds fixed."""
         m, fingers = self.model, list(self.hand.fingers.values())
-        b, edges = len(fingers), 1 + max(e for _, e, _ in m.l.index_set())
+        b, edges = len(fingers), 1 + max(e for j, e, _ in m.l.index_set() if (j, e) not in self.twists)
         return GraspGeometry(
             np.array([[pyo.value(m.p[j, i]) for i in XYZ] for j in range(b)]),
             np.array([[[pyo.value(m.l[j, e, i]) for i in XYZ] for e in range(edges)] for j in range(b)]),
@@ -852,4 +855,5 @@ def build_model(
     for equation in equations:
         equation(builder)
     surrogate = builder.surface if isinstance(builder.surface, GridSurface) else None
-    return GraspNLP(builder.model, grasping, builder.definitions, surrogate)
+    twists = frozenset((j, e) for j, e in builder.cells if e >= settings.cone_edges)
+    return GraspNLP(builder.model, grasping, builder.definitions, surrogate, twists)
