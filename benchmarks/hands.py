@@ -8,7 +8,9 @@ Ratios: each hand's median over the human 3-finger hand's, in the same run.
 ``mesh_allegro`` is a robot hand as people publish one, written by the run (``tests/hand_files.py``): the Allegro's
 kinematics as a URDF whose every link is an STL mesh, joints named "0" to "15", no YAML; its medians are also given
 over the Allegro's. ``box_gripper`` is the tests' three-finger gripper with box fingertips
-(``tests/hand_files.py``: STL links, URDF boxes at the tips), whose pads are flat faces. ``shadow`` and ``inspire``
+(``tests/hand_files.py``: STL links, URDF boxes at the tips), whose pads are flat faces. ``parallel_jaw`` is the
+project's parallel-jaw gripper (``configs/hands/parallel_jaw.urdf``: prismatic jaws, the second a mimic, box pads,
+no YAML); its whole sweeps are also set against the Allegro's. ``shadow`` and ``inspire``
 are two published hands as their authors ship them (``../shared/zoo/hands``: the Shadow Hand with its forearm and
 wrist, the Inspire Hand rooted at an empty link), with no YAML; they run only when asked for (``--hands``).
 
@@ -17,7 +19,7 @@ wrist, the Inspire Hand rooted at an empty link), with no YAML; they run only wh
     python benchmarks/hands.py --keep DIR ...; python benchmarks/hands.py --summarise DIR
 
 Targets: each robot hand verifies >= 80% of its starts, its median within 2x of the human 3-finger hand's; the
-mesh hand's within 2x of the Allegro's.
+mesh hand's within 2x of the Allegro's; the parallel-jaw gripper's whole sweep within 2x of the Allegro's.
 Results are saved after every sweep (benchmarks/results/hands.json), so an interrupted run keeps what it did.
 """
 
@@ -60,14 +62,17 @@ HANDS = {
     "allegro": (ROOT / "configs/hands/allegro.yaml", None),
     "mesh_allegro": (None, None),  # written by the run
     "box_gripper": (None, None),  # written by the run
+    "parallel_jaw": (ROOT / "configs/hands/parallel_jaw.urdf", None),
     "shadow": (ROOT.parent / "shared/zoo/hands/shadow_hand/shadow_hand_right.urdf", None),
     "inspire": (ROOT.parent / "shared/zoo/hands/inspire_hand/inspire_hand_right.urdf", None),
 }
 #: the hands a run takes unless --hands says otherwise (the zoo's published hands are outside the repository)
-DEFAULT_HANDS = ("human3", "human4", "human5", "barrett", "allegro", "mesh_allegro", "box_gripper")
+DEFAULT_HANDS = ("human3", "human4", "human5", "barrett", "allegro", "mesh_allegro", "box_gripper", "parallel_jaw")
 #: the robot hands held to the targets, and those whose median is also set against the Allegro's
-ROBOTS = ("barrett", "allegro", "mesh_allegro", "box_gripper", "shadow", "inspire")
+ROBOTS = ("barrett", "allegro", "mesh_allegro", "box_gripper", "parallel_jaw", "shadow", "inspire")
 MESH_HANDS = ("mesh_allegro", "box_gripper", "shadow", "inspire")
+#: the grippers whose whole sweeps are set against the Allegro's
+JAWS = ("parallel_jaw",)
 
 
 def hand_path(name: str, folder: Path) -> Path:
@@ -160,6 +165,16 @@ def compare(results: dict) -> dict:
         if hand in results["targets"]:
             results["targets"][hand]["median_within_2x_allegro"] = all(
                 (t.get("median_over_allegro") or np.inf) <= 2 for t in results["hands"][hand]["tasks"].values()
+            )
+    allegro = results["hands"].get("allegro", {}).get("tasks", {})
+    for hand in JAWS:
+        if hand in results["targets"]:
+            tasks = results["hands"][hand]["tasks"]
+            for task, figures in tasks.items():
+                whole = allegro.get(task, {}).get("sweep_wall_s")
+                figures["sweep_over_allegro"] = figures["sweep_wall_s"] / whole if whole else None
+            results["targets"][hand]["sweep_within_2x_allegro"] = all(
+                (t.get("sweep_over_allegro") or np.inf) <= 2 for t in tasks.values()
             )
     return results
 
