@@ -134,3 +134,26 @@ def test_the_refusal_names_the_tasks_least_torque_axis_and_spares_soft_pads_and_
     assert unresistable(jaws, task, GraspSettings(torsional_friction_m=0.0)) is not None
     flat = TaskModel("t", 1, Ellipsoid.from_matrix(np.diag([1.0, 1.0, 1.0, 4e-4, 9e-4, 0.0])))
     assert unresistable(pair, flat, GraspSettings()) is None  # no torque about z: the line can lie along it
+
+
+def test_the_physics_check_holds_a_twist_about_the_pads_normal_within_the_verifiers_limit_and_not_twice_it(
+    jaw_grasp,
+):
+    """MuJoCo's pads (condim 4, the grasp config's torsional friction) under the grip controller, which plans
+    each flat pad's twist within it: half the twist the verifier's LP holds at its margin is held, and twice it is
+    dropped with the jaws' one motor at its limit. At the limit itself MuJoCo's soft torsional friction lets the
+    tool creep about 5 degrees, the pass threshold: held on one grasp, dropped on another (a finding, not tuned)."""
+    from grasptask.physics.judge import Holding
+    from grasptask.physics.physics_settings import PhysicsSettings
+
+    hand, grasp, _ = jaw_grasp
+    settings, tool = GraspSettings(), load_object(TOOL)
+    normal = verify(grasp, hand, tool, _twist(np.array([0.0, 0.0, 1.0]), 1e-3), settings).normals[0]
+    limit = settings.friction_scale * settings.torsional_friction_m * settings.motor_activation_max * JAW_EFFORT_N
+    torsion = settings.torsional_friction_m
+    holding = Holding.of(tool, settings.friction_coefficient, PhysicsSettings(), pad_torsion=torsion)
+    held = holding.hold(hand, grasp, _twist(normal, 0.5 * limit)).record()
+    assert held["physics_passed"], held["physics_why"]
+    dropped = holding.hold(hand, grasp, _twist(normal, 2 * limit)).record()
+    assert not dropped["physics_passed"] and dropped["physics_failed_wrench"].startswith("task")
+    assert dropped["physics_failed_peak_activation"] >= 0.99, dropped["physics_why"]  # the motor at its limit

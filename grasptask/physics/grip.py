@@ -6,6 +6,7 @@ for tendons their activations:
 
     min   w |W (G f - w_d)|^2 + effort + w_s |s|^2 + e |f|^2
     s.t.  f inside each friction cone (an inscribed octagonal pyramid of ``grip_friction_fraction`` mu)
+          a flat pad's contact's twist about its normal within that fraction of MuJoCo's torsional friction
           each hand link in contact pressing with at least ``min_normal_force_n`` less its shortfall s >= 0
           the torques ``T J^T f`` within the actuators' reach (``= A a``, 0 <= a <= 1; for motors ``|.| <= E``)
 
@@ -176,14 +177,17 @@ class GripController:
         origin = data.xpos[scene.object_body]
         bases = contacts.frames.transpose(0, 2, 1)  # (m, 3, 3): columns normal, tangents
         levers = np.cross((contacts.points - origin)[:, None, :], contacts.frames)  # (m, 3 columns, 3)
-        grasp = np.vstack(
+        soft = np.flatnonzero(np.isin(contacts.bodies, scene.soft_bodies) & (contacts.index >= 0))
+        twists = np.vstack([np.zeros((3, len(soft))), contacts.frames[soft, 0].T / self.lever])  # a twist: (0, n)
+        grasp = np.hstack([np.vstack(
             [bases.transpose(1, 0, 2).reshape(3, 3 * m), levers.transpose(2, 0, 1).reshape(3, 3 * m) / self.lever]
-        )
+        ), twists])  # fmt: skip
         joint_map = scene.transmission @ np.einsum("mjn,mjk->nmk", jacobians, bases).reshape(-1, 3 * m)
+        joint_map = np.hstack([joint_map, np.zeros((len(joint_map), len(soft)))])  # a sliding jaw feels no twist
         wanted = self.wanted_wrench(data, test, ramp)
         wanted[3:] /= self.lever
         links = np.unique(contacts.bodies)
-        n_f, n_s = 3 * m, len(links)
+        n_f, n_s = 3 * m + len(soft), len(links)
         actuators = 0 if scene.motors else scene.torque_map.shape[1]
         size = n_f + n_s + actuators
         hessian = np.zeros((size, size))
@@ -194,12 +198,16 @@ class GripController:
         # each link's normal force plus its shortfall at least the squeeze; shortfalls non-negative
         squeeze = np.zeros((2 * n_s, size))
         normal_of = np.zeros((n_s, n_f))
-        normal_of[:, 0::3] = contacts.bodies[None, :] == links[:, None]
+        normal_of[:, 0 : 3 * m : 3] = contacts.bodies[None, :] == links[:, None]
         squeeze[:n_s, :n_f], squeeze[:n_s, n_f : n_f + n_s] = normal_of, np.eye(n_s)
         squeeze[n_s:, n_f : n_f + n_s] = np.eye(n_s)
         floors = np.concatenate([np.full(n_s, self.squeeze_n), np.zeros(n_s)])
-        cone = np.zeros((9 * m, size))
-        cone[:, :n_f] = self._cone(contacts.index >= 0)
+        cone = np.zeros((9 * m + 2 * len(soft), size))
+        cone[: 9 * m, : 3 * m] = self._cone(contacts.index >= 0)
+        spin = self.settings.grip_friction_fraction * data.contact.friction[contacts.index[soft], 2]
+        for k, (contact, limit) in enumerate(zip(soft, spin, strict=True)):  # |twist| <= mu_t f_n, both ways
+            rows = cone[9 * m + 2 * k : 9 * m + 2 * k + 2]
+            rows[:, 3 * contact], rows[:, 3 * m + k] = limit, [1.0, -1.0]
         if scene.motors:
             used = np.flatnonzero(np.abs(joint_map).sum(axis=1) > 0)
             scaled = joint_map[used] / self._efforts[used, None]
@@ -208,7 +216,7 @@ class GripController:
             reach[: len(used), :n_f], reach[len(used) :, :n_f] = -scaled, scaled
             rows = np.vstack([cone, squeeze, reach])
             limits = np.concatenate([np.zeros(len(cone)), floors, -np.ones(2 * len(used))])
-            return _solve(hessian, linear, rows, limits, 0)[:n_f].reshape(m, 3)
+            return _solve(hessian, linear, rows, limits, 0)[: 3 * m].reshape(m, 3)
         hessian[n_f + n_s :, n_f + n_s :] = np.eye(actuators)
         carried = np.zeros((len(joint_map), size))  # T J^T f = A a
         carried[:, :n_f], carried[:, n_f + n_s :] = joint_map, -scene.torque_map
@@ -216,7 +224,7 @@ class GripController:
         box[:actuators, n_f + n_s :], box[actuators:, n_f + n_s :] = np.eye(actuators), -np.eye(actuators)
         rows = np.vstack([carried, cone, squeeze, box])
         limits = np.concatenate([np.zeros(len(carried) + len(cone)), floors, np.zeros(actuators), -np.ones(actuators)])
-        return _solve(hessian, linear, rows, limits, len(carried))[:n_f].reshape(m, 3)
+        return _solve(hessian, linear, rows, limits, len(carried))[: 3 * m].reshape(m, 3)
 
     @property
     def squeeze_n(self) -> float:

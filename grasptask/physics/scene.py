@@ -9,7 +9,7 @@ contact: the soft pulp the grasp presses with."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import mujoco
@@ -81,6 +81,9 @@ class Scene:
     #: the grasping fingers' names, in the pads' order, and the actuators' strength factor
     finger_names: tuple[str, ...]
     strength: float
+    #: the bodies of the flat pads, whose contacts resist a twist about their normal (the grip controller plans
+    #: it, within MuJoCo's torsional friction there)
+    soft_bodies: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=int))
 
     def to_hand(self, q: np.ndarray) -> np.ndarray:
         """Simulated joint values in ``hand.joint_names`` order (a shared joint's value in each finger)."""
@@ -248,7 +251,9 @@ def build_scene(
     unique, columns, expand = _scene_joints(hand.file_joint_names if source is not None else hand.joint_names)
     capability = hand.capability
     transmission, torque_map = capability.transmission[:, columns], strength * capability.torque_map
-    actuation = transmission.T @ torque_map
+    # the joint torques of least norm with T tau = A a: T^T A only where T's rows are orthonormal; a motor that
+    # drives a mimic pair ([1, 1]) gave each joint its whole effort, twice the model's strength over the pair
+    actuation = np.linalg.pinv(transmission) @ torque_map
     joints = [prefix + name for name in unique]
     _add_actuators(spec, joints, actuation)
     model = compile_spec(spec, source or "physics scene")
@@ -285,6 +290,7 @@ def build_scene(
         expand=expand,
         finger_names=tuple(hand.fingers),
         strength=strength,
+        soft_bodies=pad_bodies[[f.pad.flat for f in hand.fingers.values()]],
     )
 
 
