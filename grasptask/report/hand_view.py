@@ -83,7 +83,11 @@ def hand_lines(hand: Hand) -> list[str]:
     source = hand.model_file or "the project's own hand model"
     capability = hand.capability  # a motor drives its joint both ways: two actuators, J+ and J-
     actuators = {name.rstrip("+-") for name in capability.actuators} if capability.kind == "motors" else None
-    count = f"{len(actuators)} motors" if actuators is not None else f"{len(capability.actuators)} actuators"
+    count = (
+        f"{len(actuators)} motor{'s' if len(actuators) != 1 else ''}"
+        if actuators is not None
+        else f"{len(capability.actuators)} actuators"
+    )
     lines = [
         f"hand '{hand.name}' from {source}" + (f", palm link '{hand.palm_link}'" if hand.palm_link else ""),
         f"{len(hand.fingers)} fingers ({', '.join(hand.grasping)} grasp), {hand.n_joints} joints, "
