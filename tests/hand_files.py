@@ -198,11 +198,12 @@ JAW_STROKE_M = 0.04
 JAW_EFFORT_N = 100.0
 
 
-def write_jaw_gripper(root: Path, effort_n: float = JAW_EFFORT_N) -> Path:
+def write_jaw_gripper(root: Path, effort_n: float = JAW_EFFORT_N, pads: str = "box") -> Path:
     """A parallel-jaw gripper laid out as dex-urdf publishes the Franka's (``panda_gripper_glb.urdf``), as a ROS
     package under ``root``: the hand an STL mesh, two prismatic finger joints 58.4 mm above it sliding apart along
     y over :data:`JAW_STROKE_M`, the second's axis reversed and a ``<mimic>`` of the first, each finger a box pad
-    whose inner face is on the midplane when shut, an empty ``tcp`` frame hung off the hand, and no YAML."""
+    whose inner face is on the midplane when shut, an empty ``tcp`` frame hung off the hand, and no YAML.
+    ``pads="mesh"``: each finger the same box as an STL mesh, its edges rounded over :data:`PRINTED_FILLET_M`."""
     package = root / "jaws"
     (package / "meshes").mkdir(parents=True, exist_ok=True)
     (package / "urdf").mkdir(parents=True, exist_ok=True)
@@ -213,11 +214,17 @@ def write_jaw_gripper(root: Path, effort_n: float = JAW_EFFORT_N) -> Path:
     fingers = []
     for side, (name, sign) in enumerate((("panda_leftfinger", 1.0), ("panda_rightfinger", -1.0))):
         mimic = '<mimic joint="panda_finger_joint1" multiplier="1" offset="0"/>' if side else ""
+        shape = f'<box size="{depth} {thickness} {length}"/>'
+        if pads == "mesh":
+            finger = rounded_box(np.array(JAW_BOX_M) / 2, PRINTED_FILLET_M)
+            finger.apply_translation([0.0, sign * thickness / 2, length / 2])
+            finger.export(package / "meshes" / f"finger{side}.stl")
+            shape = f'<mesh filename="package://jaws/meshes/finger{side}.stl"/>'
+        origin = "" if pads == "mesh" else f'<origin xyz="0 {sign * thickness / 2} {length / 2}"/>'
         fingers.append(
             f'<link name="{name}"><inertial><mass value="0.015"/><inertia ixx="3e-6" iyy="3e-6" izz="1e-6" '
-            'ixy="0" ixz="0" iyz="0"/></inertial><collision>'
-            f'<origin xyz="0 {sign * thickness / 2} {length / 2}"/><geometry><box size="{depth} {thickness} {length}"/>'
-            f"</geometry></collision></link>\n"
+            f'ixy="0" ixz="0" iyz="0"/></inertial><collision>{origin}<geometry>{shape}</geometry></collision>'
+            "</link>\n"
             f'<joint name="panda_finger_joint{side + 1}" type="prismatic"><parent link="panda_hand"/>'
             f'<child link="{name}"/><origin xyz="0 0 0.0584" rpy="0 0 0"/><axis xyz="0 {sign:g} 0"/>'
             f'<limit effort="{effort_n}" lower="0.0" upper="{JAW_STROKE_M}" velocity="0.2"/>{mimic}</joint>'

@@ -43,6 +43,14 @@ def test_a_published_gripper_loads_with_sliding_jaws_one_motor_and_flat_pads_fac
         np.testing.assert_allclose(sorted(finger.pad.half_extents), sorted(np.array(JAW_BOX_M)[[0, 2]] / 2))
 
 
+def test_mesh_jaws_get_flat_pads_facing_each_other_too(tmp_path):
+    """The same jaws as STL meshes with rounded edges: the flat part of each inner face is its pad."""
+    hand = load_hand(write_jaw_gripper(tmp_path, pads="mesh"))
+    normals = forward(hand, hand.mid_range()).pad_normals()[0]
+    np.testing.assert_allclose(normals, [[0.0, -1.0, 0.0], [0.0, 1.0, 0.0]], atol=1e-6)
+    assert all(f.pad.flat and f.tip_mesh is not None for f in hand.fingers.values())
+
+
 def test_the_hand_command_shows_the_jaws_in_millimetres(cli, tmp_path):
     result = cli("hand", write_jaw_gripper(tmp_path))
     assert result.exit_code == 0, result.output
