@@ -117,23 +117,42 @@ class ContactDistance(Check):
         return bool(np.abs(distance).max() <= s.tolerances.contact_distance_m), {"contact_distance_m": distance}
 
 
+def _sliding(hand: Hand) -> np.ndarray:
+    """Which joints slide (a jaw's, in metres), in ``hand.joint_names`` order."""
+    return np.array([j.sliding for f in hand.fingers.values() for j in f.joints], dtype=bool)
+
+
+def _in_degrees(values: np.ndarray, turning: np.ndarray, worst: Any) -> float:
+    """The worst of the turning joints' ``values`` in degrees (a sliding joint's are metres; nan: none turns)."""
+    return float(np.degrees(worst(values[turning]))) if turning.any() else float("nan")
+
+
 class JointLimits(Check):
+    """Each joint within its limits (a turning joint's in radians, a sliding joint's in metres)."""
+
     name = "joint_limits"
 
     def judge(self, s: Inspection) -> tuple[bool, Figures]:
-        margin = np.minimum(s.q - s.hand.lower, s.hand.upper - s.q).min()
-        return bool(margin >= -s.tolerances.joint_limit_rad), {"joint_limit_margin_deg": float(np.degrees(margin))}
+        sliding = _sliding(s.hand)
+        margin = np.minimum(s.q - s.hand.lower, s.hand.upper - s.q)
+        tolerance = np.where(sliding, s.tolerances.joint_limit_m, s.tolerances.joint_limit_rad)
+        figure = _in_degrees(margin, ~sliding, np.min)
+        return bool((margin >= -tolerance).all()), {"joint_limit_margin_deg": figure}
 
 
 class Coupling(Check):
-    """Coupled joints keep their ratio: ``|theta_DIP - k theta_PIP - offset|``."""
+    """Coupled joints keep their ratio: ``|theta_DIP - k theta_PIP - offset|`` (a jaw's mimic in metres)."""
 
     name = "coupling"
 
     def judge(self, s: Inspection) -> tuple[bool, Figures]:
-        q = s.q
-        coupling = max((abs(q[d] - r * q[i] - o) for d, i, r, o in s.hand.couplings()), default=0.0)
-        return bool(coupling <= s.tolerances.coupling_rad), {"coupling_error_deg": float(np.degrees(coupling))}
+        q, sliding = s.q, _sliding(s.hand)
+        pairs = s.hand.couplings()
+        errors = np.array([abs(q[d] - r * q[i] - o) for d, i, r, o in pairs])
+        slides = np.array([sliding[d] for d, _, _, _ in pairs], dtype=bool)
+        tolerance = np.where(slides, s.tolerances.coupling_m, s.tolerances.coupling_rad)
+        figure = _in_degrees(errors, ~slides, np.max) if pairs else 0.0
+        return bool((errors <= tolerance).all()), {"coupling_error_deg": figure}
 
 
 class PalmRotation(Check):

@@ -15,6 +15,8 @@ class Tolerances:
     contact_distance_m: float = 1e-3  # |distance from a pad point to the surface| (a sphere's centre: minus its offset)
     joint_limit_rad: float = 1e-4  # how far a joint may sit beyond a limit
     coupling_rad: float = 1e-3  # |theta_DIP - k theta_PIP|
+    joint_limit_m: float = 1e-5  # the same two for a sliding joint (a gripper's jaw)
+    coupling_m: float = 1e-5
     rotation: float = 1e-6  # |R^T R - I| and |det R - 1|
     clearance_m: float = -1e-3  # signed distance minus radius (plus a rolling fingertip's compliance), every sphere
     pad_angle_slack_deg: float = 1.0  # on top of the configured bound
