@@ -64,11 +64,11 @@ def jaw_grasp(tmp_path_factory, simulated):
     tasks = str(simulated[0] / "tasks" / "task_models.json")
     row, context = first_verified(str(path), TOOL, tasks, "screwdriving")
     hand = load_hand(path).grasping_hand()
-    return hand, grasp_from_row(row, hand.joint_names), context.job.task
+    return hand, grasp_from_row(row, hand.joint_names), context.job.task, context
 
 
 def test_the_gripper_grasps_the_tool_with_each_contact_on_its_pads_inner_face(jaw_grasp):
-    hand, grasp, task = jaw_grasp
+    hand, grasp, task, _ = jaw_grasp
     verdict = verify(grasp, hand, load_object(TOOL), task, GraspSettings())
     assert verdict.ok, verdict.failures
     pose = forward(hand, grasp.joint_angles, grasp.palm_rotation, grasp.palm_position)
@@ -93,7 +93,7 @@ def test_a_two_pad_grasp_resists_a_twist_about_the_pads_normal_up_to_its_limit_a
     """Only the pads' torsional friction resists a twist about the line between them: at most the margin's
     mu_t times the normal forces, whose sum the one motor limits to its capped effort. The verifier's LP holds
     0.8 of that and not 1.2, and with no torsional friction holds none."""
-    hand, grasp, _ = jaw_grasp
+    hand, grasp, _, _ = jaw_grasp
     settings, tool = GraspSettings(), load_object(TOOL)
     normal = verify(grasp, hand, tool, _twist(np.array([0.0, 0.0, 1.0]), 1e-3), settings).normals[0]
     limit = settings.friction_scale * settings.torsional_friction_m * settings.motor_activation_max * JAW_EFFORT_N
@@ -154,7 +154,7 @@ def test_the_physics_check_holds_a_twist_about_the_pads_normal_within_the_verifi
     from grasptask.physics.judge import Holding
     from grasptask.physics.physics_settings import PhysicsSettings
 
-    hand, grasp, _ = jaw_grasp
+    hand, grasp, _, _ = jaw_grasp
     settings, tool = GraspSettings(), load_object(TOOL)
     normal = verify(grasp, hand, tool, _twist(np.array([0.0, 0.0, 1.0]), 1e-3), settings).normals[0]
     limit = settings.friction_scale * settings.torsional_friction_m * settings.motor_activation_max * JAW_EFFORT_N
@@ -165,3 +165,25 @@ def test_the_physics_check_holds_a_twist_about_the_pads_normal_within_the_verifi
     dropped = holding.hold(hand, grasp, _twist(normal, 2 * limit)).record()
     assert not dropped["physics_passed"] and dropped["physics_failed_wrench"].startswith("task")
     assert dropped["physics_failed_peak_activation"] >= 0.99, dropped["physics_why"]  # the motor at its limit
+
+
+def test_the_force_problem_holds_a_twist_about_the_pads_normal_up_to_its_limit_and_not_beyond(jaw_grasp):
+    """The search's force problem at the same grasp: eq. 10's QP applies 0.8 of the verifier's limit with no
+    residual and leaves one at 1.2; eq. 8's task forces balance a twist only with the pads' twists."""
+    from grasptask.synthesis.force_problem import ForceProblem
+
+    hand, grasp, _, context = jaw_grasp
+    settings, solver = GraspSettings(), context.job.solver
+    context.nlp.initialise(grasp.palm_rotation, grasp.palm_position, grasp.joint_angles)
+    geometry = context.nlp.geometry()
+    assert list(geometry.soft) == [0, 1]
+    normal = geometry.normals[0]
+    limit = settings.friction_scale * settings.torsional_friction_m * settings.motor_activation_max * JAW_EFFORT_N
+    joints = tuple(f.n_joints for f in hand.fingers.values())
+    for share, closes in ((0.8, True), (1.2, False)):
+        task = _twist(normal, share * limit)
+        rho, bounds, weights = solver.force_slack_weight, solver.search_bounds, solver.regularisation
+        problem = ForceProblem(hand.capability, joints, task, settings, rho, bounds, weights, soft=2)
+        solution = problem.solve(geometry)
+        assert solution.closes is closes, (share, np.abs(solution.wrench_residuals).max())
+        assert np.abs(solution.slacks).max() <= 1e-5  # the task forces balance it with the twists

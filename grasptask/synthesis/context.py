@@ -132,6 +132,7 @@ class SolverContext:
             solver.force_slack_weight,
             solver.search_bounds,
             solver.regularisation,
+            soft=len({j for j, _ in self.nlp.twists}),
         )
 
     def _facing(self, start: Start) -> Start:

@@ -24,7 +24,7 @@ envelope gradient that :meth:`ForceSolution.gradient` computes from the QP's sol
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import cached_property
 from typing import Any
 
@@ -51,10 +51,48 @@ class GraspGeometry:
     contacts: np.ndarray
     edges: np.ndarray
     jacobians: tuple[np.ndarray, ...]
+    #: per contact, its torsional friction (m; 0: a point contact), its inward normal, and its finger's joint
+    #: torques of a unit twist about that normal (a turning joint's axis . n; a sliding joint's 0); None: every
+    #: contact a point contact
+    twists: np.ndarray | None = None
+    normals: np.ndarray | None = None
+    twist_torques: tuple[np.ndarray, ...] | None = None
 
     @property
     def b(self) -> int:
         return len(self.contacts)
+
+    @property
+    def soft(self) -> np.ndarray:
+        """The soft contacts (flat pads), whose two twists follow the cone edges' columns."""
+        return np.zeros(0, dtype=int) if self.twists is None else np.flatnonzero(self.twists > 0)
+
+    def _twist_columns(self) -> tuple[np.ndarray, np.ndarray]:
+        """The soft contacts' twists ``(n, p x n +- mu_t n)`` (6, 2s) and their joint torques (joints, 2s)."""
+        soft, sizes = self.soft, [len(J) for J in self.jacobians]
+        wrenches, torques = np.zeros((6, 2 * len(soft))), np.zeros((sum(sizes), 2 * len(soft)))
+        starts = np.concatenate([[0], np.cumsum(sizes)])
+        for k, j in enumerate(soft):
+            assert self.normals is not None and self.twist_torques is not None and self.twists is not None
+            n, c = self.normals[j], self.twists[j]
+            for i, sign in enumerate((1.0, -1.0)):
+                wrenches[:, 2 * k + i] = np.concatenate([n, np.cross(self.contacts[j], n) + sign * c * n])
+                torques[starts[j] : starts[j + 1], 2 * k + i] = self.jacobians[j] @ n + sign * c * self.twist_torques[j]
+        return wrenches, torques
+
+    def twist_matrices(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Eq. 8's twist columns: the object wrench of a unit twist about each soft contact's normal, ``(0, n)``
+        (6, s); the cross terms ``J^T (turn^T n)`` with the contact forces (3b, s) and the twists' own
+        ``|turn^T n|^2`` (s, s) in ``|tau|^2``."""
+        soft = self.soft
+        G = np.zeros((6, len(soft)))
+        cross, own = np.zeros((3 * self.b, len(soft))), np.zeros((len(soft), len(soft)))
+        for k, j in enumerate(soft):
+            assert self.normals is not None and self.twist_torques is not None
+            G[3:, k] = self.normals[j]
+            cross[3 * j : 3 * j + 3, k] = self.jacobians[j].T @ self.twist_torques[j]
+            own[k, k] = float(self.twist_torques[j] @ self.twist_torques[j])
+        return G, cross, own
 
     def grasp_matrix(self) -> np.ndarray:
         """G (6 x 3b): a contact force's total force and its torque about the object frame's origin."""
@@ -70,13 +108,15 @@ class GraspGeometry:
         return W
 
     def edge_wrenches(self) -> np.ndarray:
-        """Primitive wrenches (6, b m): (l, p x l) per contact and edge (eq. 5)."""
+        """Primitive wrenches (6, b m + 2 s): (l, p x l) per contact and edge (eq. 5), then the soft contacts'
+        twists."""
         pairs = zip(self.contacts, self.edges, strict=True)
         columns = [np.concatenate([edge, np.cross(p, edge)]) for p, edges in pairs for edge in edges]
-        return np.array(columns).T
+        return np.hstack([np.array(columns).T, self._twist_columns()[0]])
 
     def edge_joint_torques(self) -> np.ndarray:
-        """(joints, b m): the joint torques J^T l of a unit force along each edge (eq. 7)."""
+        """(joints, b m + 2 s): the joint torques J^T l of a unit force along each edge (eq. 7), then of the soft
+        contacts' twists."""
         m = self.edges.shape[1]
         sizes = [len(J) for J in self.jacobians]
         out = np.zeros((sum(sizes), self.b * m))
@@ -84,7 +124,7 @@ class GraspGeometry:
         for j, J in enumerate(self.jacobians):
             out[row : row + len(J), j * m : (j + 1) * m] = J @ self.edges[j].T
             row += len(J)
-        return out
+        return np.hstack([out, self._twist_columns()[1]])
 
 
 @dataclass(frozen=True)
@@ -103,6 +143,9 @@ class ForceSolution:
     wrench_residuals: np.ndarray
     multipliers: np.ndarray
     weights: np.ndarray
+    #: the soft contacts' task twists (6, s) and eq. 10's twist forces (6, 2, s, 2); empty for point contacts
+    twists: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
+    twist_forces: np.ndarray = field(default_factory=lambda: np.zeros((0, 2, 0, 2)))
 
     @property
     def closes(self) -> bool:
@@ -142,11 +185,14 @@ class ForceProblem:
         rho: float,
         bounds: SearchBounds = SearchBounds(),
         regularisation: Regularisation = Regularisation(),
+        soft: int = 0,
     ):
         self.capability, self.joints = capability, joints_per_finger
         self.task, self.settings, self.rho = task, settings, float(rho)
         self.bounds, self.regularisation = bounds, regularisation
         self.b, self.m = len(joints_per_finger), settings.cone_edges
+        self.soft = soft  # the soft contacts (flat pads), each with two twists
+        self.n_edges = self.b * self.m + 2 * soft
         self.n_act = len(capability.actuators)
         self.cap = settings.activation_cap(capability.kind) - settings.activation_margin
 
@@ -156,7 +202,7 @@ class ForceProblem:
         residuals) and rows."""
         floor = self.b if self.settings.min_normal_force_n > 0 else 0
         n_t = len(self.capability.transmission)
-        return self.b * self.m + self.n_act + 6 + n_t, 6 + n_t + floor
+        return self.n_edges + self.n_act + 6 + n_t, 6 + n_t + floor
 
     @cached_property
     def _strength_solver(self) -> casadi.Function:
@@ -166,14 +212,15 @@ class ForceProblem:
 
     @cached_property
     def _task_solver(self) -> casadi.Function:
-        n = 3 * self.b
+        n = 3 * self.b + self.soft
         H, A = casadi.Sparsity.dense(n, n), casadi.Sparsity(0, n)
         return casadi.conic("task_forces", QP_SOLVER, {"h": H, "a": A}, {"print_time": False, "error_on_fail": False})
 
     def _task_forces(self, G: np.ndarray, W: np.ndarray, gamma: float, u: np.ndarray) -> np.ndarray:
         """argmin_f gamma (f^T W f + rho |G f - u|^2) within eq. 8's force bound: the KKT system
-        [[W, G^T], [G, -I/rho]] [f; z] = [0; u] (z = rho s), or the QP where the bound binds."""
-        n = 3 * self.b
+        [[W, G^T], [G, -I/rho]] [f; z] = [0; u] (z = rho s), or the QP where the bound binds. A soft contact's
+        twist is one more column of G and W (:meth:`GraspGeometry.twist_matrices`)."""
+        n = len(W)
         kkt = np.block([[W, G.T], [G, -np.eye(6) / self.rho]])
         f = np.linalg.solve(kkt, np.concatenate([np.zeros(n), u]))[:n]
         f_max = self.bounds.task_force_n
@@ -189,7 +236,7 @@ class ForceProblem:
         wrench rows' targets are set per wrench). The objective is divided by rho: the residuals' weight 1, the
         small terms' at least STRENGTH_FLOOR, for with the NLP's 1e-7 against a rho of 1e7 the QP's condition
         (1e14) left DAQP's residuals 1e3 off their least."""
-        n_edges = self.b * self.m
+        n_edges = self.n_edges
         n, rows = self._strength_size
         n_residuals, n_t = n - n_edges - self.n_act, len(self.capability.transmission)
         weights = np.concatenate(
@@ -207,8 +254,11 @@ class ForceProblem:
         return casadi.DM(casadi.Sparsity.diag(n), 2 * weights), lbx, ubx, lower, upper
 
     def _strength_rows(self, geometry: GraspGeometry) -> np.ndarray:
-        """Eq. 10's rows for one sign at ``geometry``: wrench, transmission, least normal force."""
-        n_edges, cap = self.b * self.m, self.capability
+        """Eq. 10's rows for one sign at ``geometry``: wrench, transmission, least normal force (a twist presses
+        with its whole magnitude)."""
+        n_edges, cap = self.n_edges, self.capability
+        if len(geometry.soft) != self.soft:
+            raise ValueError(f"the geometry has {len(geometry.soft)} soft contacts, the force problem {self.soft}")
         n, rows = self._strength_size
         A = np.zeros((rows, n))
         A[:6, :n_edges], A[:6, n_edges + self.n_act : n_edges + self.n_act + 6] = geometry.edge_wrenches(), -np.eye(6)
@@ -220,6 +270,8 @@ class ForceProblem:
             mu = self.settings.friction_scale * self.settings.friction_coefficient
             for j in range(self.b):
                 A[6 + n_t + j, j * self.m : (j + 1) * self.m] = 1.0 / np.sqrt(1.0 + mu**2)
+            for k, j in enumerate(geometry.soft):
+                A[6 + n_t + j, self.b * self.m + 2 * k : self.b * self.m + 2 * k + 2] = 1.0
         return A
 
     def _strength(self, A: np.ndarray, target: np.ndarray) -> np.ndarray:
@@ -235,35 +287,54 @@ class ForceProblem:
         arrays = [geometry.contacts, geometry.edges, *geometry.jacobians]
         if not all(np.isfinite(a).all() for a in arrays):
             raise ValueError("the force problem's geometry is not finite")
-        G, W = geometry.grasp_matrix(), geometry.torque_weights()
+        G, W = self._task_matrices(geometry)
         A = self._strength_rows(geometry)
         weights = np.asarray(self.task.weights, dtype=float)
-        n_edges = self.b * self.m
-        forces, slacks, edge, act, residuals = [], [], [], [], []
+        n_edges, cone = self.n_edges, self.b * self.m
+        forces, twists, slacks, edge, spun, act, residuals = [], [], [], [], [], [], []
         for gamma, u, length in zip(weights, self.task.axes, self.task.lengths, strict=True):
             f = self._task_forces(G, W, float(gamma), u)
-            forces.append(f.reshape(self.b, 3))
+            forces.append(f[: 3 * self.b].reshape(self.b, 3))
+            twists.append(f[3 * self.b :])
             slacks.append(G @ f - u)
             signs = [self._strength(A, sign * length * u) for sign in (1.0, -1.0)]
-            edge.append([x[:n_edges].reshape(self.b, self.m) for x in signs])
+            edge.append([x[:cone].reshape(self.b, self.m) for x in signs])
+            spun.append([x[cone:n_edges].reshape(self.soft, 2) for x in signs])
             act.append([x[n_edges : n_edges + self.n_act] for x in signs])
             residuals.append([x[n_edges + self.n_act :] for x in signs])
         forces_a, slacks_a, residuals_a = np.array(forces), np.array(slacks), np.array(residuals)
-        Q = quality(geometry, forces_a, weights)
+        Q = quality(geometry, forces_a, weights, np.array(twists))
         slack_penalty = float(weights @ (slacks_a**2).sum(axis=1))
         value = Q + self.rho * (slack_penalty + float((residuals_a**2).sum()))
         # the multipliers of G f - s = u: stationarity in s makes them 2 gamma_i rho s
         multipliers = 2 * self.rho * weights[:, None] * slacks_a
         return ForceSolution(
-            Q, value, forces_a, slacks_a, np.array(edge), np.array(act), residuals_a, multipliers, weights
-        )
+            Q, value, forces_a, slacks_a, np.array(edge), np.array(act), residuals_a, multipliers, weights,
+            np.array(twists), np.array(spun),
+        )  # fmt: skip
+
+    def _task_matrices(self, geometry: GraspGeometry) -> tuple[np.ndarray, np.ndarray]:
+        """Eq. 8's G and W, a soft contact's twist a column more; the twists' own weight floored at the
+        regularisation's task_force, for a sliding jaw's twist costs no torque and W would be singular."""
+        G, W = geometry.grasp_matrix(), geometry.torque_weights()
+        if not self.soft:
+            return G, W
+        twist_G, cross, own = geometry.twist_matrices()
+        floor = max(self.regularisation.task_force, 1e-9) * np.eye(self.soft)
+        return np.hstack([G, twist_G]), np.block([[W, cross], [cross.T, own + floor]])
 
 
-def quality(geometry: GraspGeometry, forces: np.ndarray, weights: np.ndarray) -> float:
-    """Eq. 12: sum_i gamma_i sum_j |J^j^T f_i^j|^2 for task forces ``forces`` (axes, b, 3)."""
-    total = 0.0
-    for gamma, per_axis in zip(weights, forces, strict=True):
+def quality(
+    geometry: GraspGeometry, forces: np.ndarray, weights: np.ndarray, twists: np.ndarray | None = None
+) -> float:
+    """Eq. 12: sum_i gamma_i sum_j |J^j^T f_i^j|^2 for task forces ``forces`` (axes, b, 3), a soft contact's
+    task twist ``twists`` (axes, s) adding its joint torques."""
+    total, soft = 0.0, list(geometry.soft)
+    for i, (gamma, per_axis) in enumerate(zip(weights, forces, strict=True)):
         torques = [J @ f for J, f in zip(geometry.jacobians, per_axis, strict=True)]
+        for k, j in enumerate(soft):
+            assert twists is not None and geometry.twist_torques is not None
+            torques[j] = torques[j] + twists[i, k] * geometry.twist_torques[j]
         total += float(gamma) * sum(float(t @ t) for t in torques)
     return total
 

@@ -645,8 +645,10 @@ class GraspNLP:
     definitions: list[tuple[Any, Any]] = field(default_factory=list)  # (variable, expression), dependency order
     #: a mesh's or point cloud's surface, whose placeholder rows the backend fills (None: all Pyomo)
     surrogate: GridSurface | None = None
-    #: the (finger, wrench) cells of the soft fingers' twists, which follow their cone edges
+    #: the (finger, wrench) cells of the soft fingers' twists, which follow their cone edges, and the margin's
+    #: torsional friction of each (m)
     twists: frozenset[tuple[int, int]] = frozenset()
+    twist_coefficient: float = 0.0
 
     def size(self) -> dict[str, Any]:
         """Variables and constraints as IPOPT sees them (the held turn's reference is pinned, so not counted),
@@ -752,9 +754,13 @@ class GraspNLP:
                 var.set_value(float(value), skip_validation=True)  # IPOPT's point may sit a hair past a bound
         for (a, j, i), var in m.force.items():
             var.set_value(float(forces.forces[a, j, i]), skip_validation=True)
-        for (a, s, j, e), var in m.lam.items():  # a soft finger's twists keep theirs: the force problem has none
-            if (j, e) not in self.twists:
-                var.set_value(float(forces.edge_forces[a, s, j, e]), skip_validation=True)
+        cone = forces.edge_forces.shape[-1]
+        soft = sorted({j for j, _ in self.twists})
+        for (a, s, j, e), var in m.lam.items():
+            force = forces.edge_forces[a, s, j, e] if e < cone else forces.twist_forces[a, s, soft.index(j), e - cone]
+            var.set_value(float(force), skip_validation=True)
+        for (a, j), var in m.task_twist.items() if m.component("task_twist") is not None else []:
+            var.set_value(float(forces.twists[a, soft.index(j)]), skip_validation=True)
         for (a, s, q), var in m.act.items():
             var.set_value(float(forces.activations[a, s, q]), skip_validation=True)
 
@@ -771,14 +777,28 @@ class GraspNLP:
         """The contacts, cone edges and Jacobians at the current values: what the force problem holds fixed."""
         m, fingers = self.model, list(self.hand.fingers.values())
         b, edges = len(fingers), 1 + max(e for j, e, _ in m.l.index_set() if (j, e) not in self.twists)
-        return GraspGeometry(
-            np.array([[pyo.value(m.p[j, i]) for i in XYZ] for j in range(b)]),
-            np.array([[[pyo.value(m.l[j, e, i]) for i in XYZ] for e in range(edges)] for j in range(b)]),
-            tuple(
-                np.array([[pyo.value(m.J[j, k, i]) for i in XYZ] for k in range(f.n_joints)])
-                for j, f in enumerate(fingers)
-            ),
+        jacobians = tuple(
+            np.array([[pyo.value(m.J[j, k, i]) for i in XYZ] for k in range(f.n_joints)]) for j, f in enumerate(fingers)
         )
+        contacts = np.array([[pyo.value(m.p[j, i]) for i in XYZ] for j in range(b)])
+        cones = np.array([[[pyo.value(m.l[j, e, i]) for i in XYZ] for e in range(edges)] for j in range(b)])
+        if not self.twists:
+            return GraspGeometry(contacts, cones, jacobians)
+        normals = np.array([[pyo.value(m.n[j, i]) for i in XYZ] for j in range(b)])
+        soft = {j for j, _ in self.twists}
+        # a turning joint's axis is its link frame's image of the file's axis; a sliding joint feels no twist
+        turns = tuple(
+            np.array([0.0 if joint.sliding else self._axis(j, k, joint.axis) @ normals[j] for k, joint in
+                      enumerate(f.joints)])
+            for j, f in enumerate(fingers)
+        )  # fmt: skip
+        twists = np.array([self.twist_coefficient if j in soft else 0.0 for j in range(b)])
+        return GraspGeometry(contacts, cones, jacobians, twists, normals, turns)
+
+    def _axis(self, j: int, k: int, axis: np.ndarray) -> np.ndarray:
+        """Joint ``k`` of finger ``j``'s axis in the object frame, from the link frame after it."""
+        frame = np.array([[pyo.value(self.model.frame[j, k, r, c]) for c in XYZ] for r in XYZ])
+        return frame @ axis
 
     def columns(self, variables: list, names: tuple[str, ...] = ("p", "J")) -> dict[str, dict]:
         """Where each of the components ``names`` has its variables in ``variables`` (the NL file's order), by
@@ -856,4 +876,4 @@ def build_model(
         equation(builder)
     surrogate = builder.surface if isinstance(builder.surface, GridSurface) else None
     twists = frozenset((j, e) for j, e in builder.cells if e >= settings.cone_edges)
-    return GraspNLP(builder.model, grasping, builder.definitions, surrogate, twists)
+    return GraspNLP(builder.model, grasping, builder.definitions, surrogate, twists, builder.twist_coefficient)
