@@ -69,19 +69,6 @@ class Judge:
     task: TaskModel
     holding: Holding
 
-    @classmethod
-    def of(
-        cls,
-        solved: SolvedGrasps,
-        task: TaskModel,
-        obj: ImplicitObject,
-        friction: float,
-        settings: PhysicsSettings,
-        strength: float = 1.0,
-        pad_torsion: float = 0.0,
-    ) -> Judge:
-        return cls(solved, task, Holding.of(obj, friction, settings, strength, pad_torsion))
-
     def check_scene(self) -> None:
         """Build the first solved grasp's scene, so that a hand file MuJoCo cannot compile is one line here,
         before any worker starts."""

@@ -19,7 +19,7 @@ from grasptask.io.child_processes import die_with_parent
 from grasptask.io.config_schema import MAX_WORKERS
 from grasptask.io.locking import check_writable, folder_lock
 from grasptask.paths import DEFAULT_PHYSICS_CONFIG, as_paths
-from grasptask.physics.judge import Judge, best_grasp_trace, write_physics_results
+from grasptask.physics.judge import Holding, Judge, best_grasp_trace, write_physics_results
 from grasptask.physics.physics_settings import CONTROLLERS, Controller, load_physics_settings
 from grasptask.progress import Progress
 from grasptask.records.sweeps import Sweep, SweepInputs
@@ -66,7 +66,8 @@ def _judge_for(options: PhysicsOptions, sweep: Sweep) -> Judge:
     settings = replace(settings, controller=options.controller or settings.controller)
     friction = sweep.settings.friction_coefficient * options.friction_scale
     torsion = sweep.settings.torsional_friction_m
-    judge = Judge.of(sweep.solved, sweep.task_model, sweep.load_object(), friction, settings, options.strength, torsion)
+    holding = Holding.of(sweep.load_object(), friction, settings, options.strength, torsion)
+    judge = Judge(sweep.solved, sweep.task_model, holding)
     judge.check_scene()
     return judge
 

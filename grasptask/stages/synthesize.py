@@ -711,9 +711,9 @@ def _run_inputs(
 def _physics_judge(solutions: pd.DataFrame, job: Job) -> Any:
     """The physics check's judge over this sweep's own solutions, for the best grasp's trace and the summary
     (the workers checked every verified start already)."""
-    from grasptask.physics.judge import Judge  # deferred: MuJoCo
+    from grasptask.physics.judge import Holding, Judge  # deferred: MuJoCo
 
     assert job.physics is not None
     friction, torsion = job.settings.friction_coefficient, job.settings.torsional_friction_m
     solved = SolvedGrasps.of(solutions, job.hand.grasping_hand())
-    return Judge.of(solved, job.task, job.obj, friction, job.physics, pad_torsion=torsion)
+    return Judge(solved, job.task, Holding.of(job.obj, friction, job.physics, pad_torsion=torsion))
