@@ -179,9 +179,8 @@ class GripController:
         levers = np.cross((contacts.points - origin)[:, None, :], contacts.frames)  # (m, 3 columns, 3)
         soft = np.flatnonzero(np.isin(contacts.bodies, scene.soft_bodies) & (contacts.index >= 0))
         twists = np.vstack([np.zeros((3, len(soft))), contacts.frames[soft, 0].T / self.lever])  # a twist: (0, n)
-        grasp = np.hstack([np.vstack(
-            [bases.transpose(1, 0, 2).reshape(3, 3 * m), levers.transpose(2, 0, 1).reshape(3, 3 * m) / self.lever]
-        ), twists])  # fmt: skip
+        forces = [bases.transpose(1, 0, 2).reshape(3, 3 * m), levers.transpose(2, 0, 1).reshape(3, 3 * m) / self.lever]
+        grasp = np.hstack([np.vstack(forces), twists])
         joint_map = scene.transmission @ np.einsum("mjn,mjk->nmk", jacobians, bases).reshape(-1, 3 * m)
         joint_map = np.hstack([joint_map, np.zeros((len(joint_map), len(soft)))])  # a sliding jaw feels no twist
         wanted = self.wanted_wrench(data, test, ramp)

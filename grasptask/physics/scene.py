@@ -251,9 +251,7 @@ def build_scene(
     unique, columns, expand = _scene_joints(hand.file_joint_names if source is not None else hand.joint_names)
     capability = hand.capability
     transmission, torque_map = capability.transmission[:, columns], strength * capability.torque_map
-    # the joint torques of least norm with T tau = A a: T^T A only where T's rows are orthonormal; a motor that
-    # drives a mimic pair ([1, 1]) gave each joint its whole effort, twice the model's strength over the pair
-    actuation = np.linalg.pinv(transmission) @ torque_map
+    actuation = np.linalg.pinv(transmission) @ torque_map  # least-norm tau with T tau = A a (mimic pairs: not T^T)
     joints = [prefix + name for name in unique]
     _add_actuators(spec, joints, actuation)
     model = compile_spec(spec, source or "physics scene")
