@@ -146,7 +146,8 @@ _SYNTHESIS = [
         type=click.Path(path_type=Path),
         default=DEFAULT_SOLVER_CONFIG,
         show_default=True,
-        help="IPOPT options and time limits (YAML).",
+        help="IPOPT options (iteration caps, tolerances; a clock limit is refused), retries and the search's "
+        "settings (YAML).",
     ),
     click.option(
         "--starts", type=click.IntRange(min=1), default=None, help="Run a deterministic subset of the 126 starts."
