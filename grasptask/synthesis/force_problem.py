@@ -67,6 +67,7 @@ class GraspGeometry:
         """The soft contacts (flat pads), whose two twists follow the cone edges' columns."""
         return np.zeros(0, dtype=int) if self.twists is None else np.flatnonzero(self.twists > 0)
 
+    @cached_property
     def _twist_columns(self) -> tuple[np.ndarray, np.ndarray]:
         """The soft contacts' twists ``(n, p x n +- mu_t n)`` (6, 2s) and their joint torques (joints, 2s)."""
         soft, sizes = self.soft, [len(J) for J in self.jacobians]
@@ -112,7 +113,7 @@ class GraspGeometry:
         twists."""
         pairs = zip(self.contacts, self.edges, strict=True)
         columns = [np.concatenate([edge, np.cross(p, edge)]) for p, edges in pairs for edge in edges]
-        return np.hstack([np.array(columns).T, self._twist_columns()[0]])
+        return np.hstack([np.array(columns).T, self._twist_columns[0]])
 
     def edge_joint_torques(self) -> np.ndarray:
         """(joints, b m + 2 s): the joint torques J^T l of a unit force along each edge (eq. 7), then of the soft
@@ -124,7 +125,7 @@ class GraspGeometry:
         for j, J in enumerate(self.jacobians):
             out[row : row + len(J), j * m : (j + 1) * m] = J @ self.edges[j].T
             row += len(J)
-        return np.hstack([out, self._twist_columns()[1]])
+        return np.hstack([out, self._twist_columns[1]])
 
 
 @dataclass(frozen=True)

@@ -48,6 +48,7 @@ from grasptask.objects.surface import ImplicitObject
 from grasptask.synthesis.algebra import XYZ, axis_rotation, constant_times, cross, cross_matrix, dot
 from grasptask.synthesis.compiled import CompiledExpressions
 from grasptask.synthesis.force_problem import ForceSolution, GraspGeometry
+from grasptask.synthesis.resistance import soft_contacts
 from grasptask.synthesis.solver_config import Regularisation, SearchBounds
 from grasptask.synthesis.spline import SurrogateSpec
 from grasptask.synthesis.surfaces import GridSurface, NLPSurface, surface_for
@@ -110,9 +111,7 @@ class NLPBuilder:
     def twisting(self) -> list[int]:
         """The fingers whose contact is a soft finger's (a flat pad pressed on the surface): it resists a twist
         about its normal up to :attr:`twist_coefficient` times its normal force; a point contact does not."""
-        if self.settings.torsional_friction_m <= 0:
-            return []
-        return [j for j, f in enumerate(self.fingers) if f.pad.flat]
+        return soft_contacts(self.hand, self.settings)
 
     @property
     def twist_coefficient(self) -> float:

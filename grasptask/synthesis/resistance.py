@@ -13,6 +13,7 @@ import numpy as np
 
 from grasptask.grasp.grasp_settings import GraspSettings
 from grasptask.hand.hand_model import GraspingHand
+from grasptask.task.ellipsoid import TORQUE, principal_axes
 from grasptask.task.task_model import TaskModel
 
 #: a torque extent (relative to the task's largest wrench extent) below which the task asks for none
@@ -21,17 +22,23 @@ NEGLIGIBLE = 1e-6
 
 def least_torque(task: TaskModel) -> tuple[float, np.ndarray]:
     """The task ellipsoid's least extent along a pure torque (N.m) and its axis in the task frame: the smallest
-    ``sqrt(d^T S d)`` over unit torques ``d``, with ``S = sum_i L_i^2 u_i u_i^T`` the ellipsoid's shape."""
-    shape = (task.axes.T * np.asarray(task.lengths) ** 2) @ task.axes
-    values, vectors = np.linalg.eigh(shape[3:, 3:])
-    return float(np.sqrt(max(values[0], 0.0))), vectors[:, 0]
+    ``sqrt(d^T S d)`` over unit torques ``d``, the shortest principal axis of ``S``'s torque block."""
+    lengths, axes = principal_axes(task.ellipsoid.S[TORQUE, TORQUE])
+    return float(lengths[-1]), axes[:, -1]
+
+
+def soft_contacts(hand: GraspingHand, settings: GraspSettings) -> list[int]:
+    """The grasping fingers whose contact is a soft finger's: a flat pad, while the grasp config gives it
+    torsional friction; every other contact is a point contact."""
+    if settings.torsional_friction_m <= 0:
+        return []
+    return [j for j, finger in enumerate(hand.fingers.values()) if finger.pad.flat]
 
 
 def unresistable(hand: GraspingHand, task: TaskModel, settings: GraspSettings) -> str | None:
     """A line saying what ``hand``'s grasping contacts cannot resist of ``task`` wherever they are placed, with
     the axis; None when some placement may hold it."""
-    soft = settings.torsional_friction_m > 0 and any(f.pad.flat for f in hand.fingers.values())
-    if len(hand.fingers) != 2 or soft:
+    if len(hand.fingers) != 2 or soft_contacts(hand, settings):
         return None
     extent, axis = least_torque(task)
     largest = float(np.max(task.lengths))
