@@ -58,7 +58,7 @@ def test_export_writes_a_glb_and_a_record_per_optimum(exported):
     out, output = exported
     listing = json.loads((out / "grasps.json").read_text())
     assert [g["name"] for g in listing["grasps"]] == ["optimum_00"] and listing["task"] == "drawing"
-    assert "wrote 1 grasps" in output and "1 verified" in output
+    assert "wrote 1 grasp " in output and "1 verified" in output
     scene = trimesh.load(out / "optimum_00.glb", force="scene")
     hand = load_hand().grasping_hand()
     expected = {"object", "palm"} | {f"{kind}_{f}" for f in hand.fingers for kind in ("finger", "contact")}

@@ -16,6 +16,7 @@ from grasptask import stages
 from grasptask.cli.group import main
 from grasptask.cli.options import (
     fingers_option,
+    mujoco_options,
     object_options,
     out_option,
     physics_config_option,
@@ -26,7 +27,7 @@ from grasptask.cli.options import (
     synthesis_options,
 )
 from grasptask.cli.summaries import finding_lines, fit_summary, nearest_lines, number, physics_line, synthesis_line
-from grasptask.stages import DEFAULT_SIMULATE_CONFIG, FORCE_UNITS, TIME_UNITS, TORQUE_UNITS
+from grasptask.stages import DEFAULT_SIMULATE_CONFIG, FORCE_UNITS, TIME_UNITS, TORQUE_UNITS, plural
 
 
 @dataclass(frozen=True)
@@ -160,7 +161,7 @@ def distances(**params):
 def _distances_said(options, done) -> None:
     by_task = done.by_task
     click.echo(
-        f"{by_task['n_ellipsoids']} ellipsoids, {len(by_task['labels'])} tasks: "
+        f"{plural(by_task['n_ellipsoids'], 'ellipsoid')}, {plural(len(by_task['labels']), 'task')}: "
         f"LOO 1-NN task accuracy {number(by_task['loo_1nn_accuracy'])}, "
         f"silhouette {number(by_task.get('silhouette'))}, "
         f"mean normalised distance within tasks {number(by_task.get('mean_within_normalised'))}"
@@ -255,7 +256,7 @@ def verify_command(**params):
 
 
 def _verify_said(options, done) -> None:
-    click.echo(f"{done.verified}/{len(done.table)} grasps verified; wrote {done.path}")
+    click.echo(f"{done.verified}/{plural(len(done.table), 'grasp')} verified; wrote {done.path}")
 
 
 @main.command()
@@ -297,6 +298,7 @@ def _physics_said(options, done) -> None:
 @click.option(
     "--all", "every_start", is_flag=True, help="Every verified start, not only the distinct optima (optima.parquet)."
 )
+@mujoco_options
 @sweep_model_options
 @fingers_option("the sweep's")
 def export(**params):
@@ -304,14 +306,19 @@ def export(**params):
     OUT/optimum_NN.glb (hand collision bodies, object and contacts in the object frame, a colour per finger;
     Blender, MeshLab and three.js open it) and OUT/optimum_NN.json (joint angles by the hand file's joint names,
     the palm pose as a 4x4 matrix, contacts and normals, the contact forces and activations or joint torques per
-    task wrench, Q and the verifier's figures; schema in docs/grasp_record.schema.json)."""
+    task wrench, Q and the verifier's figures; schema in docs/grasp_record.schema.json).
+
+    With --mujoco, each also as a folder MuJoCo loads as it is, anywhere: look at it with
+    `python -m mujoco.viewer --mjcf OUT/optimum_01/scene.xml` (load key 'grasp'); docs/guide/mujoco.md replays
+    the physics check in it."""
     run_command("export", params)
 
 
 def _export_said(options, done) -> None:
-    click.echo(
-        f"wrote {done.grasps} grasps to {done.out} (.glb and .json each, grasps.json), {done.verified_now} verified"
-    )
+    what = "(.glb and .json each, grasps.json)"
+    if done.held is not None:
+        what = f"(.glb, .json and a MuJoCo scene folder each, grasps.json), {done.held} held in physics,"
+    click.echo(f"wrote {plural(done.grasps, 'grasp')} to {done.out} {what} {done.verified_now} verified")
 
 
 @main.command()

@@ -263,3 +263,15 @@ _PREPROCESS = [
     ),
     click.option("--centered", is_flag=True, help="Use the covariance instead of the second moment about the origin."),
 ]
+
+
+def mujoco_options(command):
+    """``export``'s MuJoCo scene folders, and the physics config they are held with."""
+    command = physics_config_option("With --mujoco: scene, controller, protocol and thresholds (YAML).")(command)
+    return click.option(
+        "--mujoco",
+        is_flag=True,
+        help="Also write OUT/optimum_NN/scene.xml, the MuJoCo scene the physics check holds the grasp in "
+        "(keyframes 'grasp' and 'settled'; meshes beside it), with the check's wrenches.csv, controls.csv and "
+        "check.json.",
+    )(command)

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import math
 
+from grasptask.stages import plural
+
 
 def fit_summary(ellipsoids, stats) -> str:
     """Per group (paper order): recordings and the mean main-axis lengths of the force and torque ellipsoids."""
@@ -42,15 +44,17 @@ def synthesis_line(task: str, run: dict) -> str:
     route = run.get("route")
     if route:
         verified = (
-            f"{route['polished']} of {run['starts']} starts polished ({route['basins']} basins, "
+            f"{route['polished']} of {plural(run['starts'], 'start')} polished ({plural(route['basins'], 'basin')}, "
             f"{route['polished_verified']} verified, {route['same_basin']} joined a basin, "
             f"{route['search_failed']} searches failed), "
         )
     else:
-        verified = f"{run['verified']}/{run['starts']} starts verified ({run['verified_on_retry']} on a retry), "
+        verified = (
+            f"{run['verified']}/{plural(run['starts'], 'start')} verified ({run['verified_on_retry']} on a retry), "
+        )
     return (
         f"{task}: {verified}"
-        f"{run['distinct_optima']} distinct optima, "
+        f"{plural(run['distinct_optima'], 'distinct optimum')}, "
         f"best Q {number(run['best_Q'])}{verifier_said(run)}; {seconds['median']:.2f} s per start (median), "
         f"statuses {', '.join(f'{k} {v}' for k, v in run['status_counts'].items() if v)}"
         f"{throughput_said(run)}{object_said(run)}"

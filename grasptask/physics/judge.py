@@ -19,7 +19,7 @@ if TYPE_CHECKING:
     from grasptask.hand.hand_model import Hand
     from grasptask.objects.surface import ImplicitObject
     from grasptask.physics.protocol import PhysicsResult
-    from grasptask.physics.scene import ObjectBody
+    from grasptask.physics.scene import ObjectBody, Scene
     from grasptask.records.sweeps import SolvedGrasps
     from grasptask.task.task_model import TaskModel
 
@@ -58,6 +58,14 @@ class Holding:
         return hold_grasp(
             hand, self.obj, body, grasp, friction, task, self.settings, trace, self.strength, self.pad_torsion
         )
+
+    def traced(self, hand: Hand, grasp: Grasp, task: TaskModel) -> tuple[Scene, PhysicsResult]:
+        """The grasp's seated scene and its check with every control step kept (an exported scene's)."""
+        from grasptask.physics.protocol import check_grasp, seated_scene  # deferred: MuJoCo
+
+        h = self
+        scene, seating = seated_scene(hand, h.obj, h.body, grasp, h.friction, h.settings, h.strength, h.pad_torsion)
+        return scene, check_grasp(scene, task, h.body.mass_kg, h.settings, True, seating)
 
 
 @dataclass(frozen=True)
@@ -125,9 +133,9 @@ def best_grasp_trace(judge: Judge) -> pd.DataFrame:
             {
                 "start_id": int(row["start_id"]),
                 "phase": phase,
-                "time_s": motion[:, 0],
-                "translation_m": motion[:, 1],
-                "rotation_deg": motion[:, 2],
+                "time_s": motion.time_s,
+                "translation_m": motion.translation_m,
+                "rotation_deg": motion.rotation_deg,
             }
         )
         for phase, motion in result.traces.items()

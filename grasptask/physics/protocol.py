@@ -22,6 +22,7 @@ from grasptask.physics.scene import ObjectBody, Scene, build_scene
 from grasptask.physics.seating import Seating, seat
 from grasptask.physics.sensing import hand_contacts, link_loads, pad_loads, penetration_m
 from grasptask.physics.spring import SpringController
+from grasptask.physics.timeline import PhaseTrace
 from grasptask.task.task_model import TaskModel
 
 
@@ -61,9 +62,12 @@ class PhysicsResult:
     controller: str = "grip"
     #: why the grasp was dropped (:func:`why_dropped`; :data:`HELD_WHY` where it held)
     why: dict[str, object] = field(default_factory=lambda: dict(HELD_WHY))
-    #: with ``check_grasp(..., trace=True)``: per phase (``"settle"`` and each test), the object's motion at
-    #: every control step, ``(n, 3)``: seconds into the phase, translation (m), rotation (deg)
-    traces: dict[str, np.ndarray] = field(default_factory=dict)
+    #: with ``check_grasp(..., trace=True)``: per phase (``"settle"`` and each test), every control step
+    traces: dict[str, PhaseTrace] = field(default_factory=dict)
+    #: with ``trace=True``: the simulation's state where the hand had settled (``qpos``, ``qvel``, ``ctrl``),
+    #: from which every test started, and the scene's state at the start (the seated posture)
+    settled_state: dict[str, np.ndarray] = field(default_factory=dict)
+    start_state: dict[str, np.ndarray] = field(default_factory=dict)
 
     def worst(self, prefix: str = "task") -> Motion:
         chosen = [m for name, m in self.tests.items() if name.startswith(prefix)]
@@ -172,13 +176,20 @@ class _Run:
             now_turned = float(_rotations_deg(data.xquat[body][None], start_quat)[0])
             moved, turned = max(moved, now_moved), max(turned, now_turned)
             if trace is not None:
-                trace.append(((k + 1) * period_s, now_moved, now_turned))
+                wrench = data.xfrc_applied[body].copy()
+                joints, pose = data.qpos[scene.hand_qpos], data.qpos[scene.object_qpos : scene.object_qpos + 7]
+                trace.append(PhaseTrace.row((k + 1) * period_s, now_moved, now_turned, wrench, data.ctrl, pose, joints))
             if stop is not None and (moved > stop[0] or turned > stop[1]):
                 break
         loads = link_loads(scene, data, hand_contacts(scene, data))  # under the full load, held or going
         data.xfrc_applied[:] = 0.0
         use = max((load.friction_use for load in loads), default=0.0)
         return Motion(moved, turned, peak, saturated, use, pad_loads(scene, data, loads) if held is None else held)
+
+
+def _state(data: mujoco.MjData) -> dict[str, np.ndarray]:
+    """What a MuJoCo keyframe holds of ``data``: positions, velocities and controls."""
+    return {"qpos": data.qpos.copy(), "qvel": data.qvel.copy(), "ctrl": data.ctrl.copy()}
 
 
 def check_grasp(
@@ -198,18 +209,21 @@ def check_grasp(
     traces: dict[str, list] = {}
     ours = (settings.max_translation_m, settings.max_rotation_deg)
     theirs = (settings.benchmark_translation_m, settings.benchmark_rotation_deg)
+    start = _state(run.data)
     settle = run.simulate(settings.settle_s, trace=traces.setdefault("settle", []) if trace else None)
     settled_depth = penetration_m(scene, run.data)
+    settled_state = _state(run.data)
     run.controller.hold(run.data)
     spec = mujoco.mjtState.mjSTATE_INTEGRATION
     settled = np.zeros(mujoco.mj_stateSize(scene.model, spec))
     mujoco.mj_getState(scene.model, run.data, settled, spec)
-    held = copy.deepcopy(run.controller)
+    shared = {id(scene): scene}  # the scene is the same for every test: its spec cannot be copied anyway
+    held = copy.deepcopy(run.controller, shared)
     tests: dict[str, Motion] = {}
     for test in task_tests(task) + benchmark_tests(mass_kg, settings):
         mujoco.mj_setState(scene.model, run.data, settled, spec)
         mujoco.mj_forward(scene.model, run.data)
-        run.controller = copy.deepcopy(held)
+        run.controller = copy.deepcopy(held, dict(shared))
         kept = traces.setdefault(test.name, []) if trace else None
         limit = ours if test.of_task else theirs
         tests[test.name] = run.simulate(settings.ramp_s + settings.hold_s, test, None if trace else limit, kept)
@@ -227,7 +241,9 @@ def check_grasp(
         settled_penetration_m=settled_depth,
         seat_deg=0.0 if seating is None else seating.moved_deg,
         controller=settings.controller,
-        traces={name: np.array(rows).reshape(-1, 3) for name, rows in traces.items()},
+        traces={name: PhaseTrace.of(rows, scene.model.nu, len(scene.hand_qpos)) for name, rows in traces.items()},
+        settled_state=settled_state if trace else {},
+        start_state=start if trace else {},
         why=why_dropped(scene, failed, settle if failed == "settle" else tests.get(failed or "")),
     )
 
@@ -271,6 +287,26 @@ def why_dropped(scene: Scene, test: str | None, motion: Motion | None) -> dict[s
     return why
 
 
+def seated_scene(
+    hand: Hand,
+    obj: ImplicitObject,
+    body: ObjectBody,
+    grasp: Grasp,
+    friction: float,
+    settings: PhysicsSettings,
+    strength: float = 1.0,
+    pad_torsion: float = 0.0,
+) -> tuple[Scene, Seating]:
+    """``grasp`` by ``hand`` on ``obj`` (``body`` its MuJoCo parts) built into a scene, the hand ``strength``
+    times as strong as its model (its flat pads twisting with ``pad_torsion``), its fingers seated at rest on
+    the object (:mod:`grasptask.physics.seating`)."""
+    scene = build_scene(hand, obj, body, grasp, friction, settings, strength, pad_torsion)
+    seating = seat(scene, hand, scene.posture)
+    if seating.joints is not None:
+        scene = replace(scene, posture=seating.joints)
+    return scene, seating
+
+
 def hold_grasp(
     hand: Hand,
     obj: ImplicitObject,
@@ -283,11 +319,6 @@ def hold_grasp(
     strength: float = 1.0,
     pad_torsion: float = 0.0,
 ) -> PhysicsResult:
-    """``grasp`` by ``hand`` on ``obj`` (``body`` its MuJoCo parts) built into a scene, the hand ``strength``
-    times as strong as its model (its flat pads twisting with ``pad_torsion``), its fingers seated at rest on
-    the object (:mod:`grasptask.physics.seating`), and put through :func:`check_grasp`."""
-    scene = build_scene(hand, obj, body, grasp, friction, settings, strength, pad_torsion)
-    seating = seat(scene, hand, scene.posture)
-    if seating.joints is not None:
-        scene = replace(scene, posture=seating.joints)
+    """:func:`seated_scene`'s grasp put through :func:`check_grasp`."""
+    scene, seating = seated_scene(hand, obj, body, grasp, friction, settings, strength, pad_torsion)
     return check_grasp(scene, task, body.mass_kg, settings, trace, seating)

@@ -84,6 +84,8 @@ class Scene:
     #: the bodies of the flat pads, whose contacts resist a twist about their normal (the grip controller plans
     #: it, within MuJoCo's torsional friction there)
     soft_bodies: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=int))
+    #: what ``model`` was compiled from (an exported scene is written from it)
+    spec: mujoco.MjSpec | None = field(default=None, compare=False)
 
     def to_hand(self, q: np.ndarray) -> np.ndarray:
         """Simulated joint values in ``hand.joint_names`` order (a shared joint's value in each finger)."""
@@ -289,6 +291,7 @@ def build_scene(
         finger_names=tuple(hand.fingers),
         strength=strength,
         soft_bodies=pad_bodies[[f.pad.flat for f in hand.fingers.values()]],
+        spec=spec,
     )
 
 

@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 
 from grasptask.grasp.grasp_pose import Grasp
+from grasptask.io.wording import plural
 
 #: how a start ends: IPOPT's outcomes, then the sweep's own (a solver error, a worker that died or hung), then the
 #: search route's start whose end point joined a basin another start's polish stands for
@@ -162,14 +163,14 @@ def why_few_verified(solutions: Any, task: str) -> str | None:
     if weak.sum() > FEW_VERIFIED * holdable.sum():
         never = int((rejected & torque & np.isinf(effort)).sum())
         return (
-            f"the hand is too weak for {task}: {int(weak.sum())} of the {int(rejected.sum())} starts the verifier "
-            f"rejected failed its torque check, asking {effort[weak].min():.1f}-{effort[weak].max():.1f}x its "
-            "motors' or tendons' rated strength"
+            f"the hand is too weak for {task}: {int(weak.sum())} of the {plural(int(rejected.sum()), 'start')} "
+            f"the verifier rejected failed its torque check, asking {effort[weak].min():.1f}-"
+            f"{effort[weak].max():.1f}x its motors' or tendons' rated strength"
             + (f" (and {never} whose contacts could not hold them at any strength)" if never else "")
         )
     counts = Counter(check for listed in failures[rejected] for check in listed.split(";") if check)
     commonest = ", ".join(f"{n} {check}" for check, n in counts.most_common(3)).replace(" ", " failed ", 1)
     return (
-        f"of the {int(rejected.sum())} starts the verifier rejected (IPOPT converged on "
+        f"of the {plural(int(rejected.sum()), 'start')} the verifier rejected (IPOPT converged on "
         f"{int((rejected & converged).sum())}), {commonest}"
     )

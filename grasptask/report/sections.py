@@ -15,6 +15,7 @@ from grasptask.grasp.grasp_settings import GraspSettings
 from grasptask.hand.hand_model import GraspingHand
 from grasptask.io.artifacts import StagedOutput, file_stem
 from grasptask.io.config_schema import read_json
+from grasptask.io.wording import plural
 from grasptask.objects.surface import ImplicitObject
 from grasptask.paths import PAPER_ELLIPSOID_TABLES
 from grasptask.progress import progress
@@ -305,7 +306,7 @@ def grasps_section(
     objects: dict[Path, tuple] = {}
     for task, sweep in sweeps.items():
         if sweep.optima.empty:
-            section.blocks.append(Note(f"{task}: no verified grasp among {len(sweep.table)} starts"))
+            section.blocks.append(Note(f"{task}: no verified grasp among {plural(len(sweep.table), 'start')}"))
             continue
         section.blocks.append(Note(_task_card(task, sweep, read_physics(results, sweep))))
         object_path = sweep.files.object
@@ -357,7 +358,7 @@ def _optimum_blocks(task: str, optimum: pd.Series, shown: _Shown, writer: Writer
     path = writer.figure(f"grasp_{file_stem(task)}_{number:02d}")
     check = verify(grasp, hand, shown.obj, shown.task_model, settings) if shown.task_model is not None else None
     quality = check.Q if check is not None else verifier_q(optimum)
-    title = f"{task}, optimum {number}: Q = {quality:.3g} ({int(optimum['members'])} starts)"  # as the tables
+    title = f"{task}, optimum {number}: Q = {quality:.3g} ({plural(int(optimum['members']), 'start')})"  # as the tables
     blocks: list[View | Figure] = []
     if check is not None:
         scene = grasp_scene(hand, shown.view_mesh, grasp, check.contacts, check.normals, settings.friction_coefficient)
@@ -396,7 +397,8 @@ def _task_card(task: str, sweep: Sweep, physics: PhysicsOutcome | None) -> str:
     best = min(verifier_q(row) for _, row in sweep.optima.iterrows())
     seconds = solutions["seconds"].astype(float).median()
     return (
-        f"{task.upper()}: {verified} of {len(solutions)} starts verified, {len(sweep.optima)} distinct optima, "
+        f"{task.upper()}: {verified} of {plural(len(solutions), 'start')} verified, "
+        f"{plural(len(sweep.optima), 'distinct optimum')}, "
         f"{held}; best Q {best:.3g}; {seconds:.2f} s per start (median)"
     )
 

@@ -12,6 +12,7 @@ from importlib import import_module
 from typing import TYPE_CHECKING, Any
 
 from grasptask.errors import BadInputError
+from grasptask.io.wording import plural
 from grasptask.paths import (
     DEFAULT_GRASP_CONFIG,
     DEFAULT_HAND,
@@ -112,6 +113,7 @@ __all__ = [
     "VerifyOptions",
     "VerifySummary",
     "describe_hand",
+    "plural",
     "run_distances",
     "run_export",
     "run_fit_task",

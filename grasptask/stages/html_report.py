@@ -11,6 +11,7 @@ from grasptask import __version__
 from grasptask.errors import BadInputError
 from grasptask.hand.hand_model import Hand
 from grasptask.io.artifacts import Provenance, StagedOutput
+from grasptask.io.wording import plural
 from grasptask.paths import as_paths
 from grasptask.records.reference import PaperSynthesis, read_paper_synthesis
 from grasptask.records.sweeps import SOLUTIONS, Sweep
@@ -202,8 +203,9 @@ def _summary_lines(sweeps: dict[str, Sweep], sections: list[Section], paper: Pap
         quality = [verifier_q(row) for _, row in sweep.optima.iterrows()]
         best = f"best Q {min(quality):.4g}" if quality else "no grasp found"
         lines.append(
-            f"{task}: {int(solutions['verified'].sum())}/{len(solutions)} starts verified, {len(sweep.optima)} "
-            f"distinct optima, {best}, median {solutions['seconds'].median():.1f} s per start"
+            f"{task}: {int(solutions['verified'].sum())}/{plural(len(solutions), 'start')} verified, "
+            f"{plural(len(sweep.optima), 'distinct optimum')}, {best}, "
+            f"median {solutions['seconds'].median():.1f} s per start"
             + (f" (paper: {paper.seconds})" if paper_setup(sweep.files) else "")
         )
     missing = [s.title for s in sections if not s.made]

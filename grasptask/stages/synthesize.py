@@ -38,6 +38,7 @@ from grasptask.io.child_processes import refuse_in_worker_import
 from grasptask.io.config_schema import MAX_WORKERS, read_json
 from grasptask.io.locking import folder_lock
 from grasptask.io.sweep_log import LogContents, LogWriter, read_log, rewrite_log
+from grasptask.io.wording import plural
 from grasptask.objects import load_object
 from grasptask.objects.mesh_object import MeshObject, PointCloudObject
 from grasptask.objects.object_files import (
@@ -441,7 +442,7 @@ def _run_locked(
     _go_on_from(options, prepared, done, rows, staged)
     finished = {row["start_id"] for row in rows}
     todo = [s for s in prepared.starts if s.start_id not in finished]
-    echo(f"{options.task}: {len(prepared.starts)} starts, {len(finished)} already done")
+    echo(f"{options.task}: {plural(len(prepared.starts), 'start')}, {len(finished)} already done")
     if prepared.library is not None:
         echo(prepared.library.said())
     model_size = None if todo else _previous_run(folder).get("model_size")
@@ -497,7 +498,7 @@ def _add_to_library(library: Library, task: TaskModel, folder: Path, echo: Calla
         echo(f"library {library.folder}: not added to ({exc.strerror or exc}); the sweep's results are kept")
         return
     if kept is not None:
-        echo(f"library: the {len(optima)} optima of task '{task.name}' kept in {kept}")
+        echo(f"library: the {plural(len(optima), 'optimum')} of task '{task.name}' kept in {kept}")
 
 
 def _say_model(size: dict[str, Any], paper: PaperSynthesis, echo: Callable[[str], Any]) -> None:
