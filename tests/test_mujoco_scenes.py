@@ -5,7 +5,6 @@ dropped one, a hand of meshes and one of primitives, a scan and the tool."""
 from __future__ import annotations
 
 import json
-import re
 import shutil
 from pathlib import Path
 
@@ -14,6 +13,7 @@ import numpy as np
 import pandas as pd
 import pytest
 import trimesh
+from docs_replay import docs_replay
 from grasp_fixtures import drawing_like_task
 from hand_files import GRIPPER_BALL_RADIUS_M, ball_centre, write_mesh_gripper
 from scan_files import write_textured_obj
@@ -28,15 +28,6 @@ from grasptask.physics.scene_file import SCENE_FILE, scene_files
 SETTINGS = load_physics_settings()
 #: the issue's bound on a contact moved by the export (m)
 CONTACT_M = 5e-4
-
-
-def docs_replay():
-    """The replay function of docs/guide/mujoco.md, run as a reader would paste it."""
-    text = Path("docs/guide/mujoco.md").read_text()
-    block = next(b for b in re.findall(r"```python\n(.*?)```", text, re.S) if "def replay" in b)
-    namespace: dict = {}
-    exec(block.split("\nheld, worst = replay(")[0], namespace)
-    return namespace["replay"]
 
 
 def moved_elsewhere(files: dict[str, bytes], root: Path) -> Path:

@@ -1,0 +1,145 @@
+"""Exported MuJoCo scenes for every shipped hand and the zoo's published hands, on the tool and a zoo scan: a
+short drawing sweep of each, its optima exported with ``grasptask export --mujoco``, the export folder copied to
+another place, and every scene there loaded by MuJoCo with no edit and replayed with the docs' own code
+(docs/guide/mujoco.md). Per hand and object: how many scenes loaded, how many replays gave the physics check's
+verdict, and the largest difference between a replayed phase's worst translation and the check's.
+
+    python benchmarks/mujoco_scenes.py [--starts N] [--hands human3,allegro,...] [--objects tool,ycb_mug]
+    python benchmarks/mujoco_scenes.py --table
+
+Target: every scene loads from the copy, and every replay gives the check's verdict. Results are saved after
+every hand and object (benchmarks/results/mujoco_scenes.json), so an interrupted run keeps what it did.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path[:0] = [str(ROOT / "benchmarks"), str(ROOT), str(ROOT / "tests")]
+from common import demonstration_tasks, print_saved, save, sweep_parser  # noqa: E402
+from hands import HANDS, hand_path  # noqa: E402
+
+NAME = "mujoco_scenes"
+OBJECTS = {
+    "tool": ROOT / "configs/objects/tool.yaml",
+    "ycb_mug": ROOT.parent / "shared/zoo/objects/025_mug/textured.obj",
+}
+DEFAULT_HANDS = ("human3", "barrett", "allegro", "mesh_allegro", "parallel_jaw", "shadow", "inspire")
+TASK = "drawing"
+
+
+def check_prerequisites(hands: list[str], objects: list[str]) -> None:
+    import mujoco  # noqa: F401
+
+    for name in hands:
+        if name not in HANDS:
+            raise SystemExit(f"unknown hand '{name}' (known: {', '.join(HANDS)})")
+        if HANDS[name][0] is not None and not HANDS[name][0].is_file():
+            raise SystemExit(f"{HANDS[name][0]}: not found")
+    for name in objects:
+        if name not in OBJECTS or not OBJECTS[name].is_file():
+            raise SystemExit(f"object '{name}': not known or not found (known: {', '.join(OBJECTS)})")
+
+
+def grasptask(*args: object) -> subprocess.CompletedProcess:
+    command = [sys.executable, "-m", "grasptask.cli", *map(str, args)]
+    return subprocess.run(command, capture_output=True, text=True, env={**os.environ, "OPENBLAS_NUM_THREADS": "1"})
+
+
+def scenes_of(hand: str, obj: str, tasks: Path, work: Path, starts: int) -> dict:
+    """One hand on one object: sweep, export with --mujoco, copy, load and replay every scene."""
+    import mujoco
+    from docs_replay import docs_replay
+
+    folder = work / f"{hand}_{obj}"
+    path, fingers = HANDS[hand]
+    path = hand_path(hand, work) if path is None else path
+    choice = ["--fingers", ",".join(fingers)] if fingers else []
+    began = time.perf_counter()
+    sweep = grasptask("synthesize", "--tasks", tasks, "--task", TASK, "--hand", path, "--object", OBJECTS[obj],
+                      "--out", folder, "--starts", starts, "--workers", 2, "--anyway", *choice)  # fmt: skip
+    if sweep.returncode not in (0, 3):
+        return {"error": sweep.stderr.strip().splitlines()[-1]}
+    exported = grasptask("export", folder / TASK / "solutions.parquet", "--out", folder / "export", "--mujoco")
+    if exported.returncode != 0:
+        return {"error": exported.stderr.strip().splitlines()[-1], "sweep_exit": sweep.returncode}
+    copy = shutil.copytree(folder / "export", work / "elsewhere" / f"{hand}_{obj}")
+    shutil.rmtree(folder / "export")
+    listing = json.loads((copy / "grasps.json").read_text())["grasps"]
+    replay, entries = docs_replay(), []
+    for grasp in listing:
+        scene = copy / grasp["name"]
+        entry = {"name": grasp["name"], "held": grasp["held"]}
+        try:
+            mujoco.MjModel.from_xml_path(str(scene / "scene.xml"))
+        except ValueError as error:
+            entries.append({**entry, "loads": False, "error": str(error).splitlines()[0]})
+            continue
+        held, worst = replay(scene)
+        check = json.loads((scene / "check.json").read_text())["phases"]
+        gap = max(abs(worst[p][0] - check[p]["translation_m"]) for p in worst if not p.startswith("dexgraspbench"))
+        entries.append({**entry, "loads": True, "replay_held": bool(held), "max_translation_gap_m": float(gap)})
+    return {
+        "scenes": len(entries),
+        "loaded": sum(e["loads"] for e in entries),
+        "replay_agrees": sum(e.get("replay_held") == e["held"] for e in entries),
+        "held": sum(bool(e["held"]) for e in entries),
+        "seconds": time.perf_counter() - began,
+        "grasps": entries,
+    }
+
+
+def table(results: dict) -> str:
+    lines = ["| hand | object | scenes | loaded from a copy | replay agrees | held | largest translation gap, um |",
+             "|---|---|---|---|---|---|---|"]  # fmt: skip
+    for key, cell in results["runs"].items():
+        hand, obj = key.split("/")
+        if "error" in cell:
+            lines.append(f"| {hand} | {obj} | - | - | - | - | {cell['error']} |")
+            continue
+        gaps = [g["max_translation_gap_m"] for g in cell["grasps"] if g.get("loads")]
+        gap = f"{1e6 * max(gaps):.1f}" if gaps else "-"
+        counts = " | ".join(str(cell[key]) for key in ("scenes", "loaded", "replay_agrees", "held"))
+        lines.append(f"| {hand} | {obj} | {counts} | {gap} |")
+    return "\n".join(lines)
+
+
+def main() -> None:
+    parser = sweep_parser(__doc__, NAME)
+    parser.add_argument("--hands", default=",".join(DEFAULT_HANDS))
+    parser.add_argument("--objects", default=",".join(OBJECTS))
+    parser.set_defaults(starts=4)
+    args = parser.parse_args()
+    if args.table:
+        print_saved(NAME, table)
+        return
+    hands, objects = args.hands.split(","), args.objects.split(",")
+    check_prerequisites(hands, objects)
+    results: dict = {"task": TASK, "starts": args.starts, "runs": {}}
+    with tempfile.TemporaryDirectory() as scratch:
+        work = Path(scratch)
+        print("task models from the bundled simulator ...", flush=True)
+        tasks = demonstration_tasks(work / "tasks")
+        for hand in hands:
+            for obj in objects:
+                cell = scenes_of(hand, obj, tasks, work, args.starts)
+                results["runs"][f"{hand}/{obj}"] = cell
+                said = cell.get("error") or (
+                    f"{cell['loaded']}/{cell['scenes']} scenes loaded, {cell['replay_agrees']} replays agree, "
+                    f"{cell['held']} held, {cell['seconds']:.0f} s"
+                )
+                print(f"{hand} on {obj}: {said}", flush=True)
+                save(NAME, results)
+    print(table(results))
+
+
+if __name__ == "__main__":
+    main()
