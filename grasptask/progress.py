@@ -5,17 +5,22 @@ The interval is ``GRASPTASK_PROGRESS_S`` seconds (default 30; 0 prints a line fo
 
 from __future__ import annotations
 
+import functools
 import os
 import sys
+import threading
 import time
-from collections.abc import Iterable, Iterator
-from typing import IO, Any, TypeVar
+from collections.abc import Callable, Iterable, Iterator
+from contextlib import contextmanager
+from typing import IO, Any, ParamSpec, TypeVar
 
 from tqdm import tqdm
 
 from grasptask.errors import BadInputError
 
 T = TypeVar("T")
+R = TypeVar("R")
+P = ParamSpec("P")
 INTERVAL_ENV = "GRASPTASK_PROGRESS_S"
 DEFAULT_INTERVAL_S = 30.0
 
@@ -34,6 +39,45 @@ def interval_s() -> float:
     return value
 
 
+#: when the running stage began (None: no stage is timed), so that its progress counts its set-up too
+_stage_began: float | None = None
+
+
+def timed_stage(stage: Callable[P, R]) -> Callable[P, R]:
+    """``stage`` with every progress line within it counting its elapsed time from the stage's start: a sweep
+    that took 30 s said "9 s elapsed", its model building left out."""
+
+    @functools.wraps(stage)
+    def timed(*args: P.args, **kwargs: P.kwargs) -> R:
+        global _stage_began
+        outer = _stage_began
+        _stage_began = time.monotonic() if outer is None else outer
+        try:
+            return stage(*args, **kwargs)
+        finally:
+            _stage_began = outer
+
+    return timed
+
+
+#: a set-up that takes longer than this says what it prepares (a quick one, or a refusal, stays quiet)
+SAY_PREPARING_AFTER_S = 3.0
+
+
+@contextmanager
+def preparing(message: str, say: Callable[[str], object] | None = None) -> Iterator[None]:
+    """Say ``message`` (on stderr, or with ``say``) once the work inside has taken :data:`SAY_PREPARING_AFTER_S`:
+    a physics check that built its scenes for 50 s said nothing until its first grasp."""
+    speak = say if say is not None else (lambda text: print(text, file=sys.stderr, flush=True))
+    timer = threading.Timer(SAY_PREPARING_AFTER_S, speak, args=(message,))
+    timer.daemon = True
+    timer.start()
+    try:
+        yield
+    finally:
+        timer.cancel()
+
+
 def _minutes(seconds: float) -> str:
     return f"{seconds:.0f} s" if seconds < 120 else f"{seconds / 60:.1f} min"
 
@@ -50,10 +94,14 @@ class Progress:
         self.total, self.desc, self.unit, self.initial, self.done = total, desc, unit, initial, initial
         self.counts: dict[str, Any] = {}
         self.every = 0.0 if self.terminal else interval_s()
-        self.began = self.last = time.monotonic()
+        # the stage's clock for the time elapsed, this bar's for the rate the time left is reckoned at
+        self.counting = self.last = time.monotonic()
+        self.began = _stage_began if _stage_began is not None else self.counting
         self.bar = tqdm(total=total, initial=initial, desc=desc, unit=unit, file=self.stream, leave=False) if (
             self.terminal
         ) else None  # fmt: skip
+        if self.bar is not None:  # the bar's clock from the stage's start too
+            self.bar.start_t -= self.counting - self.began
 
     def update(self, n: int = 1, **counts: Any) -> None:
         self.done += n
@@ -70,7 +118,8 @@ class Progress:
 
     def line(self, now: float | None = None) -> str:
         """``desc: done/total unit (percent), counts, elapsed, time left``."""
-        elapsed = (now if now is not None else time.monotonic()) - self.began
+        now = now if now is not None else time.monotonic()
+        elapsed = now - self.began
         parts = [f"{self.desc}: {self.done}/{self.total} {self.unit}"]
         if self.total:
             parts[0] += f" ({self.done / self.total:.0%})"
@@ -78,7 +127,7 @@ class Progress:
         parts.append(f"{_minutes(elapsed)} elapsed")
         this_run = self.done - self.initial
         if 0 < this_run and self.done < self.total:
-            parts.append(f"about {_minutes(elapsed / this_run * (self.total - self.done))} left")
+            parts.append(f"about {_minutes((now - self.counting) / this_run * (self.total - self.done))} left")
         return ", ".join(parts)
 
     def close(self, finished: bool = True) -> None:

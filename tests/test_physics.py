@@ -287,14 +287,16 @@ def test_a_sweep_with_no_verified_grasp_summarises_to_no_rates(tmp_path):
     import pandas as pd
 
     from grasptask.io.artifacts import Provenance, StagedOutput
-    from grasptask.physics.judge import TRACE_COLUMNS, write_physics_results
+    from grasptask.physics.judge import write_physics_results
 
     table = pd.DataFrame({"start_id": [0, 1], "verified": [False, False], "Q": [float("nan")] * 2})
     with StagedOutput(tmp_path / "out", Provenance.of("test", {}, [])) as staged:
-        result = write_physics_results(staged, table, "drawing", SETTINGS, pd.DataFrame(columns=TRACE_COLUMNS), None)
+        result = write_physics_results(staged, table, "drawing", SETTINGS, [], None)
     assert result["solved"] == result["verified"] == 0 and result["physics_pass_rate_of_verified"] is None
     assert result["seconds_per_grasp_median"] is None and result["failed_wrenches_of_verified"] == {}
     assert (tmp_path / "out" / "physics_summary.json").is_file()
+    assert result["traced"] == [] and result["films_unavailable"] is None
+    assert pd.read_parquet(tmp_path / "out" / "physics_trace.parquet").empty
 
 
 @pytest.fixture(scope="module")

@@ -55,3 +55,57 @@ def test_a_bad_interval_is_one_line(monkeypatch, text):
     monkeypatch.setenv(INTERVAL_ENV, text)
     with pytest.raises(BadInputError, match=INTERVAL_ENV):
         interval_s()
+
+
+def test_a_timed_stage_counts_its_set_up_in_the_time_elapsed_but_not_in_the_time_left(monkeypatch):
+    """A sweep that took 30 s said "9 s elapsed": the model building before the first start was left out."""
+    import time
+
+    from grasptask.progress import timed_stage
+
+    clock = [100.0]
+    monkeypatch.setattr(time, "monotonic", lambda: clock[0])
+    monkeypatch.setenv(INTERVAL_ENV, "0")
+    log = io.StringIO()
+
+    @timed_stage
+    def stage() -> None:
+        clock[0] += 20.0  # building models, scenes
+        with Progress(4, "physics drawing", "grasps", stream=log) as shown:
+            clock[0] += 10.0
+            shown.update(1)
+            clock[0] += 10.0
+            shown.update(1)
+
+    stage()
+    lines = log.getvalue().splitlines()
+    assert "30 s elapsed" in lines[0] and "about 30 s left" in lines[0]  # 10 s a grasp, three to go
+    assert "40 s elapsed" in lines[-1] and len(lines) == 3
+    with Progress(1, "alone", stream=io.StringIO()) as outside:  # no stage: from the bar's own start
+        assert outside.began == outside.counting
+
+
+def test_a_long_set_up_says_what_it_prepares_and_a_quick_one_stays_quiet(monkeypatch):
+    import time
+
+    from grasptask import progress as progress_module
+
+    monkeypatch.setattr(progress_module, "SAY_PREPARING_AFTER_S", 0.05)
+    said: list[str] = []
+    with progress_module.preparing("building the scenes ...", said.append):
+        time.sleep(0.3)
+    with progress_module.preparing("refused at once", said.append):
+        pass
+    time.sleep(0.1)
+    assert said == ["building the scenes ..."]
+
+
+@pytest.mark.parametrize(
+    ("count", "word", "said"),
+    [(1, "start", "1 start"), (2, "start", "2 starts"), (0, "grasp", "0 grasps"), (1, "distinct optimum",
+     "1 distinct optimum"), (3, "distinct optimum", "3 distinct optima"), (2, "optimum", "2 optima")],
+)  # fmt: skip
+def test_counts_are_said_in_the_singular_where_there_is_one(count, word, said):
+    from grasptask.stages import plural
+
+    assert plural(count, word) == said

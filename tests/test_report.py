@@ -4,12 +4,13 @@ from __future__ import annotations
 
 import json
 import re
+import shutil
 from dataclasses import replace
 from pathlib import Path
 
 import pandas as pd
 import pytest
-from grasp_fixtures import ball_sweep, results_with_tasks
+from grasp_fixtures import ball_sweep, drawing_like_task, results_with_tasks
 
 from grasptask.report.browser_check import check_page, find_chromium
 from grasptask.report.paper_tables import PAPER_TABLES
@@ -280,7 +281,7 @@ def test_the_page_opens_with_the_users_grasps_and_ends_with_the_papers_tables(fu
     page = (results / "report" / "index.html").read_text()
     headings = re.findall(r'<section id="([a-z_-]+)"', page)
     assert headings[0] == "grasps" and headings[-1] == "tables", headings
-    card = page.index("DRAWING: 2 of 3 starts verified")
+    card = page.index("DRAWING (human: thumb orange, index green, middle purple): 2 of 3 starts verified")
     assert card < page.index('id="view-grasp_drawing_00"') < page.index('<section id="tables"')
 
 
@@ -323,3 +324,86 @@ def test_a_folder_of_exports_alone_is_reported_as_found(cli, tmp_path):
     (export / "grasps.json").write_text('{"task": "drawing", "kind": "optimum", "grasps": []}')
     result = cli("report", "--results", tmp_path / "shared")
     assert result.exit_code == 0 and f"found export: {export}" in result.output, result.output
+
+
+def test_a_robot_hands_fingers_are_named_by_their_colours():
+    from grasptask.exports.scene_meshes import colour_legend
+
+    assert colour_legend(["thumb", "index", "middle"]) == "thumb orange, index green, middle purple"
+    assert colour_legend(["ff_tip", "mf_tip", "th_tip"]) == "ff_tip orange, mf_tip green, th_tip purple"
+
+
+def test_your_own_recordings_are_not_set_beside_the_papers_tables(simulated, tmp_path):
+    """Recordings that are not the bundled simulator's (no provenance saying so) get their own groups' table and
+    a line saying why there is no comparison; the simulator's get Tables 1-10."""
+    results = tmp_path / "results"
+    shutil.copytree(simulated[0] / "tasks", results / "tasks")
+    (results / "recordings").mkdir()
+    shutil.copy(simulated[0] / "recordings" / "manifest.csv", results / "recordings" / "manifest.csv")
+    run_report(ReportOptions(results=results, out=tmp_path / "out"))
+    tables = sorted(p.name for p in (tmp_path / "out" / "tables").iterdir())
+    assert "own_groups.md" in tables and not [t for t in tables if t.startswith("table_")]
+    page = (tmp_path / "out" / "index.html").read_text()
+    assert "are not set beside them" in page and "Tables 1-10: " not in page
+
+
+def _physics_results(simulated, root: Path) -> Path:
+    """The ball sweep judged in physics (with a task light enough for it), laid out as the pipelines lay it out."""
+    from grasptask.stages import PhysicsOptions, run_physics
+
+    results = results_with_tasks(simulated, root)
+    ball_sweep(results)
+    tasks = results / "light_tasks.json"
+    tasks.write_text(json.dumps({"tasks": {"drawing": drawing_like_task().to_dict()}}))
+    solutions = results / "grasps" / "drawing" / "solutions.parquet"
+    run_physics(PhysicsOptions(solutions=solutions, tasks=tasks, out=results / "physics" / "drawing"))
+    return results
+
+
+@pytest.fixture(scope="module")
+def physics_report(simulated, tmp_path_factory):
+    results = _physics_results(simulated, tmp_path_factory.mktemp("physics-report") / "results")
+    run_report(ReportOptions(results=results))
+    return results
+
+
+def test_each_optimum_is_traced_with_its_worst_moment_and_filmed_where_mujoco_can_render(physics_report):
+    from grasptask.hand import load_hand
+    from grasptask.physics.film import offscreen_unavailable
+
+    physics = physics_report / "physics" / "drawing"
+    summary = json.loads((physics / "physics_summary.json").read_text())
+    optima = pd.read_parquet(physics_report / "grasps" / "drawing" / "optima.parquet")
+    [moment] = summary["traced"]
+    assert moment["start_id"] == int(optima["start_id"].iloc[0]) and moment["phase"] in ("settle", *TASK_PHASES)
+    assert len(moment["object_pose"]) == 7 and len(moment["joint_angles"]) == load_hand().grasping_hand().n_joints
+    trace = pd.read_parquet(physics / "physics_trace.parquet")
+    assert set(trace["start_id"]) == {moment["start_id"]} and trace["phase"].nunique() == 19
+    page = (physics_report / "report" / "index.html").read_text()
+    assert (physics_report / "report" / "figures" / "physics_drawing_00.png").is_file()
+    assert "physics, worst moment: " in page  # the moment's legend entry in the grasp's 3D view
+    reason = offscreen_unavailable()
+    if reason is None:
+        from PIL import Image
+
+        assert Image.open(physics / moment["film"]).n_frames > 10
+        assert summary["films_unavailable"] is None and "data:image/gif;base64," in page
+    else:
+        assert summary["films_unavailable"] == reason and "No films of the check" in page
+
+
+TASK_PHASES = tuple(f"task{sign}u{k}" for k in range(1, 7) for sign in "+-")
+
+
+def test_without_offscreen_rendering_the_report_says_so_once_and_draws_the_paths(simulated, tmp_path, monkeypatch):
+    from grasptask.physics import film
+
+    monkeypatch.setattr(film, "offscreen_unavailable", lambda: "no OpenGL platform here")
+    results = _physics_results(simulated, tmp_path / "results")
+    physics = results / "physics" / "drawing"
+    assert json.loads((physics / "physics_summary.json").read_text())["films_unavailable"] == "no OpenGL platform here"
+    assert not (physics / "films").exists()
+    run_report(ReportOptions(results=results))
+    page = (results / "report" / "index.html").read_text()
+    assert page.count("No films of the check: no OpenGL platform here") == 1 and "data:image/gif" not in page
+    assert (results / "report" / "figures" / "physics_drawing_00.png").is_file()

@@ -21,9 +21,19 @@ OBJECT_COLOUR = "#a0a0a0"
 CONTACT_COLOUR = "#d62728"
 
 
+#: the colours' names, for captions
+COLOUR_NAMES = {"#d95f02": "orange", "#1b9e77": "green", "#7570b3": "purple", "#e7298a": "pink",
+                "#66a61e": "olive", "#e6ab02": "yellow"}  # fmt: skip
+
+
 def finger_colour(name: str, index: int) -> str:
     """The colour of finger ``name``, the ``index``-th of its hand: the human fingers' own, else in turn."""
     return FINGER_COLOURS.get(name, OTHER_COLOURS[index % len(OTHER_COLOURS)])
+
+
+def colour_legend(fingers: list[str]) -> str:
+    """``thumb orange, index green, middle purple``: a hand's own fingers by the colours the views give them."""
+    return ", ".join(f"{name} {COLOUR_NAMES[finger_colour(name, k)]}" for k, name in enumerate(fingers))
 
 
 @dataclass(frozen=True)

@@ -90,6 +90,25 @@ class Judge:
     def hold(self, grasp: Grasp, trace: bool = False) -> PhysicsResult:
         return self.holding.hold(self.solved.hand, grasp, self.task, trace)
 
+    def trace(self, index: int, filmed: bool = False) -> Traced:
+        """Row ``index``'s grasp held again with its trace kept (:class:`Traced`)."""
+        from grasptask.physics.worst_moment import film_of, worst_moment  # deferred: MuJoCo
+
+        row, grasp = self.solved.rows[index]
+        assert grasp is not None
+        start = int(row["start_id"])
+        scene, result = self.holding.traced(self.solved.hand, grasp, self.task)
+        frames = [
+            pd.DataFrame({"start_id": start, "phase": phase, "time_s": t.time_s, "translation_m": t.translation_m,
+                          "rotation_deg": t.rotation_deg})
+            for phase, t in result.traces.items()
+        ]  # fmt: skip
+        moment = {"start_id": start, **worst_moment(scene, result, self.holding.settings)}
+        film = film_of(scene, result, moment["phase"], self.holding) if filmed else None
+        if film is not None:
+            moment["film"] = f"films/start_{start:03d}.gif"
+        return Traced(pd.concat(frames, ignore_index=True), moment, film)
+
     def check(self, index: int) -> dict[str, Any]:
         row, grasp = self.solved.rows[index]
         record: dict[str, Any] = {"start_id": int(row["start_id"]), "verified": bool(row.get("verified", False))}
@@ -113,34 +132,34 @@ def agreement(table: pd.DataFrame) -> dict[str, int]:
 
 
 TRACE_COLUMNS = ("start_id", "phase", "time_s", "translation_m", "rotation_deg")
+#: the optima whose motion is kept over the whole protocol, best Q first, and how many of those are filmed
+MAX_TRACED, MAX_FILMED = 12, 4
 
 
-def best_grasp_trace(judge: Judge) -> pd.DataFrame:
-    """The object's motion over the whole protocol (``TRACE_COLUMNS``, phases in the protocol's order) under
-    the verified grasp of lowest Q, the best optimum's best start, held again with its trace kept; no rows
-    when no grasp is verified."""
+@dataclass(frozen=True)
+class Traced:
+    """One grasp held again with every control step kept: its motion (``TRACE_COLUMNS``), its worst moment
+    (where the object was furthest from its start in the phase that dropped it, else in its worst phase of the
+    task's) and, where offscreen rendering works, that phase as a GIF."""
+
+    trace: pd.DataFrame
+    moment: dict[str, Any]
+    film: bytes | None = None
+
+
+def traced_rows(judge: Judge, optima: pd.DataFrame | None) -> list[int]:
+    """Which of ``judge``'s rows to trace: the distinct optima's best starts, best Q first (at most
+    :data:`MAX_TRACED`); without optima, the verified grasp of lowest Q."""
+    index = {int(row["start_id"]): k for k, (row, grasp) in enumerate(judge.solved.rows) if grasp is not None}
+    if optima is not None and len(optima):
+        ordered = optima.sort_values("Q", kind="stable")["start_id"].astype(int)
+        return [index[s] for s in ordered if s in index][:MAX_TRACED]
     verified = [
-        (row, grasp)
-        for row, grasp in judge.solved.rows
+        (float(row["Q"]), k)
+        for k, (row, grasp) in enumerate(judge.solved.rows)
         if grasp is not None and row.get("verified") and np.isfinite(float(row.get("Q", np.nan)))
     ]
-    if not verified:
-        return pd.DataFrame({column: [] for column in TRACE_COLUMNS})
-    row, grasp = min(verified, key=lambda pair: float(pair[0]["Q"]))
-    result = judge.hold(grasp, trace=True)
-    frames = [
-        pd.DataFrame(
-            {
-                "start_id": int(row["start_id"]),
-                "phase": phase,
-                "time_s": motion.time_s,
-                "translation_m": motion.translation_m,
-                "rotation_deg": motion.rotation_deg,
-            }
-        )
-        for phase, motion in result.traces.items()
-    ]
-    return pd.concat(frames, ignore_index=True)
+    return [min(verified)[1]] if verified else []
 
 
 def summary(table: pd.DataFrame, task: str, settings: PhysicsSettings) -> dict[str, Any]:
@@ -176,21 +195,30 @@ def write_physics_results(
     table: pd.DataFrame,
     task: str,
     settings: PhysicsSettings,
-    trace: pd.DataFrame,
+    traced: list[Traced],
     table_name: str | None = "physics.parquet",
     judge: Judge | None = None,
 ) -> dict[str, Any]:
-    """``physics_summary.json`` and ``physics_trace.parquet`` (and the table itself, unless ``table_name`` is
-    None: a sweep's solutions table already holds the columns); the summary, with the object's mass from
-    ``judge``."""
+    """``physics_summary.json`` (with each traced grasp's worst moment, and why nothing was filmed where
+    offscreen rendering is unavailable), ``physics_trace.parquet``, ``films/`` (and the table itself, unless
+    ``table_name`` is None: a sweep's solutions table already holds the columns); the summary, with the
+    object's mass from ``judge``."""
+    from grasptask.physics.film import offscreen_unavailable  # deferred: it starts a process once
+
     summarised = ("physics_passed", "dexgraspbench_passed", "physics_failed_wrench", "physics_seconds")
     table = table.assign(**{c: pd.NA for c in summarised if c not in table})  # no columns: no grasp was checked
     result = summary(table, task, settings)
     if judge is not None:  # a mass not given is stated, never silently assumed
         result["object_mass_kg"] = judge.holding.body.mass_kg
         result["object_mass_given"] = getattr(judge.holding.obj, "mass_kg", None) is not None
+    result["traced"] = [t.moment for t in traced]
+    result["films_unavailable"] = offscreen_unavailable() if traced else None
     if table_name is not None:
         staged.write_parquet(table_name, table)
     staged.write_json("physics_summary.json", result)
-    staged.write_parquet("physics_trace.parquet", trace)
+    frames = [t.trace for t in traced] or [pd.DataFrame({column: [] for column in TRACE_COLUMNS})]
+    staged.write_parquet("physics_trace.parquet", pd.concat(frames, ignore_index=True))
+    for t in traced:
+        if t.film is not None:
+            staged.path(t.moment["film"]).write_bytes(t.film)
     return result

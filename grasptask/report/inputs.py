@@ -37,6 +37,17 @@ def paper_setup(files: SweepFiles) -> bool:
     return files.task in ("drawing", "cutting", "screwdriving") and human and tool
 
 
+def simulated_recordings(manifest: Path) -> bool:
+    """Whether the recordings of ``manifest`` are the bundled simulator's (its provenance says ``simulate``):
+    the paper's protocol, whose Tables 1-10 they can be set beside. A user's own recordings are not."""
+    try:
+        ledger = json.loads((manifest.parent / "provenance.json").read_text())
+    except (OSError, ValueError):
+        return False
+    entry = ledger.get(manifest.name) if isinstance(ledger, dict) else None
+    return isinstance(entry, dict) and entry.get("command") == "simulate"
+
+
 @dataclass(frozen=True)
 class ResultsFolder:
     """A folder of results as the pipelines lay it out (``recordings/``, ``tasks/``, ``grasps/<task>/``,
@@ -165,13 +176,22 @@ def verifier_q(optimum: Any) -> float:
 
 @dataclass(frozen=True)
 class PhysicsOutcome:
-    """One task's physics check: its ``physics_summary.json`` and the best grasp's motion over the protocol
-    (``physics_trace.parquet``, empty when no grasp was verified)."""
+    """One task's physics check: its ``physics_summary.json`` (with the traced grasps' worst moments) and their
+    motion over the protocol (``physics_trace.parquet``, best Q first; empty when no grasp was traced)."""
 
     task: str
     folder: Path
     summary: dict
     trace: pd.DataFrame
+
+    def moment(self, start_id: int) -> dict | None:
+        """The traced grasp of ``start_id``'s worst moment (None: that start was not traced)."""
+        return next((m for m in self.summary.get("traced") or [] if m.get("start_id") == start_id), None)
+
+    def film(self, start_id: int) -> Path | None:
+        moment = self.moment(start_id)
+        path = self.folder / moment["film"] if moment is not None and moment.get("film") else None
+        return path if path is not None and path.is_file() else None
 
 
 def read_physics(results: ResultsFolder, sweep: Sweep) -> PhysicsOutcome | None:

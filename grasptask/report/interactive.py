@@ -141,6 +141,16 @@ def grasp_view(
     return figure
 
 
+def moment_traces(fingers: GraspScene, moved_object: trimesh.Trimesh, label: str) -> list[Any]:
+    """The physics check's worst moment over a grasp's view, hidden until its legend entry is clicked: the
+    object where the test wrench had pushed it, and the fingers as the controller held them then."""
+    extra = {"legendgroup": "moment", "visible": "legendonly", "hoverinfo": "skip"}
+    traces = [_mesh_trace(moved_object, "#7f7f7f", html.escape(label), 0.5, **extra)]
+    for finger in fingers.fingers:
+        traces.append(_mesh_trace(finger.mesh, "#555555", f"{html.escape(finger.name)} then", 0.6, **extra))
+    return traces
+
+
 #: plotly's default camera, and how much farther it must stand per unit of a scene's longest side (the scene's
 #: sides in plotly's 'data' aspect, scaled so that their product is 1): a sugar box's 1.8 cropped the box's top
 #: at the default, and 1.5 times farther showed it whole

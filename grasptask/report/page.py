@@ -13,7 +13,7 @@ import pandas as pd
 
 @dataclass(frozen=True)
 class Figure:
-    file: Path  # the PNG, already written
+    file: Path  # the PNG (or a film's GIF), already written
     caption: str
 
 
@@ -118,7 +118,8 @@ def markdown(table: Table) -> str:
 
 def _image(path: Path) -> str:
     data = base64.b64encode(path.read_bytes()).decode("ascii")
-    return f'<img src="data:image/png;base64,{data}" alt="{html.escape(path.stem)}">'
+    kind = "gif" if path.suffix.lower() == ".gif" else "png"
+    return f'<img src="data:image/{kind};base64,{data}" alt="{html.escape(path.stem)}">'
 
 
 def _block(block) -> str:

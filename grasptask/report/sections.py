@@ -9,8 +9,10 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
+import trimesh
 
-from grasptask.exports.scene_meshes import grasp_scene
+from grasptask.exports.scene_meshes import colour_legend, grasp_scene
+from grasptask.grasp.grasp_pose import Grasp
 from grasptask.grasp.grasp_settings import GraspSettings
 from grasptask.hand.hand_model import GraspingHand
 from grasptask.io.artifacts import StagedOutput, file_stem
@@ -25,8 +27,15 @@ from grasptask.records.sweeps import Sweep
 from grasptask.report import paper_tables
 from grasptask.report.distance_plots import plot_embedding, plot_heatmap
 from grasptask.report.ellipsoid_plots import load_samples_or_note, plot_task_ellipsoids
-from grasptask.report.inputs import PhysicsOutcome, ResultsFolder, paper_setup, read_physics, verifier_q
-from grasptask.report.interactive import HEIGHT, ellipsoid_view, figure_json, grasp_view
+from grasptask.report.inputs import (
+    PhysicsOutcome,
+    ResultsFolder,
+    paper_setup,
+    read_physics,
+    simulated_recordings,
+    verifier_q,
+)
+from grasptask.report.interactive import HEIGHT, ellipsoid_view, figure_json, grasp_view, moment_traces
 from grasptask.report.page import Figure, Note, Section, Table, View, markdown
 from grasptask.report.physics_plots import plot_physics_traces
 from grasptask.report.render import display_mesh, render_grasp
@@ -37,6 +46,7 @@ from grasptask.task.ellipsoid import ellipsoid_matrices
 from grasptask.task.fit import read_ellipsoids
 from grasptask.task.stats import read_reference
 from grasptask.task.task_model import TaskModel, load_task_models
+from grasptask.verifier.verification import Verification
 from grasptask.verifier.verify import verify
 
 
@@ -88,6 +98,8 @@ def ellipsoid_tables_section(results: ResultsFolder, writer: Writer) -> Section:
         return section
     stats = read_reference(results.stats)
     reference = read_reference(PAPER_ELLIPSOID_TABLES)
+    if not simulated_recordings(results.manifest):
+        return _own_tables(section, stats, reference.iloc[0:0], writer)
     for table in paper_tables.PAPER_TABLES:
         frame = paper_tables.comparison(stats, reference, table)
         if frame.empty:
@@ -115,6 +127,20 @@ def ellipsoid_tables_section(results: ResultsFolder, writer: Writer) -> Section:
         )
     else:
         section.blocks.insert(0, Note(f"none of the groups in {results.stats} is one of the paper's: nothing compared"))
+    return section
+
+
+def _own_tables(section: Section, stats: pd.DataFrame, nothing: pd.DataFrame, writer: Writer) -> Section:
+    """Recordings that are not the paper's protocol: their groups' axis lengths, and no comparison."""
+    section.title = "Task ellipsoids: each group's axis lengths"
+    section.intro = (
+        "Your recordings are not the bundled simulator's, which follows the paper's protocol: the paper's Tables "
+        "1-10 describe its own subjects, and are not set beside them. Axes 1-3 are the axes of the 3D force or "
+        "torque ellipsoid, shortest first."
+    )
+    own = paper_tables.groups_not_in_paper(stats, nothing)
+    if not own.empty:
+        section.blocks.append(writer.table("own_groups", "Each group's ellipsoid axis lengths (N, N.cm)", own))
     return section
 
 
@@ -294,7 +320,7 @@ def grasps_section(
         "grasps",
         "Your grasps: per task, its best grasp first, then every other distinct optimum",
         "Per task, a line of its figures, then each distinct verified optimum, best first, as an interactive view "
-        "and from two viewpoints: thumb orange, index green, middle purple; red crosses "
+        "and from two viewpoints, a colour per finger (each task's line names them); red crosses "
         "and lines are the contact points and their friction cones; the arrows from the task frame's origin (where "
         "the task's torques act) show its main wrench axis (force magenta, torque black). " + Q_MEANING,
     )
@@ -308,14 +334,17 @@ def grasps_section(
         if sweep.optima.empty:
             section.blocks.append(Note(f"{task}: no verified grasp among {plural(len(sweep.table), 'start')}"))
             continue
-        section.blocks.append(Note(_task_card(task, sweep, read_physics(results, sweep))))
+        physics = read_physics(results, sweep)
+        section.blocks.append(Note(_task_card(task, sweep, physics)))
         object_path = sweep.files.object
         if object_path not in objects:
             obj = sweep.load_object()  # synthesize said what it repaired
             objects[object_path] = obj, display_mesh(obj), display_mesh(obj, VIEW_FACES)
         obj, mesh, view_mesh = objects[object_path]
         hand = sweep.hand
-        shown = _Shown(hand, list(hand.fingers), obj, mesh, view_mesh, sweep.settings, task_models.get(task))
+        shown = _Shown(
+            hand, list(hand.fingers), obj, mesh, view_mesh, sweep.settings, task_models.get(task), physics
+        )  # fmt: skip
         rows = list(sweep.optima.iterrows())
         for _, optimum in progress(rows, desc=f"report: {task} grasps", unit="grasps"):
             blocks, shown_q[task, int(optimum["optimum_id"])] = _optimum_blocks(task, optimum, shown, writer)
@@ -343,6 +372,7 @@ class _Shown:
     view_mesh: Any
     settings: GraspSettings
     task_model: TaskModel | None
+    physics: PhysicsOutcome | None = None
 
     @property
     def task_axis(self) -> np.ndarray | None:
@@ -363,6 +393,9 @@ def _optimum_blocks(task: str, optimum: pd.Series, shown: _Shown, writer: Writer
     if check is not None:
         scene = grasp_scene(hand, shown.view_mesh, grasp, check.contacts, check.normals, settings.friction_coefficient)
         view = grasp_view(scene, check, title, np.zeros(3), shown.task_axis)  # objects live in their task frame
+        moment = shown.physics.moment(int(optimum["start_id"])) if shown.physics is not None else None
+        if moment is not None:
+            view.add_traces(_moment_traces(shown, grasp, check, moment))
         caption = (
             f"{title}: drag to turn, scroll to zoom, click a legend entry to hide it; hover over a contact "
             "for its forces under the task wrenches (the verifier's LP) and the verifier's figures."
@@ -383,7 +416,53 @@ def _optimum_blocks(task: str, optimum: pd.Series, shown: _Shown, writer: Writer
         mesh=shown.mesh,
     )
     blocks.append(Figure(path, f"{title}: two fixed viewpoints (for print)"))
+    if shown.physics is not None:
+        blocks.extend(_physics_blocks(task, number, int(optimum["start_id"]), shown.physics, writer))
     return blocks, quality
+
+
+def _moment_traces(shown: _Shown, grasp: Grasp, check: Verification, moment: dict) -> list:
+    """The physics check's worst moment of a grasp, for its view: the object moved as MuJoCo had it, the fingers
+    at the joints the controller held them at."""
+    then = Grasp(grasp.palm_rotation, grasp.palm_position, np.asarray(moment["joint_angles"], dtype=float))
+    fingers = grasp_scene(shown.hand, shown.view_mesh, then, check.contacts, check.normals, 0.0)
+    pose = np.asarray(moment["object_pose"], dtype=float)
+    moved = shown.view_mesh.copy()
+    moved.apply_transform(trimesh.transformations.quaternion_matrix(pose[3:]))
+    moved.apply_translation(pose[:3])
+    label = (
+        f"physics, worst moment: {moment['phase']} at {moment['time_s']:.2f} s, "
+        f"{moment['translation_m'] * 1e3:.2f} mm, {moment['rotation_deg']:.2f} deg"
+    )
+    return moment_traces(fingers, moved, label)
+
+
+def _physics_blocks(task: str, number: int, start: int, physics: PhysicsOutcome, writer: Writer) -> list[Figure]:
+    """An optimum's path in the physics check (its translation and rotation over every phase, against the
+    thresholds) and, where it was filmed, the phase that shows most."""
+    trace = physics.trace[physics.trace["start_id"] == start]
+    if trace.empty:
+        return []
+    label = f"{task}, optimum {number}"
+    path = writer.figure(f"physics_{file_stem(task)}_{number:02d}")
+    plot_physics_traces({label: trace}, {label: physics.summary["thresholds"]}, path)
+    moment = physics.moment(start) or {}
+    verdict = "held" if moment.get("held", True) else f"dropped under {moment.get('phase')}"
+    blocks = [
+        Figure(
+            path,
+            f"{label} in the physics check ({verdict}): the object's translation and rotation over settling and "
+            "each test wrench, each from the settled state (DexGraspBench's forces shaded); dashed our threshold, "
+            "dotted DexGraspBench's. Its worst moment is in the 3D view above (legend: 'physics, worst moment').",
+        )
+    ]
+    film = physics.film(start)
+    if film is not None:
+        copied = writer.staged.path(f"figures/film_{file_stem(task)}_{number:02d}.gif")
+        copied.write_bytes(film.read_bytes())
+        caption = f"{label}: {moment.get('phase')} in MuJoCo, from the settled grasp (the object orange)"
+        blocks.append(Figure(copied, caption))
+    return blocks
 
 
 def _task_card(task: str, sweep: Sweep, physics: PhysicsOutcome | None) -> str:
@@ -396,8 +475,9 @@ def _task_card(task: str, sweep: Sweep, physics: PhysicsOutcome | None) -> str:
         held = f"{both} of {checked} verified held in physics"
     best = min(verifier_q(row) for _, row in sweep.optima.iterrows())
     seconds = solutions["seconds"].astype(float).median()
+    fingers = colour_legend(list(sweep.hand.fingers))
     return (
-        f"{task.upper()}: {verified} of {plural(len(solutions), 'start')} verified, "
+        f"{task.upper()} ({sweep.hand.name}: {fingers}): {verified} of {plural(len(solutions), 'start')} verified, "
         f"{plural(len(sweep.optima), 'distinct optimum')}, "
         f"{held}; best Q {best:.3g}; {seconds:.2f} s per start (median)"
     )
@@ -478,14 +558,21 @@ def physics_section(results: ResultsFolder, sweeps: dict[str, Sweep], writer: Wr
         f"{task} {_share(o.summary['agreement']['verified_and_held'], int(o.summary['verified']))} of verified held"
         for task, o in outcomes.items()
     )
-    traced = {task: o.trace for task, o in outcomes.items() if len(o.trace)}
+    # the best grasp's (traced first) of each task, beside the others'; each optimum's own path is with its views
+    traced = {task: o.trace[o.trace["start_id"] == o.trace["start_id"].iloc[0]] for task, o in outcomes.items()
+              if len(o.trace)}  # fmt: skip
+    unfilmed = next(
+        (o.summary["films_unavailable"] for o in outcomes.values() if o.summary.get("films_unavailable")), None
+    )
+    if unfilmed:
+        section.blocks.append(Note(f"No films of the check: {unfilmed}. Each optimum's path is drawn as a plot."))
     if traced:
         path = writer.figure("physics_traces")
         plot_physics_traces(traced, {task: outcomes[task].summary["thresholds"] for task in traced}, path)
         section.blocks.append(
             Figure(
                 path,
-                "The object's motion under each task's best verified grasp (lowest Q) over the whole protocol: "
+                "The object's motion under each task's best optimum (lowest Q) over the whole protocol: "
                 "settle, then each test wrench from the settled state (DexGraspBench's forces shaded); dashed our "
                 "threshold, dotted DexGraspBench's. Log scale above 0.1.",
             )

@@ -4,7 +4,6 @@ physics check holds it in (:mod:`grasptask.physics.scene_file`)."""
 
 from __future__ import annotations
 
-import sys
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -20,7 +19,7 @@ from grasptask.objects.surface import ImplicitObject
 from grasptask.paths import DEFAULT_PHYSICS_CONFIG, as_paths
 from grasptask.physics.judge import Holding
 from grasptask.physics.physics_settings import load_physics_settings
-from grasptask.progress import Progress
+from grasptask.progress import Progress, preparing, timed_stage
 from grasptask.records.sweeps import SolvedGrasps, Sweep, SweepInputs
 from grasptask.verifier.verify import verify
 
@@ -74,6 +73,7 @@ class ExportOptions(SweepInputs):
         as_paths(self, "solutions", "out", "physics_config")
 
 
+@timed_stage
 def run_export(options: ExportOptions) -> ExportSummary:
     """Write ``out/<name>.glb`` and ``out/<name>.json`` for each distinct optimum (``optimum_07``) or, with
     ``every_start``, each verified start (``start_017``), and ``out/grasps.json`` listing them; with ``mujoco``,
@@ -121,9 +121,9 @@ class _Exporter:
         """The object's convex parts for MuJoCo, made once (CoACD can take a minute on a scan: said first)."""
         settings = load_physics_settings(physics_config)
         grasp_settings = self.sweep.settings
-        print(f"export {self.sweep.task}: preparing the object's convex parts for MuJoCo", file=sys.stderr)
         friction, torsion = grasp_settings.friction_coefficient, grasp_settings.torsional_friction_m
-        self.holding = Holding.of(self.obj, friction, settings, 1.0, torsion)
+        with preparing(f"export {self.sweep.task}: building the object's convex parts for MuJoCo ..."):
+            self.holding = Holding.of(self.obj, friction, settings, 1.0, torsion)
 
     def write(self, staged: StagedOutput, row: dict, grasp: Grasp) -> dict[str, Any]:
         """One grasp's files, and its entry in ``grasps.json``."""

@@ -13,6 +13,7 @@ from grasptask.hand.hand_model import Hand
 from grasptask.io.artifacts import Provenance, StagedOutput
 from grasptask.io.wording import plural
 from grasptask.paths import as_paths
+from grasptask.progress import timed_stage
 from grasptask.records.reference import PaperSynthesis, read_paper_synthesis
 from grasptask.records.sweeps import SOLUTIONS, Sweep
 from grasptask.report import browser_check
@@ -73,6 +74,7 @@ class ReportSummary:
     browser: BrowserCheck | None = None
 
 
+@timed_stage
 def run_report(options: ReportOptions) -> ReportSummary:
     """Build the report and, with ``check_browser``, check it in headless Chromium."""
     summary = _build_report(options.results, options.folder)

@@ -18,10 +18,11 @@ from grasptask.io.artifacts import Provenance, StagedOutput
 from grasptask.io.child_processes import die_with_parent
 from grasptask.io.config_schema import MAX_WORKERS
 from grasptask.io.locking import check_writable, folder_lock
+from grasptask.io.tables import read_table
 from grasptask.paths import DEFAULT_PHYSICS_CONFIG, as_paths
-from grasptask.physics.judge import Holding, Judge, best_grasp_trace, write_physics_results
+from grasptask.physics.judge import MAX_FILMED, Holding, Judge, Traced, traced_rows, write_physics_results
 from grasptask.physics.physics_settings import CONTROLLERS, Controller, load_physics_settings
-from grasptask.progress import Progress
+from grasptask.progress import Progress, preparing, timed_stage
 from grasptask.records.sweeps import Sweep, SweepInputs
 
 
@@ -88,6 +89,12 @@ def _check_in_worker(index: int) -> dict[str, Any]:
     return _worker.check(index)
 
 
+def _trace_in_worker(index: int, filmed: bool) -> Traced:
+    assert _worker is not None
+    return _worker.trace(index, filmed)
+
+
+@timed_stage
 def run_physics(options: PhysicsOptions) -> PhysicsSummary:
     """Check every solved grasp of ``options.solutions``; writes ``out/physics.parquet`` (one row per start),
     ``out/physics_summary.json`` and ``out/physics_trace.parquet`` (the best verified grasp's motion over the
@@ -95,7 +102,8 @@ def run_physics(options: PhysicsOptions) -> PhysicsSummary:
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # inherited by the simulation processes
     out = options.out
     sweep = options.open_sweep()
-    judge = _judge_for(options, sweep)  # every input checked here, before any work
+    with preparing(f"physics {sweep.task}: building the object's convex parts and the first scene ..."):
+        judge = _judge_for(options, sweep)  # every input checked here, before any work
     # --out held, and known to be writable, from the start: a second run into it is refused, not overwritten
     with folder_lock(out, f"physics {sweep.task}"):
         check_writable(out)
@@ -106,11 +114,12 @@ def _judge_all(judge: Judge, options: PhysicsOptions, sweep: Sweep) -> PhysicsSu
     indices = list(range(len(judge.solved.rows)))
     counts = {"held": 0, "dropped": 0}
     workers = options.workers
-    with Progress(len(indices), f"physics {sweep.task}", "grasps") as shown:
-        parallel = workers > 1
-        with ProcessPoolExecutor(workers, initializer=_start_worker, initargs=(judge,)) if parallel else (
-            nullcontext()
-        ) as pool:  # fmt: skip
+    optima_file = sweep.solutions.parent / "optima.parquet"
+    traced = traced_rows(judge, read_table(optima_file, ("start_id", "Q")) if optima_file.is_file() else None)
+    with ProcessPoolExecutor(workers, initializer=_start_worker, initargs=(judge,)) if workers > 1 else (
+        nullcontext()
+    ) as pool:  # fmt: skip
+        with Progress(len(indices), f"physics {sweep.task}", "grasps") as shown:
             results = pool.map(_check_in_worker, indices) if pool is not None else map(judge.check, indices)
             records = []
             for record in results:
@@ -118,8 +127,16 @@ def _judge_all(judge: Judge, options: PhysicsOptions, sweep: Sweep) -> PhysicsSu
                 if "physics_passed" in record:
                     counts["held" if record["physics_passed"] else "dropped"] += 1
                 shown.update(1, **counts)
+        with Progress(len(traced), f"physics {sweep.task}: the optima step by step", "grasps") as shown:
+            filmed = [n < MAX_FILMED for n in range(len(traced))]
+            mapped = (
+                pool.map(_trace_in_worker, traced, filmed) if pool is not None else map(judge.trace, traced, filmed)
+            )
+            traces = []
+            for done in mapped:
+                traces.append(done)
+                shown.update(1)
     table = pd.DataFrame(records)
-    trace = best_grasp_trace(judge)
     used = sweep.files
     files = [sweep.solutions, sweep.tasks, used.hand, used.object, used.grasp_config, options.physics_config]
     parameters = {
@@ -130,5 +147,5 @@ def _judge_all(judge: Judge, options: PhysicsOptions, sweep: Sweep) -> PhysicsSu
     }
     provenance = Provenance.of("physics", parameters, files)
     with StagedOutput(options.out, provenance) as staged:
-        result = write_physics_results(staged, table, judge.task.name, judge.holding.settings, trace, judge=judge)
+        result = write_physics_results(staged, table, judge.task.name, judge.holding.settings, traces, judge=judge)
     return PhysicsSummary(options.out, table, result)

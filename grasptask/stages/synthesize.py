@@ -51,7 +51,7 @@ from grasptask.objects.object_files import (
 from grasptask.objects.surface import Symmetry
 from grasptask.paths import DEFAULT_GRASP_CONFIG, DEFAULT_HAND, DEFAULT_OBJECT, DEFAULT_SOLVER_CONFIG, as_paths
 from grasptask.physics.physics_settings import load_physics_settings
-from grasptask.progress import Progress
+from grasptask.progress import Progress, preparing, timed_stage
 from grasptask.records.grasp_library import LibraryEntry, add_to_library, nearest_entry, setup_key
 from grasptask.records.reference import PaperSynthesis, read_paper_synthesis
 from grasptask.records.run_record import RUN_FILE, read_run, run_outcome, throughput
@@ -364,6 +364,7 @@ def _check_fresh(folder: Path, done: LogContents, rerun: LogContents | None) -> 
         )
 
 
+@timed_stage
 def run_synthesize(options: SynthesisOptions, echo: Callable[[str], Any] = print) -> SynthesisSummary:
     """Solve the task's starts, verify every solution, and write ``solutions.parquet``, ``optima.parquet`` and
     ``run.json`` under ``options.folder``; ``echo`` hears the sweep's progress.
@@ -452,7 +453,8 @@ def _run_locked(
     with graceful_stop(notify=echo):
         try:
             if todo:
-                model_size = executor.start()
+                with preparing(f"{options.task}: building the NLP in {plural(workers, 'worker')} ...", echo):
+                    model_size = executor.start()
                 _say_model(model_size, prepared.paper, echo)
             # the run is known to work: only now is the folder changed
             _begin(folder, prepared, log, options.resume, done, rows, echo)
@@ -673,11 +675,11 @@ def summarise(
         staged.write_parquet("optima.parquet", optima)
         staged.write_json(RUN_FILE, run)
         if judge is not None:
-            from grasptask.physics.judge import best_grasp_trace, write_physics_results  # deferred: MuJoCo
+            from grasptask.physics.judge import MAX_FILMED, traced_rows, write_physics_results  # deferred: MuJoCo
 
-            trace = best_grasp_trace(judge)
+            traced = [judge.trace(k, n < MAX_FILMED) for n, k in enumerate(traced_rows(judge, optima))]
             write_physics_results(
-                staged, solutions, options.task, judge.holding.settings, trace, table_name=None, judge=judge
+                staged, solutions, options.task, judge.holding.settings, traced, table_name=None, judge=judge
             )
     return run
 
