@@ -7,7 +7,8 @@ verdict, and the largest difference between a replayed phase's worst translation
     python benchmarks/mujoco_scenes.py [--starts N] [--hands human3,allegro,...] [--objects tool,ycb_mug]
     python benchmarks/mujoco_scenes.py --table
 
-Target: every scene loads from the copy, and every replay gives the check's verdict. Results are saved after
+A hand and object whose sweep verifies nothing are swept again with four times the starts. Target: every scene
+loads from the copy, and every replay gives the check's verdict. Results are saved after
 every hand and object (benchmarks/results/mujoco_scenes.json), so an interrupted run keeps what it did.
 """
 
@@ -34,6 +35,8 @@ OBJECTS = {
 }
 DEFAULT_HANDS = ("human3", "barrett", "allegro", "mesh_allegro", "parallel_jaw", "shadow", "inspire")
 TASK = "drawing"
+#: a hand and object whose first sweep verifies nothing are swept again with this many times the starts
+MORE = 4
 
 
 def check_prerequisites(hands: list[str], objects: list[str]) -> None:
@@ -64,10 +67,13 @@ def scenes_of(hand: str, obj: str, tasks: Path, work: Path, starts: int) -> dict
     path = hand_path(hand, work) if path is None else path
     choice = ["--fingers", ",".join(fingers)] if fingers else []
     began = time.perf_counter()
-    sweep = grasptask("synthesize", "--tasks", tasks, "--task", TASK, "--hand", path, "--object", OBJECTS[obj],
-                      "--out", folder, "--starts", starts, "--workers", 2, "--anyway", *choice)  # fmt: skip
-    if sweep.returncode not in (0, 3):
-        return {"error": sweep.stderr.strip().splitlines()[-1]}
+    for tried in (starts, MORE * starts):  # a sweep that verified nothing has nothing to export: more starts once
+        sweep = grasptask("synthesize", "--tasks", tasks, "--task", TASK, "--hand", path, "--object", OBJECTS[obj],
+                          "--out", folder, "--starts", tried, "--workers", 2, "--anyway", *choice)  # fmt: skip
+        if sweep.returncode != 3:
+            break
+    if sweep.returncode != 0:
+        return {"error": sweep.stderr.strip().splitlines()[-1], "starts": tried}
     exported = grasptask("export", folder / TASK / "solutions.parquet", "--out", folder / "export", "--mujoco")
     if exported.returncode != 0:
         return {"error": exported.stderr.strip().splitlines()[-1], "sweep_exit": sweep.returncode}
@@ -92,6 +98,7 @@ def scenes_of(hand: str, obj: str, tasks: Path, work: Path, starts: int) -> dict
         "loaded": sum(e["loads"] for e in entries),
         "replay_agrees": sum(e.get("replay_held") == e["held"] for e in entries),
         "held": sum(bool(e["held"]) for e in entries),
+        "starts": tried,
         "seconds": time.perf_counter() - began,
         "grasps": entries,
     }
