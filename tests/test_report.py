@@ -395,6 +395,14 @@ def test_each_optimum_is_traced_with_its_worst_moment_and_filmed_where_mujoco_ca
 TASK_PHASES = tuple(f"task{sign}u{k}" for k in range(1, 7) for sign in "+-")
 
 
+def test_the_physics_paths_and_films_open_in_headless_chromium(physics_report, tmp_path):
+    summary = json.loads((physics_report / "report" / "report.json").read_text())
+    check = check_page(physics_report / "report" / "index.html")
+    assert check.ok, check.problems()
+    assert check.images == len(summary["figures"]) and "physics_drawing_00" in summary["figures"]
+    assert len(check.views) == len(summary["views"]) and all(v.ok and v.canvases for v in check.views)
+
+
 def test_without_offscreen_rendering_the_report_says_so_once_and_draws_the_paths(simulated, tmp_path, monkeypatch):
     from grasptask.physics import film
 

@@ -59,11 +59,11 @@ class Writer:
         self.tables: list[str] = []
         self.views: list[str] = []
 
-    def figure(self, name: str) -> Path:
+    def figure(self, name: str, suffix: str = ".png") -> Path:
         if name in self.figures:  # two labels that map to the same file stem
             name = f"{name}_{sum(f.startswith(name) for f in self.figures)}"
         self.figures.append(name)
-        return self.staged.path(f"figures/{name}.png")
+        return self.staged.path(f"figures/{name}{suffix}")
 
     def view(self, name: str, figure: Any, caption: str, height: int) -> View:
         """An interactive view of the plotly ``figure``, its element id made unique and safe from ``name``."""
@@ -458,7 +458,7 @@ def _physics_blocks(task: str, number: int, start: int, physics: PhysicsOutcome,
     ]
     film = physics.film(start)
     if film is not None:
-        copied = writer.staged.path(f"figures/film_{file_stem(task)}_{number:02d}.gif")
+        copied = writer.figure(f"film_{file_stem(task)}_{number:02d}", ".gif")
         copied.write_bytes(film.read_bytes())
         caption = f"{label}: {moment.get('phase')} in MuJoCo, from the settled grasp (the object orange)"
         blocks.append(Figure(copied, caption))
