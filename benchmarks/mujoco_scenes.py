@@ -124,7 +124,7 @@ def phases_compared(worst: dict, scene: Path) -> dict:
     }
 
 
-def table(results: dict) -> str:
+def markdown_table(results: dict) -> str:
     lines = ["| hand | object | scenes | loaded from a copy | replay's verdict agrees | held | phases judged alike | "
              "largest gap in a held phase, um |", "|---|---|---|---|---|---|---|---|"]  # fmt: skip
     for key, cell in results["runs"].items():
@@ -147,7 +147,7 @@ def main() -> None:
     parser.set_defaults(starts=4)
     args = parser.parse_args()
     if args.table:
-        print_saved(NAME, table)
+        print_saved(NAME, markdown_table)
         return
     hands, objects = args.hands.split(","), args.objects.split(",")
     check_prerequisites(hands, objects)
@@ -166,7 +166,7 @@ def main() -> None:
                 )
                 print(f"{hand} on {obj}: {said}", flush=True)
                 save(NAME, results)
-    print(table(results))
+    print(markdown_table(results))
 
 
 if __name__ == "__main__":

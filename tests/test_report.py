@@ -380,7 +380,7 @@ def test_each_optimum_is_traced_with_its_worst_moment_and_filmed_where_mujoco_ca
     trace = pd.read_parquet(physics / "physics_trace.parquet")
     assert set(trace["start_id"]) == {moment["start_id"]} and trace["phase"].nunique() == 19
     page = (physics_report / "report" / "index.html").read_text()
-    assert (physics_report / "report" / "figures" / "physics_drawing_00.png").is_file()
+    assert (physics_report / "report" / "figures" / "physics_drawing.png").is_file()
     assert "physics, worst moment: " in page  # the moment's legend entry in the grasp's 3D view
     reason = offscreen_unavailable()
     if reason is None:
@@ -399,7 +399,7 @@ def test_the_physics_paths_and_films_open_in_headless_chromium(physics_report, t
     summary = json.loads((physics_report / "report" / "report.json").read_text())
     check = check_page(physics_report / "report" / "index.html")
     assert check.ok, check.problems()
-    assert check.images == len(summary["figures"]) and "physics_drawing_00" in summary["figures"]
+    assert check.images == len(summary["figures"]) and "physics_drawing" in summary["figures"]
     assert len(check.views) == len(summary["views"]) and all(v.ok and v.canvases for v in check.views)
 
 
@@ -414,4 +414,4 @@ def test_without_offscreen_rendering_the_report_says_so_once_and_draws_the_paths
     run_report(ReportOptions(results=results))
     page = (results / "report" / "index.html").read_text()
     assert page.count("No films of the check: no OpenGL platform here") == 1 and "data:image/gif" not in page
-    assert (results / "report" / "figures" / "physics_drawing_00.png").is_file()
+    assert (results / "report" / "figures" / "physics_drawing.png").is_file()

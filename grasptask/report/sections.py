@@ -416,8 +416,6 @@ def _optimum_blocks(task: str, optimum: pd.Series, shown: _Shown, writer: Writer
         mesh=shown.mesh,
     )
     blocks.append(Figure(path, f"{title}: two fixed viewpoints (for print)"))
-    if shown.physics is not None:
-        blocks.extend(_physics_blocks(task, number, int(optimum["start_id"]), shown.physics, writer))
     return blocks, quality
 
 
@@ -437,32 +435,39 @@ def _moment_traces(shown: _Shown, grasp: Grasp, check: Verification, moment: dic
     return moment_traces(fingers, moved, label)
 
 
-def _physics_blocks(task: str, number: int, start: int, physics: PhysicsOutcome, writer: Writer) -> list[Figure]:
-    """An optimum's path in the physics check (its translation and rotation over every phase, against the
-    thresholds) and, where it was filmed, the phase that shows most."""
-    trace = physics.trace[physics.trace["start_id"] == start]
-    if trace.empty:
-        return []
-    label = f"{task}, optimum {number}"
-    path = writer.figure(f"physics_{file_stem(task)}_{number:02d}")
-    plot_physics_traces({label: trace}, {label: physics.summary["thresholds"]}, path)
-    moment = physics.moment(start) or {}
-    verdict = "held" if moment.get("held", True) else f"dropped under {moment.get('phase')}"
+def _optima_paths(task: str, physics: PhysicsOutcome, sweep: Sweep, writer: Writer) -> list[Figure]:
+    """A task's traced optima in the physics check, best first: each one's translation and rotation over every
+    phase against the thresholds, and the films of those filmed."""
+    numbers = dict(zip(sweep.optima["start_id"].astype(int), sweep.optima["optimum_id"].astype(int), strict=True))
+    labels, traces = {}, {}
+    for start, trace in physics.trace.groupby("start_id", sort=False):
+        label = f"{task}, optimum {numbers.get(int(start), '?')}"
+        labels[int(start)], traces[label] = label, trace
+    path = writer.figure(f"physics_{file_stem(task)}")
+    plot_physics_traces(traces, dict.fromkeys(traces, physics.summary["thresholds"]), path)
+    said = "; ".join(f"{labels[m['start_id']].split(', ')[1]} {_verdict(m)}" for m in physics.summary["traced"])
     blocks = [
         Figure(
             path,
-            f"{label} in the physics check ({verdict}): the object's translation and rotation over settling and "
-            "each test wrench, each from the settled state (DexGraspBench's forces shaded); dashed our threshold, "
-            "dotted DexGraspBench's. Its worst moment is in the 3D view above (legend: 'physics, worst moment').",
+            f"{task}: the object's translation and rotation under each distinct optimum, best first ({said}), over "
+            "settling and each test wrench, each from the settled state (DexGraspBench's forces shaded); dashed "
+            "our threshold, dotted DexGraspBench's; log scale above 0.1. Each one's worst moment is in its 3D view "
+            "(legend: 'physics, worst moment').",
         )
     ]
-    film = physics.film(start)
-    if film is not None:
-        copied = writer.figure(f"film_{file_stem(task)}_{number:02d}", ".gif")
-        copied.write_bytes(film.read_bytes())
-        caption = f"{label}: {moment.get('phase')} in MuJoCo, from the settled grasp (the object orange)"
-        blocks.append(Figure(copied, caption))
+    for moment in physics.summary["traced"]:
+        film = physics.film(moment["start_id"])
+        if film is not None:
+            label = labels[moment["start_id"]]
+            copied = writer.figure(f"film_{file_stem(task)}_{moment['start_id']:03d}", ".gif")
+            copied.write_bytes(film.read_bytes())
+            blocks.append(Figure(copied, f"{label}, {_verdict(moment)}: in MuJoCo, the object orange"))
     return blocks
+
+
+def _verdict(moment: dict) -> str:
+    phase = moment["phase"]
+    return f"held (worst: {phase})" if moment["held"] else f"dropped under {phase}"
 
 
 def _task_card(task: str, sweep: Sweep, physics: PhysicsOutcome | None) -> str:
@@ -558,25 +563,14 @@ def physics_section(results: ResultsFolder, sweeps: dict[str, Sweep], writer: Wr
         f"{task} {_share(o.summary['agreement']['verified_and_held'], int(o.summary['verified']))} of verified held"
         for task, o in outcomes.items()
     )
-    # the best grasp's (traced first) of each task, beside the others'; each optimum's own path is with its views
-    traced = {task: o.trace[o.trace["start_id"] == o.trace["start_id"].iloc[0]] for task, o in outcomes.items()
-              if len(o.trace)}  # fmt: skip
     unfilmed = next(
         (o.summary["films_unavailable"] for o in outcomes.values() if o.summary.get("films_unavailable")), None
     )
     if unfilmed:
         section.blocks.append(Note(f"No films of the check: {unfilmed}. Each optimum's path is drawn as a plot."))
-    if traced:
-        path = writer.figure("physics_traces")
-        plot_physics_traces(traced, {task: outcomes[task].summary["thresholds"] for task in traced}, path)
-        section.blocks.append(
-            Figure(
-                path,
-                "The object's motion under each task's best optimum (lowest Q) over the whole protocol: "
-                "settle, then each test wrench from the settled state (DexGraspBench's forces shaded); dashed our "
-                "threshold, dotted DexGraspBench's. Log scale above 0.1.",
-            )
-        )
-    for task in outcomes.keys() - traced.keys():
-        section.blocks.append(Note(f"{task}: no verified grasp to show the motion of"))
+    for task, outcome in outcomes.items():
+        if len(outcome.trace):
+            section.blocks.extend(_optima_paths(task, outcome, sweeps[task], writer))
+        else:
+            section.blocks.append(Note(f"{task}: no verified grasp to show the motion of"))
     return section
