@@ -111,7 +111,7 @@ def phases_compared(worst: dict, scene: Path) -> dict:
     limit = check["thresholds"]
 
     def within(translation: float, rotation: float) -> bool:
-        return translation <= limit["max_translation_m"] and rotation <= limit["max_rotation_deg"]
+        return bool(translation <= limit["max_translation_m"] and rotation <= limit["max_rotation_deg"])
 
     ours = {p: (m["translation_m"], m["rotation_deg"]) for p, m in check["phases"].items()}
     task = [p for p in ours if not p.startswith("dexgraspbench")]
@@ -119,8 +119,8 @@ def phases_compared(worst: dict, scene: Path) -> dict:
     gaps = [abs(worst[p][0] - ours[p][0]) for p in held]
     return {
         "phases": len(task),
-        "phases_agree": sum(within(*worst[p]) == within(*ours[p]) for p in task),
-        "max_translation_gap_held_m": max(gaps, default=0.0),
+        "phases_agree": int(sum(within(*worst[p]) == within(*ours[p]) for p in task)),
+        "max_translation_gap_held_m": float(max(gaps, default=0.0)),
     }
 
 
