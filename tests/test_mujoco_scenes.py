@@ -80,9 +80,15 @@ def round_trip(holding: Holding, hand, grasp: Grasp, task, root: Path, show: tri
     assert held == result.passed
     check = json.loads((folder / "check.json").read_text())
     assert check["held"] == result.passed
+    limit = check["thresholds"]
     for phase in ("settle", *(name for name in result.tests if name.startswith("task"))):
         replayed, recorded = worst[phase], check["phases"][phase]
-        assert replayed[0] == pytest.approx(recorded["translation_m"], rel=0.2, abs=2e-5), phase
+        went = (
+            recorded["translation_m"] > limit["max_translation_m"]
+            or recorded["rotation_deg"] > limit["max_rotation_deg"]
+        )
+        if not went:  # past a threshold the object flies off, and where it ends says nothing
+            assert replayed[0] == pytest.approx(recorded["translation_m"], rel=0.2, abs=2e-5), phase
     return result
 
 
