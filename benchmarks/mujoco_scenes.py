@@ -129,6 +129,28 @@ def phases_compared(worst: dict, scene: Path) -> dict:
     }
 
 
+def summary(results: dict) -> str:
+    """What the run says, one line each: scenes loaded, verdicts and phases the replay gave alike, and how far
+    apart the replay and the check went where the check held the object."""
+    grasps = [g for cell in results["runs"].values() for g in cell.get("grasps", [])]
+    loaded = [g for g in grasps if g.get("loads")]
+    gaps = sorted(g["max_translation_gap_held_m"] for g in loaded)
+    nothing = [key for key, cell in results["runs"].items() if "error" in cell]
+    return "\n".join(
+        [
+            f"{len(loaded)} of {len(grasps)} exported scenes loaded from a copy of their folder; the replay gave the "
+            f"check's verdict on {sum(g['replay_held'] == g['held'] for g in loaded)} of them",
+            f"{sum(g['phases_agree'] for g in loaded)} of {sum(g['phases'] for g in loaded)} phases (settling and "
+            "the task's wrenches) judged alike, within the thresholds or past them",
+            f"where the check held the object, the replay's worst translation within {1e6 * gaps[len(gaps) // 2]:.1f}"
+            f" um of the check's for the median scene, and up to {1e3 * gaps[-1]:.2f} mm where the object slid",
+            "nothing to export (no verified grasp): " + (", ".join(nothing) or "none"),
+        ]
+        if gaps
+        else ["no scene exported"]
+    )
+
+
 def markdown_table(results: dict) -> str:
     lines = ["| hand | object | scenes | loaded from a copy | replay's verdict agrees | held | phases judged alike | "
              "largest gap in a held phase, um |", "|---|---|---|---|---|---|---|---|"]  # fmt: skip
