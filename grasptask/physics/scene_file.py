@@ -74,7 +74,7 @@ def _stated_inertia(spec: mujoco.MjSpec, model: mujoco.MjModel) -> None:
     """A stated mass and inertia whose frame the compiler placed (at the body's geoms) written with that frame:
     MuJoCo writes a stated inertia only where its position is stated too."""
     for body in spec.bodies:
-        if body.explicitinertial and np.isnan(body.ipos[0]):
+        if body.name and body.explicitinertial and np.isnan(body.ipos[0]):
             compiled = model.body(body.name)
             body.ipos, body.iquat, body.inertia = compiled.ipos, compiled.iquat, compiled.inertia
 

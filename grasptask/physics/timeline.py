@@ -46,8 +46,3 @@ class PhaseTrace:
         joints: np.ndarray,
     ) -> np.ndarray:
         return np.concatenate([[time_s, moved, turned], wrench, controls, object_pose, joints])
-
-    def worst(self) -> int:
-        """The row where the object was furthest from its start, relative to the thresholds' usual ratio (1 mm
-        to 1 degree): the moment a picture of the phase shows."""
-        return int(np.argmax(1e3 * self.translation_m + self.rotation_deg)) if len(self.time_s) else 0
