@@ -178,3 +178,13 @@ def test_an_export_without_mujoco_writes_no_scene(tool_export, cli, tmp_path):
     assert result.exit_code == 0, result.output
     assert not [p for p in (tmp_path / "plain").iterdir() if p.is_dir()]
     assert "MuJoCo" not in result.output
+
+
+def test_a_bad_physics_config_for_the_scenes_is_one_line_and_nothing_written(tool_export, cli, tmp_path):
+    root, _ = tool_export
+    bad = tmp_path / "physics.yaml"
+    bad.write_text("timestep_s: -1\n")
+    out = tmp_path / "scenes"
+    result = cli("export", root / "drawing" / "solutions.parquet", "--out", out, "--mujoco", "--physics-config", bad)
+    assert result.exit_code == 2 and len(result.output.strip().splitlines()) == 1
+    assert "timestep_s" in result.output and str(bad) in result.output and not out.exists()
