@@ -51,12 +51,12 @@ class Holding:
 
         return cls(obj, friction, settings, object_body(obj, settings), strength, pad_torsion)
 
-    def hold(self, hand: Hand, grasp: Grasp, task: TaskModel, trace: bool = False) -> PhysicsResult:
+    def hold(self, hand: Hand, grasp: Grasp, task: TaskModel) -> PhysicsResult:
         from grasptask.physics.protocol import hold_grasp  # deferred: MuJoCo
 
         body, friction = self.body, self.friction
         return hold_grasp(
-            hand, self.obj, body, grasp, friction, task, self.settings, trace, self.strength, self.pad_torsion
+            hand, self.obj, body, grasp, friction, task, self.settings, False, self.strength, self.pad_torsion
         )
 
     def traced(self, hand: Hand, grasp: Grasp, task: TaskModel) -> tuple[Scene, PhysicsResult]:
@@ -87,8 +87,8 @@ class Judge:
             h = self.holding
             build_scene(self.solved.hand, h.obj, h.body, grasp, h.friction, h.settings, h.strength, h.pad_torsion)
 
-    def hold(self, grasp: Grasp, trace: bool = False) -> PhysicsResult:
-        return self.holding.hold(self.solved.hand, grasp, self.task, trace)
+    def hold(self, grasp: Grasp) -> PhysicsResult:
+        return self.holding.hold(self.solved.hand, grasp, self.task)
 
     def trace(self, index: int, filmed: bool = False) -> Traced:
         """Row ``index``'s grasp held again with its trace kept (:class:`Traced`)."""
