@@ -147,19 +147,22 @@ class Traced:
     film: bytes | None = None
 
 
-def traced_rows(judge: Judge, optima: pd.DataFrame | None) -> list[int]:
-    """Which of ``judge``'s rows to trace: the distinct optima's best starts, best Q first (at most
-    :data:`MAX_TRACED`); without optima, the verified grasp of lowest Q."""
+def traced_rows(judge: Judge, optima: pd.DataFrame | None) -> list[tuple[int, bool]]:
+    """Which of ``judge``'s rows to trace, and whether to film each: the distinct optima's best starts, best Q
+    first (at most :data:`MAX_TRACED`, the first :data:`MAX_FILMED` filmed); without optima, the verified grasp
+    of lowest Q."""
     index = {int(row["start_id"]): k for k, (row, grasp) in enumerate(judge.solved.rows) if grasp is not None}
     if optima is not None and len(optima):
         ordered = optima.sort_values("Q", kind="stable")["start_id"].astype(int)
-        return [index[s] for s in ordered if s in index][:MAX_TRACED]
-    verified = [
-        (float(row["Q"]), k)
-        for k, (row, grasp) in enumerate(judge.solved.rows)
-        if grasp is not None and row.get("verified") and np.isfinite(float(row.get("Q", np.nan)))
-    ]
-    return [min(verified)[1]] if verified else []
+        rows = [index[s] for s in ordered if s in index][:MAX_TRACED]
+    else:
+        verified = [
+            (float(row["Q"]), k)
+            for k, (row, grasp) in enumerate(judge.solved.rows)
+            if grasp is not None and row.get("verified") and np.isfinite(float(row.get("Q", np.nan)))
+        ]
+        rows = [min(verified)[1]] if verified else []
+    return [(k, n < MAX_FILMED) for n, k in enumerate(rows)]
 
 
 def summary(table: pd.DataFrame, task: str, settings: PhysicsSettings) -> dict[str, Any]:
@@ -212,7 +215,8 @@ def write_physics_results(
         result["object_mass_kg"] = judge.holding.body.mass_kg
         result["object_mass_given"] = getattr(judge.holding.obj, "mass_kg", None) is not None
     result["traced"] = [t.moment for t in traced]
-    result["films_unavailable"] = offscreen_unavailable() if traced else None
+    # a film made says rendering works; the probe (a process of its own) only where none was
+    result["films_unavailable"] = offscreen_unavailable() if traced and not any(t.film for t in traced) else None
     if table_name is not None:
         staged.write_parquet(table_name, table)
     staged.write_json("physics_summary.json", result)

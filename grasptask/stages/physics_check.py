@@ -20,7 +20,7 @@ from grasptask.io.config_schema import MAX_WORKERS
 from grasptask.io.locking import check_writable, folder_lock
 from grasptask.io.tables import read_table
 from grasptask.paths import DEFAULT_PHYSICS_CONFIG, as_paths
-from grasptask.physics.judge import MAX_FILMED, Holding, Judge, Traced, traced_rows, write_physics_results
+from grasptask.physics.judge import Holding, Judge, Traced, traced_rows, write_physics_results
 from grasptask.physics.physics_settings import CONTROLLERS, Controller, load_physics_settings
 from grasptask.progress import Progress, preparing, timed_stage
 from grasptask.records.sweeps import Sweep, SweepInputs
@@ -89,9 +89,10 @@ def _check_in_worker(index: int) -> dict[str, Any]:
     return _worker.check(index)
 
 
-def _trace_in_worker(index: int, filmed: bool) -> Traced:
+def _trace_in_worker(plan: tuple[int, bool]) -> Traced:
+    """A row to trace, and whether to film it (:func:`traced_rows`)."""
     assert _worker is not None
-    return _worker.trace(index, filmed)
+    return _worker.trace(*plan)
 
 
 @timed_stage
@@ -128,10 +129,7 @@ def _judge_all(judge: Judge, options: PhysicsOptions, sweep: Sweep) -> PhysicsSu
                     counts["held" if record["physics_passed"] else "dropped"] += 1
                 shown.update(1, **counts)
         with Progress(len(traced), f"physics {sweep.task}: the optima step by step", "grasps") as shown:
-            filmed = [n < MAX_FILMED for n in range(len(traced))]
-            mapped = (
-                pool.map(_trace_in_worker, traced, filmed) if pool is not None else map(judge.trace, traced, filmed)
-            )
+            mapped = pool.map(_trace_in_worker, traced) if pool is not None else (judge.trace(*plan) for plan in traced)
             traces = []
             for done in mapped:
                 traces.append(done)

@@ -675,9 +675,9 @@ def summarise(
         staged.write_parquet("optima.parquet", optima)
         staged.write_json(RUN_FILE, run)
         if judge is not None:
-            from grasptask.physics.judge import MAX_FILMED, traced_rows, write_physics_results  # deferred: MuJoCo
+            from grasptask.physics.judge import traced_rows, write_physics_results  # deferred: MuJoCo
 
-            traced = [judge.trace(k, n < MAX_FILMED) for n, k in enumerate(traced_rows(judge, optima))]
+            traced = [judge.trace(k, filmed) for k, filmed in traced_rows(judge, optima)]
             write_physics_results(
                 staged, solutions, options.task, judge.holding.settings, traced, table_name=None, judge=judge
             )
