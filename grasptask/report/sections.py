@@ -439,13 +439,14 @@ def _optima_paths(task: str, physics: PhysicsOutcome, sweep: Sweep, writer: Writ
     """A task's traced optima in the physics check, best first: each one's translation and rotation over every
     phase against the thresholds, and the films of those filmed."""
     numbers = dict(zip(sweep.optima["start_id"].astype(int), sweep.optima["optimum_id"].astype(int), strict=True))
-    labels, traces = {}, {}
-    for start, trace in physics.trace.groupby("start_id", sort=False):
-        label = f"{task}, optimum {numbers.get(int(start), '?')}"
-        labels[int(start)], traces[label] = label, trace
+
+    def optimum(start: int) -> str:
+        return f"optimum {numbers.get(start, '?')}"
+
+    traces = {f"{task}, {optimum(int(start))}": trace for start, trace in physics.trace.groupby("start_id", sort=False)}
     path = writer.figure(f"physics_{file_stem(task)}")
     plot_physics_traces(traces, dict.fromkeys(traces, physics.summary["thresholds"]), path)
-    said = "; ".join(f"{labels[m['start_id']].split(', ')[1]} {_verdict(m)}" for m in physics.summary["traced"])
+    said = "; ".join(f"{optimum(m['start_id'])} {_verdict(m)}" for m in physics.summary["traced"])
     blocks = [
         Figure(
             path,
@@ -458,10 +459,10 @@ def _optima_paths(task: str, physics: PhysicsOutcome, sweep: Sweep, writer: Writ
     for moment in physics.summary["traced"]:
         film = physics.film(moment["start_id"])
         if film is not None:
-            label = labels[moment["start_id"]]
             copied = writer.figure(f"film_{file_stem(task)}_{moment['start_id']:03d}", ".gif")
             copied.write_bytes(film.read_bytes())
-            blocks.append(Figure(copied, f"{label}, {_verdict(moment)}: in MuJoCo, the object orange"))
+            said = f"{task}, {optimum(moment['start_id'])}, {_verdict(moment)}: in MuJoCo, the object orange"
+            blocks.append(Figure(copied, said))
     return blocks
 
 
