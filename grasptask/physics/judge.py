@@ -55,9 +55,7 @@ class Holding:
         from grasptask.physics.protocol import hold_grasp  # deferred: MuJoCo
 
         body, friction = self.body, self.friction
-        return hold_grasp(
-            hand, self.obj, body, grasp, friction, task, self.settings, False, self.strength, self.pad_torsion
-        )
+        return hold_grasp(hand, self.obj, body, grasp, friction, task, self.settings, self.strength, self.pad_torsion)
 
     def traced(self, hand: Hand, grasp: Grasp, task: TaskModel) -> tuple[Scene, PhysicsResult]:
         """The grasp's seated scene and its check with every control step kept (an exported scene's)."""

@@ -315,10 +315,10 @@ def hold_grasp(
     friction: float,
     task: TaskModel,
     settings: PhysicsSettings,
-    trace: bool = False,
     strength: float = 1.0,
     pad_torsion: float = 0.0,
 ) -> PhysicsResult:
-    """:func:`seated_scene`'s grasp put through :func:`check_grasp`."""
+    """:func:`seated_scene`'s grasp put through :func:`check_grasp` (a check that keeps its trace is
+    :meth:`~grasptask.physics.judge.Holding.traced`'s)."""
     scene, seating = seated_scene(hand, obj, body, grasp, friction, settings, strength, pad_torsion)
-    return check_grasp(scene, task, body.mass_kg, settings, trace, seating)
+    return check_grasp(scene, task, body.mass_kg, settings, seating=seating)
