@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import json
 
-import h5py
 import numpy as np
 import pandas as pd
 import pytest
@@ -15,31 +14,7 @@ import scipy.io
 from grasptask.errors import BadInputError
 from grasptask.task.recordings import Layout, read_recording
 from tests.conftest import wrench_samples
-
-
-def write_mat73(path, variables: dict) -> None:
-    """A MATLAB v7.3 MAT-file as MATLAB writes it: HDF5 behind a 512-byte text header, every array stored with
-    its dimensions reversed (column-major) and its class in a MATLAB_class attribute, structs as groups."""
-    with h5py.File(path, "w", userblock_size=512) as handle:
-        _write_group(handle, variables)
-    header = b"MATLAB 7.3 MAT-file, Platform: GLNXA64, Created on: Sun Dec  6 12:00:00 2026 HDF5 schema 1.00 ."
-    with open(path, "r+b") as raw:
-        raw.write(header.ljust(116, b" ") + b"\x00" * 8 + b"\x00\x02IM" + b"\x00" * (512 - 128))
-
-
-def _write_group(group, variables: dict) -> None:
-    for name, value in variables.items():
-        if isinstance(value, dict):
-            inner = group.create_group(name)
-            inner.attrs["MATLAB_class"] = np.bytes_("struct")
-            _write_group(inner, value)
-        elif isinstance(value, str):
-            data = group.create_dataset(name, data=np.frombuffer(value.encode("utf-16-le"), np.uint16)[None, :].T)
-            data.attrs["MATLAB_class"] = np.bytes_("char")
-        else:
-            array = np.atleast_2d(np.asarray(value, dtype=float))
-            data = group.create_dataset(name, data=array.T)
-            data.attrs["MATLAB_class"] = np.bytes_("double")
+from tests.mat_files import write_mat73
 
 
 def write_tool(path, text: str) -> None:
@@ -102,7 +77,7 @@ def test_a_mat_layout_not_said_lists_the_variables_with_their_shapes(tmp_path, v
     with pytest.raises(BadInputError) as caught:
         read_recording(tmp_path / "log.mat")
     line = str(caught.value)
-    assert "log.mat" in line and "ft 120x7 double" in line and "info.rate 1x1 double" in line
+    assert "log.mat" in line and "ft 120x7 double" in line and "info struct {rate 1x1 double}" in line
     assert "matlab: {variable:" in line and "\n" not in line
     with pytest.raises(BadInputError, match="say whether its samples are rows or columns"):
         scipy.io.savemat(tmp_path / "square.mat", {"ft": np.eye(7)})

@@ -15,9 +15,10 @@ from grasptask.task import preprocess
 from grasptask.task import recording_checks as checks
 from grasptask.task.ellipsoid import Ellipsoid, ellipsoid_matrices, is_singular, second_moment
 from grasptask.task.frames import transform_wrenches
-from grasptask.task.manifest import RecordingEntry
+from grasptask.task.manifest import RecordingEntry, default_id
 from grasptask.task.recording_checks import Finding
-from grasptask.task.recordings import MIN_SAMPLES, Layout, read_recording, window_mask
+from grasptask.task.matlab import MAT_SUFFIX
+from grasptask.task.recordings import MIN_SAMPLES, Layout, mat_elements, read_recording, window_mask
 from grasptask.task.rosbag import read_wrench_bag
 from grasptask.task.spd import spd_problem
 from grasptask.task.tool import ToolConfig, load_tool
@@ -43,14 +44,12 @@ class Samples:
 def load_wrenches(entry: RecordingEntry, tool: ToolConfig | None = None, options: FitOptions = FitOptions()) -> Samples:
     """The entry's samples in SI units and the object frame, cut to its window, checked and preprocessed."""
     tool = tool or ToolConfig(name="none")
-    layout = replace(
-        tool.layout, variable=entry.variable or tool.layout.variable, rate_hz=entry.rate_hz or tool.layout.rate_hz
-    )
+    layout = entry_layout(entry, tool)
     data = _read_samples(entry, tool, layout)
     units = {**tool.units, **entry.units}
     factor = {key: table[units.get(key, next(iter(table)))] for key, table in UNIT_TABLES.items()}
     t, wrenches = data[:, 0], data[:, 1:]
-    if factor["time_unit"] != 1.0 and not layout.rate_hz:
+    if factor["time_unit"] != 1.0 and not layout.rated:
         t = t * factor["time_unit"]
     if factor["force_unit"] != 1.0 or factor["torque_unit"] != 1.0:
         wrenches = wrenches * np.repeat([factor["force_unit"], factor["torque_unit"]], 3)
@@ -87,6 +86,36 @@ def load_wrenches(entry: RecordingEntry, tool: ToolConfig | None = None, options
     if len(t) < MIN_SAMPLES:
         raise BadInputError(entry.path, f"only {len(t)} samples left after preprocessing (at least {MIN_SAMPLES})")
     return Samples(t, wrenches, [f for f in findings if f is not None])
+
+
+def entry_layout(entry: RecordingEntry, tool: ToolConfig) -> Layout:
+    """The tool's layout as the entry's row overrides it (its variable, its rate) for its element."""
+    layout = replace(tool.layout, variable=entry.variable or tool.layout.variable, element=entry.element)
+    if entry.rate_hz:
+        return replace(layout, rate_hz=entry.rate_hz, rate_from=None, period_from=None)
+    if entry.rate_from:
+        return replace(layout, rate_hz=None, rate_from=entry.rate_from, period_from=None)
+    return layout
+
+
+def expand_trials(entries: Iterable[RecordingEntry], tools: dict[Path, ToolConfig]) -> list[RecordingEntry]:
+    """Each entry, or where its ``.mat`` layout reads every element of a cell or struct array (``{*}``), one
+    entry per element, numbered as trials from the entry's own trial number."""
+    expanded: list[RecordingEntry] = []
+    for entry in entries:
+        tool = entry_tool(entry, tools) or ToolConfig(name="none")
+        count = None
+        if not entry.topic and entry.path.suffix.lower() == MAT_SUFFIX and entry.path.is_file():
+            count = mat_elements(entry.path, entry_layout(entry, tool))
+        if count is None:
+            expanded.append(entry)
+            continue
+        for k in range(1, count + 1):
+            trial = entry.trial + k - 1
+            given = entry.id != default_id(entry.task, entry.grasp, entry.subject, entry.trial)
+            name = f"{entry.id}_{k}" if given else default_id(entry.task, entry.grasp, entry.subject, trial)
+            expanded.append(replace(entry, id=name, trial=trial, element=k, source=f"{entry.source} element {k}"))
+    return expanded
 
 
 def _read_samples(entry: RecordingEntry, tool: ToolConfig, layout: Layout) -> np.ndarray:
@@ -161,37 +190,35 @@ def fit_recordings(
 ) -> FitResult:
     """Fit every recording; with ``skip_bad`` a bad recording is set aside instead of stopping the run."""
     tools: dict[Path, ToolConfig] = {}
-    rows, skipped, findings = [], [], []
-    for entry in progress(list(entries)):
+    rows: list[dict] = []
+    skipped: list[BadInputError] = []
+    findings: list[dict] = []
+    seen: dict[str, str] = {}
+    for row in progress(list(entries)):
         try:
-            tool = entry_tool(entry, tools)
-            ellipsoid, samples = fit_entry(entry, tool, options)
+            parts = expand_trials([row], tools)
         except BadInputError as exc:
             if not skip_bad:
                 raise
             skipped.append(exc)
             continue
-        n, duration = len(samples.t), float(samples.t[-1] - samples.t[0])
-        findings += [
-            {"id": entry.id, "file": str(entry.path), "check": f.check, "message": f.message, "figures": f.figures}
-            for f in samples.findings
-        ]
-        rows.append(
-            {
-                "id": entry.id,
-                "task": entry.task,
-                "grasp": entry.grasp,
-                "group": entry.group,
-                "subject": entry.subject,
-                "trial": entry.trial,
-                "path": str(entry.path),
-                "n_samples": n,
-                "duration_s": duration,
-                "S": ellipsoid.S.ravel(),
-                "axes": ellipsoid.axes.ravel(),
-                "lengths": ellipsoid.lengths,
-            }
-        )
+        for entry in parts:
+            if entry.id in seen:
+                raise BadInputError(entry.source, f"recording id '{entry.id}' again (first from {seen[entry.id]})")
+            seen[entry.id] = entry.source
+            try:
+                tool = entry_tool(entry, tools)
+                ellipsoid, samples = fit_entry(entry, tool, options)
+            except BadInputError as exc:
+                if not skip_bad:
+                    raise
+                skipped.append(exc)
+                continue
+            findings += [
+                {"id": entry.id, "file": str(entry.path), "check": f.check, "message": f.message, "figures": f.figures}
+                for f in samples.findings
+            ]
+            rows.append(_ellipsoid_row(entry, ellipsoid, samples))
     if not rows and skipped:  # the first one's own line says what is wrong, the count how widespread it is
         first = skipped[0]
         raise BadInputError(
@@ -203,6 +230,23 @@ def fit_recordings(
     if not rows:
         raise BadInputError("fit-task", "no recordings to fit")
     return FitResult(pd.DataFrame(rows), skipped, findings)
+
+
+def _ellipsoid_row(entry: RecordingEntry, ellipsoid: Ellipsoid, samples: Samples) -> dict:
+    return {
+        "id": entry.id,
+        "task": entry.task,
+        "grasp": entry.grasp,
+        "group": entry.group,
+        "subject": entry.subject,
+        "trial": entry.trial,
+        "path": str(entry.path),
+        "n_samples": len(samples.t),
+        "duration_s": float(samples.t[-1] - samples.t[0]),
+        "S": ellipsoid.S.ravel(),
+        "axes": ellipsoid.axes.ravel(),
+        "lengths": ellipsoid.lengths,
+    }
 
 
 def read_ellipsoids(path: str | Path) -> pd.DataFrame:

@@ -6,9 +6,10 @@ Required columns: ``path, task, subject, trial, grasp``. Optional: ``id`` (defau
 initial static window used for bias removal, then trimmed). Paths are relative to the manifest's folder.
 A ROS bag (``.bag``, or a ROS 2 bag's folder or storage file) needs the ``topic`` of its ``WrenchStamped``
 messages. Any recording may give a time window, ``start_s`` and ``end_s`` seconds after its first sample, so that
-several rows cut trials from one log; ``variable`` names the matrix of a ``.mat`` file's samples and ``rate_hz``
-the sample rate of a file without time stamps (both override the tool config's). Row numbers count data rows
-from 1.
+several rows cut trials from one log; ``variable`` names the matrix of a ``.mat`` file's samples (a cell's
+elements as ``rawdata_FT{3}.Tool_FT``; ``{*}`` makes one recording of each element, numbered as trials from the
+row's ``trial``) and ``rate_hz`` the sample rate of a file without time stamps, or the ``.mat`` file's variable
+that holds it (both override the tool config's). Row numbers count data rows from 1.
 """
 
 from __future__ import annotations
@@ -65,6 +66,10 @@ class RecordingEntry:
     variable: str = ""
     #: the sample rate of a file without time stamps (None: the tool config's, else the file's time column)
     rate_hz: float | None = None
+    #: a .mat file's variable holding its sample rate, in place of ``rate_hz`` ("": none)
+    rate_from: str = ""
+    #: the element of a .mat file that its references' wildcard ({*}) stands for (None: they hold none)
+    element: int | None = None
 
     @property
     def group(self) -> str:
@@ -144,11 +149,14 @@ def _entry(path: Path, row_number: int, row: dict[str, str]) -> RecordingEntry:
     recording = path.parent / row["path"].strip()
     topic = _bag_topic(row, recording, fail)
     window = _window(row, fail)
-    rate_hz = _number(row, "rate_hz", fail, positive=True)
-    if rate_hz is not None and topic:
+    is_mat = recording.suffix.lower() == ".mat"
+    rate_text = row.get("rate_hz", "").strip()
+    rate_from = rate_text if is_mat and rate_text and not _is_number(rate_text) else ""
+    rate_hz = None if rate_from else _number(row, "rate_hz", fail, positive=True)
+    if (rate_hz is not None or rate_from) and topic:
         raise fail("rate_hz", "a ROS bag's times are its messages' stamps; leave rate_hz empty")
     variable = row.get("variable", "").strip()
-    if variable and recording.suffix.lower() != ".mat":
+    if variable and not is_mat:
         raise fail("variable", f"only a MATLAB file has variables; {recording.name} is not one")
     task, grasp, subject = row["task"].strip(), row["grasp"].strip(), row["subject"].strip()
     return RecordingEntry(
@@ -167,7 +175,16 @@ def _entry(path: Path, row_number: int, row: dict[str, str]) -> RecordingEntry:
         window_s=window,
         variable=variable,
         rate_hz=rate_hz,
+        rate_from=rate_from,
     )
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
 
 
 def _number(row: dict[str, str], name: str, fail, positive: bool = False) -> float | None:

@@ -1,16 +1,16 @@
-"""MATLAB ``.mat`` recordings: v4 to v7 through scipy, v7.3 (HDF5) through h5py, as named channels.
+"""MATLAB ``.mat`` files as MATLAB writes them: v4 to v7 through scipy, v7.3 (HDF5) through h5py.
 
-A file's numeric variables are found at any depth of its structs (``data.ft`` is field ``ft`` of struct
-``data``). A channel is named by a reference: ``name`` for a vector, or ``name[k]`` for the k-th channel (from 1)
-of a matrix whose samples run along its rows (``n x k``) or its columns (``k x n``). Where the layout is not
-said, the longer axis holds the samples; a square matrix must be said. A reference the file cannot answer is
-one line listing the variables the file holds, with their shapes, as MATLAB prints them.
+Every variable keeps MATLAB's own shape (nothing squeezed: a 7 x 1 matrix stays 7 x 1) and its kind: numeric
+arrays as numpy arrays, cell arrays as :class:`Cell`, structs and struct arrays as :class:`Struct`, anything else
+(text, function handles, objects) as :class:`Other`. Elements are kept in MATLAB's linear order (column-major), so
+element ``k`` of MATLAB is ``items[k - 1]`` here. :func:`describe` says what a file holds as one line, descending
+into cells and structs, the way MATLAB's ``whos`` would name it.
 """
 
 from __future__ import annotations
 
-import re
-from collections.abc import Iterator, Mapping
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -19,13 +19,54 @@ import numpy as np
 from grasptask.errors import BadInputError
 
 MAT_SUFFIX = ".mat"
-_REFERENCE = re.compile(r"^\s*(?P<name>[A-Za-z][\w.]*)\s*(?:\[\s*(?P<index>\d+)\s*\])?\s*$")
 _HDF5_SIGNATURE = b"\x89HDF\r\n\x1a\n"
+#: MATLAB's name of each numpy kind a recording may hold
+_CLASSES = {"float64": "double", "float32": "single", "bool": "logical"}
+#: how many fields or elements a one-line description names before it says "..."
+_SHOWN = 8
+
+
+@dataclass(frozen=True)
+class Cell:
+    """A cell array: its MATLAB shape and its elements in MATLAB's linear order."""
+
+    shape: tuple[int, ...]
+    items: tuple[Any, ...]
+
+
+@dataclass(frozen=True)
+class Struct:
+    """A struct (shape 1 x 1) or a struct array: its field names and one dict of fields per element."""
+
+    shape: tuple[int, ...]
+    fields: tuple[str, ...]
+    items: tuple[dict[str, Any], ...]
+
+
+@dataclass(frozen=True)
+class Other:
+    """What a recording cannot be made of: text, a function handle, an object; ``what`` names it."""
+
+    what: str
+
+
+#: the last file read, by its path, size and modification time: a wildcard's recordings read one file in turn
+_LAST: dict[tuple[str, int, int], dict[str, Any]] = {}
 
 
 def read_variables(path: Path) -> dict[str, Any]:
-    """Every variable of the file, structs flattened to dotted names: numeric ones as arrays in MATLAB's own
-    shape (rows x columns), the others as a short description of what they are."""
+    """Every variable of the file by name, in MATLAB's shapes (see the module's docstring)."""
+    path = Path(path)
+    stat = path.stat()
+    key = (str(path.resolve()), stat.st_size, stat.st_mtime_ns)
+    if key not in _LAST:
+        variables = _read(path)
+        _LAST.clear()
+        _LAST[key] = variables
+    return _LAST[key]
+
+
+def _read(path: Path) -> dict[str, Any]:
     with open(path, "rb") as handle:
         head = handle.read(520)
     if _HDF5_SIGNATURE in (head[:8], head[512:520]):  # v7.3: HDF5, behind a 512-byte MATLAB header
@@ -33,121 +74,182 @@ def read_variables(path: Path) -> dict[str, Any]:
     from scipy.io import loadmat  # deferred: only for .mat files
 
     try:
-        raw = loadmat(path, simplify_cells=True)
+        raw = loadmat(path, squeeze_me=False, struct_as_record=True, chars_as_strings=True)
     except NotImplementedError as exc:  # v7.3 without the HDF5 signature where we looked
         raise BadInputError(path, f"not a readable MAT-file ({exc})") from None
     except Exception as exc:  # scipy raises ValueError, TypeError, zlib and struct errors on damaged files
         raise BadInputError(path, f"not a readable MAT-file ({type(exc).__name__}: {exc})") from None
-    variables: dict[str, Any] = {}
-    for name, value in raw.items():
-        if not name.startswith("__"):
-            _flatten(name, value, variables)
-    return variables
+    return {name: _from_scipy(value) for name, value in raw.items() if not name.startswith("__")}
 
 
-def _flatten(name: str, value: Any, into: dict[str, Any]) -> None:
-    if isinstance(value, dict):
-        for field, inner in value.items():
-            _flatten(f"{name}.{field}", inner, into)
-    elif isinstance(value, np.ndarray) and (value.dtype.kind in "fiub"):
-        into[name] = np.atleast_2d(value)  # loadmat squeezed a vector to 1D and a scalar to 0D: MATLAB's 1 x n
-    elif isinstance(value, (int, float, bool, np.number)) and not isinstance(value, complex):
-        into[name] = np.atleast_2d(np.asarray(value, dtype=float))
-    else:
-        into[name] = "char" if isinstance(value, str) else "cell" if isinstance(value, (list, np.ndarray)) else "other"
+def _from_scipy(value: Any) -> Any:
+    """scipy's reading of one value (structured arrays for structs, object arrays for cells) as ours."""
+    if isinstance(value, np.ndarray):
+        shape = tuple(int(s) for s in value.shape)
+        if value.dtype.names:
+            fields = tuple(value.dtype.names)
+            items = tuple({f: _from_scipy(element[f]) for f in fields} for element in value.ravel(order="F"))
+            return Struct(shape, fields, items)
+        if value.dtype.kind == "O":
+            return Cell(shape, tuple(_from_scipy(v) for v in value.ravel(order="F")))
+        if value.dtype.kind in "US":
+            return Other("char")
+        if value.dtype.kind in "fiubc":
+            return value if value.ndim >= 2 else value.reshape(1, -1)
+        return Other(str(value.dtype))
+    if hasattr(value, "toarray"):  # a sparse matrix holds numbers all the same
+        return np.asarray(value.toarray())
+    return Other({"MatlabFunction": "function_handle", "MatlabOpaque": "object"}.get(type(value).__name__, "other"))
 
 
 def _hdf5_variables(path: Path) -> dict[str, Any]:
     import h5py  # deferred: only for v7.3 files
 
-    variables: dict[str, Any] = {}
     try:
         with h5py.File(path, "r") as handle:
-            for name, item in _hdf5_items(handle, ""):
-                kind = item.attrs.get("MATLAB_class", b"")
-                kind = kind.decode() if isinstance(kind, bytes) else str(kind)
-                if kind in ("char", "cell", "string") or item.dtype.kind not in "fiub":
-                    variables[name] = kind or "other"
-                else:  # HDF5 keeps MATLAB's column-major arrays with their dimensions reversed
-                    variables[name] = np.atleast_2d(np.asarray(item[()]).T)
+            return {
+                name: _from_hdf5(item, handle) for name, item in handle.items() if not name.startswith("#")
+            }  # "#refs#" and "#subsystem#" are MATLAB's own bookkeeping
     except OSError as exc:
         raise BadInputError(path, f"not a readable MAT-file (v7.3, HDF5: {exc})") from None
-    return variables
 
 
-def _hdf5_items(group: Any, prefix: str) -> Iterator[tuple[str, Any]]:
-    import h5py  # deferred: only for v7.3 files
+def _matlab_class(item: Any) -> str:
+    kind = item.attrs.get("MATLAB_class", b"")
+    return kind.decode() if isinstance(kind, bytes) else str(kind)
 
-    for key, item in group.items():
-        if key.startswith("#"):  # MATLAB's own bookkeeping (#refs#, #subsystem#)
-            continue
-        name = f"{prefix}{key}"
-        if isinstance(item, h5py.Group):
-            yield from _hdf5_items(item, f"{name}.")
-        else:
-            yield name, item
+
+def _from_hdf5(item: Any, handle: Any) -> Any:
+    """One HDF5 object as MATLAB wrote it: arrays with their dimensions reversed (column-major), cells and struct
+    arrays as arrays of references into ``#refs#``, a scalar struct as a group of its fields."""
+    import h5py
+
+    kind = _matlab_class(item)
+    if isinstance(item, h5py.Group):
+        if "MATLAB_sparse" in item.attrs:
+            return _hdf5_sparse(item)
+        if kind not in ("struct", ""):
+            return Other(kind)
+        return _hdf5_struct(item, handle)
+    if "MATLAB_empty" in item.attrs and item.attrs["MATLAB_empty"]:
+        shape = tuple(int(d) for d in np.ravel(item[()])) or (0, 0)
+        if kind == "cell":
+            return Cell(shape, ())
+        if kind == "struct":
+            return Struct(shape, (), ())
+        return np.zeros(shape) if kind not in ("char",) else Other("char")
+    if kind == "cell" or item.dtype == h5py.ref_dtype:
+        refs = np.asarray(item[()]).T
+        return Cell(tuple(int(s) for s in refs.shape), tuple(_from_hdf5(handle[r], handle) for r in refs.ravel("F")))
+    if kind in ("char", "string", "function_handle") or item.dtype.kind not in "fiubV":
+        return Other(kind or "other")
+    data = np.asarray(item[()])
+    if data.dtype.names and {"real", "imag"} <= set(data.dtype.names):
+        data = data["real"] + 1j * data["imag"]
+    elif data.dtype.kind == "V":
+        return Other(kind or "other")
+    if kind == "logical":
+        data = data.astype(bool)
+    return np.atleast_2d(data.T)
+
+
+def _hdf5_struct(group: Any, handle: Any) -> Struct:
+    """A scalar struct (a group of its fields) or a struct array (a group of one array of references per field,
+    with no MATLAB_class of their own)."""
+    import h5py
+
+    names = group.attrs.get("MATLAB_fields")
+    fields = [bytes(np.asarray(f)).decode() for f in names] if names is not None else list(group.keys())
+    fields = [f for f in fields if f in group] or list(group.keys())
+    arrays = [group[f] for f in fields]
+    is_array = bool(arrays) and all(
+        isinstance(a, h5py.Dataset) and a.dtype == h5py.ref_dtype and "MATLAB_class" not in a.attrs for a in arrays
+    )
+    if not is_array:
+        return Struct((1, 1), tuple(fields), ({f: _from_hdf5(group[f], handle) for f in fields},))
+    refs = {f: np.asarray(group[f][()]).T for f in fields}
+    shape = tuple(int(s) for s in refs[fields[0]].shape)
+    flat = {f: r.ravel("F") for f, r in refs.items()}
+    items = tuple({f: _from_hdf5(handle[flat[f][k]], handle) for f in fields} for k in range(int(np.prod(shape))))
+    return Struct(shape, tuple(fields), items)
+
+
+def _hdf5_sparse(group: Any) -> np.ndarray:
+    from scipy.sparse import csc_matrix
+
+    rows = int(group.attrs["MATLAB_sparse"])
+    jc = np.asarray(group["jc"][()])
+    data = np.asarray(group["data"][()]) if "data" in group else np.zeros(0)
+    ir = np.asarray(group["ir"][()]) if "ir" in group else np.zeros(0, dtype=int)
+    return np.asarray(csc_matrix((data, ir, jc), shape=(rows, len(jc) - 1)).toarray())
+
+
+# --- what a file holds, in one line ------------------------------------------------------------------------------
+
+
+def class_name(value: np.ndarray) -> str:
+    """MATLAB's class of a numeric array: double, single, int16, logical, complex double..."""
+    if value.dtype.kind == "c":
+        return "complex " + ("single" if value.dtype == np.complex64 else "double")
+    return _CLASSES.get(str(value.dtype), str(value.dtype))
+
+
+def size(shape: Sequence[int]) -> str:
+    return "x".join(str(s) for s in shape)
+
+
+def describe_value(value: Any, merged: bool = False) -> str:
+    """``6x1141 double``, ``1x14 cell of struct {Hand_FT 6x1141 double, ...}``, ``1x4 struct array {...}``
+    (``merged``: ``value``'s items are the scalar structs of a cell's elements, whose fields it describes)."""
+    if isinstance(value, np.ndarray):
+        return f"{size(value.shape)} {class_name(value)}"
+    if isinstance(value, Cell):
+        if not value.items:
+            return f"{size(value.shape)} cell (empty)"
+        return f"{size(value.shape)} cell of {_common(value.items)}"
+    if isinstance(value, Struct):
+        fields = ", ".join(f"{f} {_common([item[f] for item in value.items])}" for f in value.fields[:_SHOWN])
+        fields += ", ..." if len(value.fields) > _SHOWN else ""
+        if len(value.items) == 1 or merged:  # merged: the scalar structs of a cell's elements, described as one
+            return f"struct {{{fields}}}"
+        return f"{size(value.shape)} struct array {{{fields}}}"
+    return str(value.what)
+
+
+def _common(values: Sequence[Any]) -> str:
+    """What the elements of a cell (or one field over a struct array) share: their description where they all
+    share it; numeric arrays that differ only in their dimensions with the dimensions as ranges (trials of
+    different lengths); scalar structs of the same fields merged field by field; and the elements of another kind
+    than most named ("except element 3: 0x0 double")."""
+    said = [describe_value(v) for v in values]
+    if len(set(said)) == 1:
+        return said[0]
+    kinds = [_kind(v) for v in values]
+    most = max(kinds, key=kinds.count)
+    alike = [v for v, kind in zip(values, kinds, strict=True) if kind == most]
+    if len(alike) < len(values):
+        odd = [k for k, kind in enumerate(kinds) if kind != most]
+        more = f" and {len(odd) - 1} more" if len(odd) > 1 else ""
+        return f"{_common(alike)}, except element {odd[0] + 1}: {said[odd[0]]}{more}"
+    if isinstance(values[0], np.ndarray):
+        dims = zip(*(v.shape for v in values), strict=True)
+        shape = "x".join(str(d[0]) if len(set(d)) == 1 else f"({min(d)}-{max(d)})" for d in dims)
+        return f"{shape} {class_name(values[0])}"
+    if isinstance(values[0], Struct) and most[2]:
+        return describe_value(Struct((1, 1), values[0].fields, tuple(v.items[0] for v in values)), True)
+    return f"mixed {{element 1: {said[0]}, element 2: {said[1]}}}"
+
+
+def _kind(value: Any) -> tuple:
+    """What two elements must share to be described as one."""
+    if isinstance(value, np.ndarray):
+        return ("array", class_name(value), value.ndim, value.size == 0)
+    if isinstance(value, Struct):
+        return ("struct", value.fields, len(value.items) == 1)
+    return ("cell",) if isinstance(value, Cell) else ("other", value.what)
 
 
 def describe(variables: Mapping[str, Any]) -> str:
-    """``ft 1200x7 double, info char``: what the file holds, as MATLAB's ``whos`` would name it."""
-    parts = []
-    for name, value in variables.items():
-        if isinstance(value, np.ndarray):
-            kind = {"f": "double" if value.dtype == np.float64 else "single", "b": "logical"}.get(
-                value.dtype.kind, str(value.dtype)
-            )
-            parts.append(f"{name} {'x'.join(str(s) for s in value.shape)} {kind}")
-        else:
-            parts.append(f"{name} {value}")
+    """``rawdata_FT 1x14 cell of struct {Hand_FT 6x1141 double, Tool_FT 6x1141 double}, dt 1x1 double``."""
+    parts = [f"{name} {describe_value(value)}" for name, value in variables.items()]
     return ", ".join(parts) if parts else "no variables"
-
-
-def channels(
-    path: Path, variables: Mapping[str, Any], references: Mapping[str, str], samples: str | None, hint: str
-) -> dict[str, np.ndarray]:
-    """Each reference's samples as a float vector, all of one length; ``hint`` ends the line of a reference the
-    file cannot answer (it names the setting that maps them)."""
-    found: dict[str, np.ndarray] = {}
-    for key, reference in references.items():
-        match = _REFERENCE.match(reference)
-        if match is None:
-            raise BadInputError(path, f"'{reference}' is not a variable (name, or name[k] for channel k)", column=key)
-        name, index = match["name"], match["index"]
-        value = variables.get(name)
-        if not isinstance(value, np.ndarray):
-            what = f"no numeric variable '{name}'" if value is None else f"variable '{name}' is {value}, not numbers"
-            raise BadInputError(path, f"{what} for {key} (the file holds: {describe(variables)}); {hint}")
-        matrix = _samples_first(path, name, value, samples)
-        if index is None:
-            if matrix.shape[1] != 1:
-                raise BadInputError(
-                    path, f"'{name}' has {matrix.shape[1]} channels: name one as {name}[k] for {key}; {hint}"
-                )
-            column = matrix[:, 0]
-        else:
-            k = int(index)
-            if not 1 <= k <= matrix.shape[1]:
-                raise BadInputError(path, f"'{name}' has no channel {k} (it has {matrix.shape[1]}) for {key}")
-            column = matrix[:, k - 1]
-        found[key] = np.asarray(column, dtype=float)
-    lengths = {key: len(v) for key, v in found.items()}
-    if len(set(lengths.values())) > 1:
-        said = ", ".join(f"{key} {n}" for key, n in lengths.items())
-        raise BadInputError(path, f"channels of different lengths ({said}); {hint}")
-    return found
-
-
-def _samples_first(path: Path, name: str, value: np.ndarray, samples: str | None) -> np.ndarray:
-    """``value`` as ``(n, k)``, samples along the first axis."""
-    if value.ndim != 2:
-        raise BadInputError(path, f"'{name}' has {value.ndim} dimensions; a recording is a vector or a matrix")
-    rows, cols = value.shape
-    if samples is None:
-        if min(rows, cols) == 1:
-            return value.reshape(-1, 1)
-        if rows == cols:
-            raise BadInputError(
-                path, f"'{name}' is {rows}x{cols}: say whether its samples are rows or columns (matlab: samples)"
-            )
-        samples = "rows" if rows > cols else "columns"
-    return value if samples == "rows" else value.T

@@ -18,7 +18,7 @@ import pyarrow.parquet as pq
 
 from grasptask.errors import BadInputError, existing_file
 from grasptask.io.csv_format import ENCODING, sniff
-from grasptask.task import matlab
+from grasptask.task import mat_references, matlab
 from grasptask.task.matlab import MAT_SUFFIX
 
 CANONICAL_COLUMNS = ("t", "fx", "fy", "fz", "tx", "ty", "tz")
@@ -48,11 +48,21 @@ class Layout:
     samples: str | None = None
     wrench: tuple[int, ...] = (1, 2, 3, 4, 5, 6)
     time: int | str | None = None
+    #: a ``.mat`` file's variables holding its sample rate (Hz) or period (s), in place of a number
+    rate_from: str | None = None
+    period_from: str | None = None
+    #: the element its references' wildcard (``{*}``) stands for, from 1 (None: they hold none)
+    element: int | None = None
+
+    @property
+    def rated(self) -> bool:
+        """Whether a sample rate (a number, or a variable of the file's) gives the time."""
+        return bool(self.rate_hz or self.rate_from or self.period_from)
 
     @property
     def needed(self) -> tuple[str, ...]:
         """The canonical columns the file must give: the wrench, and time unless a rate stands in for it."""
-        return _WRENCH if self.rate_hz else CANONICAL_COLUMNS
+        return _WRENCH if self.rated else CANONICAL_COLUMNS
 
 
 def read_recording(path: str | Path, layout: Layout = Layout()) -> np.ndarray:
@@ -84,9 +94,15 @@ def read_recording(path: str | Path, layout: Layout = Layout()) -> np.ndarray:
     return data
 
 
-def _read_mat(path: Path, layout: Layout) -> np.ndarray:
-    """A ``.mat`` file's channels, by the layout's variable and channels or its column references."""
-    variables = matlab.read_variables(path)
+_MAT_HINT = (
+    "say where the samples are in the tool config (matlab: {variable: NAME, samples: rows, wrench: [1, 2, 3, 4, 5, "
+    "6], time: 7}, or rate_hz) or in the manifest's variable column"
+)
+
+
+def references_of(layout: Layout) -> dict[str, str]:
+    """What a ``.mat`` file's layout reads: a reference per canonical channel (``t``, ``fx``, ...) and for the
+    variables that give the rate (``rate``, ``period``), as written, wildcards and all."""
     if layout.variable:
         references = {name: f"{layout.variable}[{k}]" for name, k in zip(_WRENCH, layout.wrench, strict=True)}
         if isinstance(layout.time, int):
@@ -95,14 +111,40 @@ def _read_mat(path: Path, layout: Layout) -> np.ndarray:
             references = {"t": layout.time, **references}
     else:
         references = {name: layout.columns.get(name, name) for name in _WRENCH}
-    if "t" not in references and not layout.rate_hz:
+    if "t" not in references and not layout.rated:
         references = {"t": layout.columns.get("t", "t"), **references}
-    hint = (
-        "say where the samples are in the tool config (matlab: {variable: NAME, samples: rows, wrench: [1, 2, 3, "
-        "4, 5, 6], time: 7}, or rate_hz) or in the manifest's variable column"
-    )
-    found = matlab.channels(path, variables, references, layout.samples, hint)
+    clocks = {"rate": layout.rate_from, "period": layout.period_from}
+    return {**references, **{key: text for key, text in clocks.items() if text}}
+
+
+def mat_elements(path: str | Path, layout: Layout) -> int | None:
+    """How many recordings a ``.mat`` file's layout reads: the elements its wildcard ranges over, each checked to
+    read alike (None: the layout holds no wildcard, one recording)."""
+    path = Path(path)
+    references = references_of(layout)
+    if not any(mat_references.WILDCARD in text for text in references.values()):
+        return None
+    return mat_references.elements(path, matlab.read_variables(path), references, layout.samples)
+
+
+def _read_mat(path: Path, layout: Layout) -> np.ndarray:
+    """A ``.mat`` file's channels, by the layout's variable and channels or its column references."""
+    variables = matlab.read_variables(path)
+    references = references_of(layout)
+    for key, text in references.items():
+        if mat_references.parse(path, text, key).wildcards:
+            if layout.element is None:
+                raise BadInputError(
+                    path, f"'{text}' reads every element ('*'): fit-task makes one recording of each; name one here"
+                )
+            references[key] = mat_references.substitute(text, layout.element)
+    clocks = {key: references.pop(key) for key in ("rate", "period") if key in references}
+    found = mat_references.channels(path, variables, references, layout.samples, _MAT_HINT)
     time = found.get("t", np.zeros(len(found["fx"])))
+    if clocks:
+        key, text = next(iter(clocks.items()))
+        value = mat_references.scalar(path, variables, text, f"the sample {key}")
+        time = np.arange(len(time)) * (value if key == "period" else 1.0 / value)
     return np.column_stack([time, *(found[name] for name in _WRENCH)])
 
 
@@ -254,7 +296,8 @@ def check_values(path: str | Path, data: np.ndarray) -> None:
             path, f"value {value:.3g} too large to compute with", row=int(row) + 1, column=CANONICAL_COLUMNS[col + 1]
         )
     if len(data) < MIN_SAMPLES:
-        raise BadInputError(path, f"only {len(data)} samples (at least {MIN_SAMPLES} are needed)")
+        said = f"{len(data)} sample" + ("" if len(data) == 1 else "s")
+        raise BadInputError(path, f"only {said} (at least {MIN_SAMPLES} are needed)")
     steps = np.diff(data[:, 0])
     if not (steps > 0).all():
         row = int(np.flatnonzero(steps <= 0)[0]) + 2

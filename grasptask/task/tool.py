@@ -11,6 +11,7 @@ A tool config is a YAML file named by a manifest's ``tool`` column::
     ignore_columns: [status]           # optional: recording columns to drop, or `rest` for all not mapped
     rate_hz: 1000                      # optional: the sample rate, for files without a time column
     matlab: {variable: ft, samples: rows, wrench: [2, 3, 4, 5, 6, 7], time: 1}   # optional: .mat layout
+    matlab: {variable: "rawdata_FT{*}.Tool_FT", period_s: dt}   # or: every cell a trial, the period a variable
     units: {torque_unit: N.cm, time_unit: ms}   # optional defaults; the manifest's columns win
     plausible: {force_n: 500, torque_nm: 20, min_duration_s: 1}   # optional: what fit-task says is implausible
 """
@@ -94,14 +95,21 @@ class MatlabFile:
     samples: Literal["rows", "columns"] | None = None
     #: its channels holding fx, fy, fz, tx, ty, tz, counted from 1
     wrench: tuple[Channel, Channel, Channel, Channel, Channel, Channel] = (1, 2, 3, 4, 5, 6)
-    #: its channel holding time (from 1), or the name of a time vector; none: ``rate_hz`` gives the time
+    #: its channel holding time (from 1), or the name of a time vector; none: a rate gives the time
     time: Channel | Text | None = None
+    #: the sample rate (Hz) or period (s), as a number or as the variable that holds it (``fs``, ``proc_data{*}.dt``)
+    rate_hz: Positive | Text | None = None
+    period_s: Positive | Text | None = None
 
     def __post_init__(self) -> None:
         if len(set(self.wrench)) < 6:
             raise ValueError("matlab.wrench names a channel twice")
         if isinstance(self.time, int) and self.time in self.wrench:
             raise ValueError(f"matlab.time is channel {self.time}, which matlab.wrench holds too")
+        if self.rate_hz is not None and self.period_s is not None:
+            raise ValueError("matlab.rate_hz and matlab.period_s both give the sample rate: give one")
+        if self.time is not None and (self.rate_hz is not None or self.period_s is not None):
+            raise ValueError("matlab.time and a sample rate both give the time: give one")
 
 
 @schema(frozen=True, config=SCHEMA)
@@ -132,6 +140,10 @@ class ToolFile:
     units: UnitsFile = UnitsFile()
     plausible: PlausibleFile = PlausibleFile()
 
+    def __post_init__(self) -> None:
+        if self.rate_hz is not None and (self.matlab.rate_hz is not None or self.matlab.period_s is not None):
+            raise ValueError("rate_hz and matlab's rate both give the sample rate: give one")
+
 
 @dataclass(frozen=True)
 class ToolConfig:
@@ -151,14 +163,19 @@ def load_tool(path: str | Path) -> ToolConfig:
     tool = validated(ToolFile, load_yaml(path), path)
     columns = {name: getattr(tool.columns, name) for name in CANONICAL_COLUMNS}
     units = {key: getattr(tool.units, key) for key in UNIT_TABLES}
+    rate, period = tool.matlab.rate_hz, tool.matlab.period_s
+    numeric = rate if not isinstance(rate, str) else None
+    numeric = 1.0 / period if period is not None and not isinstance(period, str) else numeric
     layout = Layout(
         columns={k: v for k, v in columns.items() if v is not None},
         ignore=REST if tool.ignore_columns == REST else tuple(tool.ignore_columns),
-        rate_hz=tool.rate_hz,
+        rate_hz=tool.rate_hz or numeric,
         variable=tool.matlab.variable,
         samples=tool.matlab.samples,
         wrench=tuple(tool.matlab.wrench),
         time=tool.matlab.time,
+        rate_from=rate if isinstance(rate, str) else None,
+        period_from=period if isinstance(period, str) else None,
     )
     return ToolConfig(
         name=tool.name,
