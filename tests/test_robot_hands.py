@@ -163,7 +163,7 @@ BAD_URDFS = {
         "cycle",
     ),
     "no limits": ("<limit lower='0' upper='1.5' effort='2.0' velocity='1'/>", "has no limits"),
-    "non-positive effort": ("effort='2.0'", "effort must be a positive torque"),
+    "non-positive effort": ("effort='2.0'", "effort -1 is negative"),
     "missing mimic": ("<axis xyz='0 1 0'/>", "mimics 'nowhere', which is not a joint"),
     "one fingertip": ("f2", "at least two fingertips"),
 }

@@ -142,7 +142,11 @@ def read_urdf(source: Path) -> Tree:
         mimic = (
             None
             if joint.mimic is None
-            else (joint.mimic.joint, float(joint.mimic.multiplier or 1.0), float(joint.mimic.offset or 0.0))
+            else (
+                joint.mimic.joint,  # a multiplier of 0 is a multiplier of 0, not the default 1
+                1.0 if joint.mimic.multiplier is None else float(joint.mimic.multiplier),
+                0.0 if joint.mimic.offset is None else float(joint.mimic.offset),
+            )
         )
         joints.append(
             TreeJoint(
@@ -156,6 +160,7 @@ def read_urdf(source: Path) -> Tree:
                 upper=None if limit is None or limit.upper is None else float(limit.upper),
                 effort=None if limit is None or limit.effort is None else float(limit.effort),
                 mimic=mimic,
+                velocity=None if limit is None or limit.velocity is None else float(limit.velocity),
             )
         )
     return Tree(links, joints, unbalanced)

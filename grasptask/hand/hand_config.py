@@ -156,3 +156,8 @@ class ModelHandConfig:
     sources: dict[str, str] = field(default_factory=dict)
     #: how far a fingertip gives at a contact (m)
     compliance_m: NonNegative = DEFAULT_COMPLIANCE_M
+    #: each motor's effort (N.m, or N for a sliding joint) by joint name or pattern (``finger_*_prox_joint``), in
+    #: place of the file's: a joint's own name wins over a pattern, a later pattern over an earlier one
+    efforts: dict[Text, Positive] = field(default_factory=dict)
+    #: each joint's velocity limit (rad/s, or m/s), likewise, in place of the file's
+    velocities: dict[Text, Positive] = field(default_factory=dict)

@@ -8,7 +8,8 @@
   ``pads`` (per fingertip link, ``point_m``, ``normal`` and ``tangent`` in its frame), ``approach`` (``z`` and
   ``x`` in the palm frame), ``compliance_m`` (how far a fingertip gives at a contact, 0.5 mm unless given) and
   ``sources`` (where each value came from). A pad may give ``radius_m``, its fingertip's radius of curvature,
-  for the contact to roll over it.
+  for the contact to roll over it. ``efforts`` and ``velocities`` set joints' limits by name or pattern
+  (``finger_*_prox_joint: 1.0``) where the file states none, or states them wrong.
 """
 
 from __future__ import annotations
@@ -94,6 +95,8 @@ def _with_model(data: dict, source: Path) -> Hand:
         approach=_approach(config.approach, source),
         compliance_m=config.compliance_m,
         held=dict(config.held_joints),
+        efforts=dict(config.efforts),
+        velocities=dict(config.velocities),
         config=source,
     )
     hand = hand_from_tree(_read_model(model, source), model, options)

@@ -30,6 +30,8 @@ class Joint:
     #: two fingertips (a spread shared by the ring and little fingers), one motor and one angle
     shared: bool = False
     sliding: bool = False
+    #: its speed limit (rad/s, or m/s), where the hand file or its YAML says it; no judge uses it yet
+    velocity: float | None = None
 
     @property
     def file_name(self) -> str:
@@ -219,6 +221,8 @@ class Hand:
     held_joints: dict[str, float] = field(default_factory=dict)
     #: links of the hand file whose inertia breaks A + B >= C, which the physics check balances
     unbalanced_inertia: tuple[str, ...] = ()
+    #: where each motor's effort came from, by its joint: "file", or the hand YAML's key that set it
+    effort_sources: dict[str, str] = field(default_factory=dict)
 
     def contact_offsets(self, rolling: bool = True) -> np.ndarray:
         """Per finger, the distance from the fingertip sphere's centre to the surface at a contact: its radius

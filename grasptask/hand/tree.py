@@ -27,6 +27,8 @@ fingertip are left out.
 
 from __future__ import annotations
 
+import fnmatch
+import os
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -92,6 +94,7 @@ class TreeJoint:
     upper: float | None = None
     effort: float | None = None
     mimic: tuple[str, float, float] | None = None  # (joint, multiplier, offset)
+    velocity: float | None = None  # its speed limit (rad/s, m/s), where the file says it
 
 
 @dataclass
@@ -116,6 +119,9 @@ class HandOptions:
     compliance_m: float = DEFAULT_COMPLIANCE_M  # how far a fingertip gives at a contact
     #: the angle (rad) each joint before the palm (a wrist) is held at, where not the default
     held: dict[str, float] = field(default_factory=dict)
+    #: efforts and velocity limits by joint name or pattern, in place of the file's (the YAML's ``efforts``)
+    efforts: dict[str, float] = field(default_factory=dict)
+    velocities: dict[str, float] = field(default_factory=dict)
     #: the YAML these came from: a choice of its that the model refuses is named there, by its key
     config: Path | None = None
 
@@ -135,12 +141,21 @@ def _check_values(tree: Tree, source: Path) -> None:
     """No NaN or inf anywhere in the file's numbers and no origin or shape out of a hand's reach, each named by
     the joint or link it came from: numbers like 1e30 overflow the kinematics."""
     for joint in tree.joints:
-        scalars = [v for v in (joint.lower, joint.upper, joint.effort) if v is not None]
+        named = {"lower limit": joint.lower, "upper limit": joint.upper, "effort": joint.effort,
+                 "velocity": joint.velocity}  # fmt: skip
         if joint.mimic is not None:
-            scalars += [joint.mimic[1], joint.mimic[2]]
-        values: list[np.ndarray] = [joint.origin, joint.axis, np.array(scalars, dtype=float)]
-        if not all(np.isfinite(v).all() for v in values):
-            raise BadInputError(source, f"joint '{joint.name}': its origin, axis, limits or mimic are not finite")
+            named |= {"mimic multiplier": joint.mimic[1], "mimic offset": joint.mimic[2]}
+        for what, value in named.items():
+            if value is not None and not np.isfinite(value):
+                raise BadInputError(source, f"joint '{joint.name}': {what} {value} is not a finite number")
+        if not (np.isfinite(joint.origin).all() and np.isfinite(joint.axis).all()):
+            raise BadInputError(source, f"joint '{joint.name}': its origin or axis is not finite")
+        for what in ("effort", "velocity"):
+            value = named[what]
+            if value is not None and value < 0:
+                raise BadInputError(source, f"joint '{joint.name}': {what} {value:g} is negative")
+        if joint.mimic is not None:
+            _check_mimic(joint, source)
         reach = float(np.abs(joint.origin[:3, 3]).max())  # not its norm: 1e300 squared overflows, with a warning
         if reach > MAX_REACH_M:
             raise BadInputError(
@@ -159,6 +174,31 @@ def _check_values(tree: Tree, source: Path) -> None:
                 f"link '{link.name}': its collision geometry reaches {reach:.3g} m from the link's frame, beyond a "
                 f"hand's {MAX_REACH_M:g} m (is the file in millimetres?)",
             )
+
+
+#: the largest gear ratio (and smallest, by its size) a mimic may state, and the largest offset (rad or m): a
+#: hand's couplings lie well inside them, while 1e308 overflowed into NaN bounds and 0 never moves the joint
+MIMIC_RATIO_RANGE = (1e-3, 1e3)
+MIMIC_OFFSET_MAX = 10.0
+
+
+def _check_mimic(joint: TreeJoint, source: Path) -> None:
+    master, multiplier, offset = joint.mimic  # type: ignore[misc]
+    low, high = MIMIC_RATIO_RANGE
+    if multiplier == 0:
+        raise BadInputError(
+            source, f"joint '{joint.name}': mimic multiplier 0 would never move it (make it a fixed joint)"
+        )
+    if not low <= abs(multiplier) <= high:
+        raise BadInputError(
+            source,
+            f"joint '{joint.name}': mimic multiplier {multiplier:g} of '{master}' is out of range "
+            f"({low:g} to {high:g} in size)",
+        )
+    if abs(offset) > MIMIC_OFFSET_MAX:
+        raise BadInputError(
+            source, f"joint '{joint.name}': mimic offset {offset:g} is beyond {MIMIC_OFFSET_MAX:g} (rad, or m)"
+        )
 
 
 def _check(tree: Tree, source: Path) -> dict[str, TreeJoint]:
@@ -308,6 +348,7 @@ def _chain(tree: Tree, path: list[TreeJoint], source: Path, on_path: set[str], a
                 offset=frame[:3, 3].copy(),
                 rotation=None if np.allclose(rotation, np.eye(3), atol=1e-15) else rotation.copy(),
                 sliding=tree_joint.kind == "prismatic",
+                velocity=tree_joint.velocity,
             )
         )
         pending = np.eye(4)
@@ -369,12 +410,23 @@ def _mimic(tree: Tree, chains: dict[str, _Chain], source: Path) -> dict[str, tup
             where = "is not a joint of the hand" if master not in known else "does not move a finger"
             raise BadInputError(source, f"joint '{joint.name}' mimics '{master}', which {where}")
         couplings[joint.name] = (master, multiplier, offset)
+    for name in couplings:  # a chain of mimics must end at a joint that a motor drives
+        seen, current = [name], couplings[name][0]
+        while current in couplings:
+            if current in seen:
+                loop = " -> ".join([*seen[seen.index(current) :], current])
+                raise BadInputError(source, f"joints mimic each other in a loop ({loop}): one must be driven")
+            seen.append(current)
+            current = couplings[current][0]
     return couplings
 
 
-def _capability(joint_names: list[str], efforts: dict[str, float | None], couplings: dict, source: Path) -> Capability:
+def _capability(
+    joint_names: list[str], efforts: dict[str, float | None], couplings: dict, source: Path, options: HandOptions
+) -> Capability:
     """A motor per joint that no other joint drives; a mimicking joint adds its torque to its master's row (a
-    jaw's force to the first jaw's: one motor closes both)."""
+    jaw's force to the first jaw's: one motor closes both). A motor whose effort neither the file nor the YAML
+    gives is refused, naming the YAML's key that gives it: no strength is made up."""
     masters = [n for n in joint_names if n not in couplings]
     rows = {n: i for i, n in enumerate(masters)}
     transmission = np.zeros((len(masters), len(joint_names)))
@@ -383,16 +435,76 @@ def _capability(joint_names: list[str], efforts: dict[str, float | None], coupli
         while master in couplings:  # a chain of mimics ends at one motor
             master, multiplier = couplings[master][0], multiplier * couplings[master][1]
         transmission[rows[master], column] = multiplier
-    limits = []
-    for name in masters:
-        effort = efforts.get(name)
-        if effort is None or not np.isfinite(effort) or effort <= 0:
+    missing = [n for n in masters if not (efforts.get(n) or 0.0) > 0]
+    if missing and len(missing) == len(masters):
+        raise options.fault(
+            source,
+            "efforts",
+            f"no motor's effort is given (all {len(masters)} joints state 0 or nothing, as files exported from CAD "
+            f"often do): set them in a hand YAML with model: {source.name}, e.g. efforts: {{'{_pattern(masters)}': "
+            "1.0} (N.m, or N for a sliding joint)",
+        )
+    if missing:
+        name = missing[0]
+        raise options.fault(
+            source,
+            "efforts",
+            f"joint '{name}': effort must be a positive torque (N.m), or force (N) if it slides, got "
+            f"{efforts.get(name)}; set it in a hand YAML beside the file, efforts: {{{name}: ...}}",
+        )
+    limits = np.array([float(efforts[name]) for name in masters])  # type: ignore[arg-type]
+    return Capability.motors(tuple(masters), limits, transmission)
+
+
+def _pattern(names: list[str]) -> str:
+    """A pattern that the names share, for the example of a line (``finger_*_joint``), or ``*``."""
+    prefix = os.path.commonprefix(names)
+    suffix = os.path.commonprefix([n[::-1] for n in names])[::-1]
+    if len(names) > 1 and len(prefix) + len(suffix) < min(len(n) for n in names):
+        return f"{prefix}*{suffix}"
+    return names[0] if len(names) == 1 else "*"
+
+
+def _overrides(tree: Tree, options: HandOptions, source: Path) -> tuple[Tree, dict[str, str]]:
+    """The file's joints with the YAML's efforts and velocities in place of the file's, and where each moving
+    joint's effort comes from (the file, or the YAML's key). A pattern that matches no moving joint is refused."""
+    moving = [j.name for j in tree.joints if j.kind in MOVING]
+    picked: dict[str, dict[str, tuple[str, float]]] = {"efforts": {}, "velocities": {}}
+    for key, given in (("efforts", options.efforts), ("velocities", options.velocities)):
+        for pattern, value in given.items():
+            matched = [name for name in moving if fnmatch.fnmatchcase(name, pattern)]
+            if not matched:
+                shown = ", ".join(moving[:10]) + (f", ... ({len(moving)} in all)" if len(moving) > 10 else "")
+                raise options.fault(source, f"{key}.{pattern}", f"matches no moving joint (the file has: {shown})")
+            for name in matched:  # a joint's own name wins over a pattern, a later pattern over an earlier one
+                if pattern == name or picked[key].get(name, ("",))[0] != name:
+                    picked[key][name] = (pattern, float(value))
+    joints, sources = [], {}
+    for joint in tree.joints:
+        effort, velocity = picked["efforts"].get(joint.name), picked["velocities"].get(joint.name)
+        if effort is not None:
+            sources[joint.name] = f"{options.config.name if options.config else 'config'} efforts['{effort[0]}']"
+        elif joint.effort:
+            sources[joint.name] = "file"
+        joints.append(
+            replace(
+                joint,
+                effort=joint.effort if effort is None else effort[1],
+                velocity=joint.velocity if velocity is None else velocity[1],
+            )
+        )
+    return replace(tree, joints=joints), sources
+
+
+def _refuse_unmoving(tree: Tree, into: dict[str, TreeJoint], palm: str, source: Path) -> None:
+    """A planar or floating joint below the palm is named: a finger moves by turning and sliding joints only (it
+    was once taken for a link that no finger reaches, and said as "a hand needs at least two fingertips")."""
+    for joint in tree.joints:
+        if joint.kind not in (*MOVING, "fixed") and _hangs_from(into, joint.child, palm):
             raise BadInputError(
                 source,
-                f"joint '{name}': effort must be a positive torque (N.m), or force (N) if it slides, got {effort}",
+                f"joint '{joint.name}' is {joint.kind}: only revolute, continuous and prismatic joints move fingers",
             )
-        limits.append(float(effort))
-    return Capability.motors(tuple(masters), np.array(limits), transmission)
 
 
 def _provisional(fingers: dict[str, Finger]) -> Hand:
@@ -634,9 +746,11 @@ def _palm_and_tips(
 def hand_from_tree(tree: Tree, source: Path, options: HandOptions = HandOptions()) -> Hand:
     """The hand a parsed file describes (see the module docstring for the rules and the defaults)."""
     _check_values(tree, source)
+    tree, effort_sources = _overrides(tree, options, source)
     into = _check(tree, source)
     root = _root(tree, into, source)
     palm, tips = _palm_and_tips(tree, into, root, options, source)
+    _refuse_unmoving(tree, into, palm, source)
     _check_tips(into, tips, options, source)
     names = list(options.finger_names) if options.finger_names else tips
     if len(names) != len(tips):
@@ -652,7 +766,7 @@ def hand_from_tree(tree: Tree, source: Path, options: HandOptions = HandOptions(
     held = held_joints(into, root, palm, options, source)
     joint_names = [j.name for f in fingers.values() for j in f.joints]
     efforts = {j.name: j.effort for j in tree.joints}
-    capability = _capability(joint_names, efforts, capability_couplings, source)
+    capability = _capability(joint_names, efforts, capability_couplings, source, options)
     grasping = _grasping(fingers, options, source)
     return Hand(
         options.name or source.stem,
@@ -668,6 +782,7 @@ def hand_from_tree(tree: Tree, source: Path, options: HandOptions = HandOptions(
         held_joints=held,
         unbalanced_inertia=tuple(tree.unbalanced),
         cover_reach_m={name: link.cover_reach_m for name, link in tree.links.items() if link.meshes},
+        effort_sources={n: effort_sources.get(n, "") for n in joint_names if n not in capability_couplings},
     )
 
 

@@ -78,6 +78,20 @@ def _pad_shape(finger: Finger) -> str:
     return shape
 
 
+def _effort_lines(hand: Hand) -> list[str]:
+    """Where the motors' efforts came from: the file, or the hand YAML's keys (which joints each set)."""
+    by_source: dict[str, list[str]] = {}
+    for joint, source in hand.effort_sources.items():
+        by_source.setdefault(source or "file", []).append(joint)
+    if not by_source:
+        return []
+    parts = [
+        f"{len(joints)} from the file" if source == "file" else f"{', '.join(joints)} from {source}"
+        for source, joints in by_source.items()
+    ]
+    return ["motor efforts: " + "; ".join(parts)]
+
+
 def hand_lines(hand: Hand) -> list[str]:
     """The summary a user reads first: the file, the fingers, each finger's chain and pad, and the covers."""
     source = hand.model_file or "the project's own hand model"
@@ -94,6 +108,7 @@ def hand_lines(hand: Hand) -> list[str]:
         f"{count} ({capability.kind}), compliance {1e3 * hand.compliance_m:.2f} mm",
     ]
     lines += _one_motor_fingers(hand)
+    lines += _effort_lines(hand)
     if hand.held_joints:
         held = ", ".join(f"{name} at {np.degrees(value):.0f} deg" for name, value in hand.held_joints.items())
         lines.append(f"joints before the palm held (held_joints in a hand YAML): {held}")
@@ -156,6 +171,9 @@ def joint_table(hand: Hand) -> pd.DataFrame:
                     "effort": f"{efforts[joint.name]:g} {'N' if joint.sliding else 'N.m'}"
                     if joint.name in efforts
                     else "",
+                    "effort from": hand.effort_sources.get(joint.name, "")
+                    or (f"its motor's ({joint.coupled_to})" if joint.coupled_to else ""),
+                    "velocity": "" if joint.velocity is None else f"{joint.velocity:g} {'m/s' if joint.sliding else 'rad/s'}",
                     "coupled to": _coupling(joint).removeprefix(" = ").strip(" ()"),
                 }
             )
