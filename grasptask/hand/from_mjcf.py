@@ -1,10 +1,12 @@
 """MJCF hands, compiled with ``mujoco``: bodies with their hinge joints, collision geoms, actuators (for the
-torque limits) and joint equalities (for coupled joints). Visual-only geoms (``contype`` and ``conaffinity``
+torque limits), joint equalities (for coupled joints) and fixed tendons that actuators drive (a motor pulling
+several joints by their coefficients: the Franka hand's two jaws, the Shadow hand's last two joints of a finger). Visual-only geoms (``contype`` and ``conaffinity``
 0) and the assets only they use are dropped before compiling, so a missing visual mesh does not stop loading.
 
 MuJoCo turns a body about its joint's position inside it; the project's link frame sits on the joint, so each
 body's geoms and children are shifted by that position. A joint's torque limit is the smallest of its own
-``actuatorfrcrange``, an actuator's ``forcerange`` and a motor's ``ctrlrange``, times the actuator's gear.
+``actuatorfrcrange``, an actuator's ``forcerange`` and a motor's ``ctrlrange``, times the actuator's gear; a
+tendon's force limit the same, from the actuators on it and its own ``actuatorfrcrange``.
 """
 
 from __future__ import annotations
@@ -17,7 +19,7 @@ from grasptask.errors import BadInputError
 from grasptask.hand import skin
 from grasptask.hand import spheres as cover
 from grasptask.hand.mesh_cover import mesh_shape
-from grasptask.hand.tree import Shape, Tree, TreeJoint, TreeLink
+from grasptask.hand.tree import Shape, Tree, TreeJoint, TreeLink, TreeTendon
 
 
 def _frame(position: np.ndarray, quaternion: np.ndarray | None = None) -> np.ndarray:
@@ -100,27 +102,69 @@ def _shape(model, g: int, shift: np.ndarray, link: str, source: Path) -> Shape:
     return Shape([], np.zeros((0, 3)))  # planes and height fields are scenery, not hand
 
 
-def _efforts(model) -> dict[int, float]:
-    """The torque limit of every joint an actuator drives (N.m)."""
+def _actuator_limit(model, a: int) -> float | None:
+    """The largest force (or torque) actuator ``a`` gives: its ``forcerange``, or a motor's ``ctrlrange`` times
+    its gain, whichever is less, times its gear; None where it states neither."""
+    import mujoco  # deferred: MuJoCo, only for MJCF hands
+
+    gear = abs(float(model.actuator_gear[a, 0]))
+    candidates = []
+    if model.actuator_forcelimited[a]:
+        candidates.append(np.abs(model.actuator_forcerange[a]).max() * gear)
+    motor = model.actuator_gaintype[a] == mujoco.mjtGain.mjGAIN_FIXED and model.actuator_biastype[a] == 0
+    if motor and model.actuator_ctrllimited[a]:
+        candidates.append(np.abs(model.actuator_ctrlrange[a]).max() * abs(model.actuator_gainprm[a, 0]) * gear)
+    return min(candidates) if candidates else None
+
+
+def _efforts(model, transmission: int) -> dict[int, float]:
+    """The limit of every joint (or tendon, by ``transmission``) an actuator drives (N.m, or N), with the
+    joint's (tendon's) own ``actuatorfrcrange``."""
     import mujoco  # deferred: MuJoCo, only for MJCF hands
 
     limits: dict[int, float] = {}
     for a in range(model.nu):
-        if model.actuator_trntype[a] != mujoco.mjtTrn.mjTRN_JOINT:
+        if model.actuator_trntype[a] != transmission:
             continue
-        joint, gear = int(model.actuator_trnid[a, 0]), abs(float(model.actuator_gear[a, 0]))
-        candidates = []
-        if model.actuator_forcelimited[a]:
-            candidates.append(np.abs(model.actuator_forcerange[a]).max() * gear)
-        motor = model.actuator_gaintype[a] == mujoco.mjtGain.mjGAIN_FIXED and model.actuator_biastype[a] == 0
-        if motor and model.actuator_ctrllimited[a]:
-            candidates.append(np.abs(model.actuator_ctrlrange[a]).max() * abs(model.actuator_gainprm[a, 0]) * gear)
-        if candidates:
-            limits[joint] = min(limits.get(joint, np.inf), min(candidates))
-    for j in range(model.njnt):
-        if model.jnt_actfrclimited[j]:
-            limits[j] = min(limits.get(j, np.inf), float(np.abs(model.jnt_actfrcrange[j]).max()))
+        limit = _actuator_limit(model, a)
+        if limit is not None:
+            target = int(model.actuator_trnid[a, 0])
+            limits[target] = min(limits.get(target, np.inf), limit)
+    own = ("jnt_actfrclimited", "jnt_actfrcrange", model.njnt)
+    if transmission == mujoco.mjtTrn.mjTRN_TENDON:
+        own = ("tendon_actfrclimited", "tendon_actfrcrange", model.ntendon)
+    limited, ranges, count = getattr(model, own[0]), getattr(model, own[1]), own[2]
+    for j in range(count):
+        if limited[j]:
+            limits[j] = min(limits.get(j, np.inf), float(np.abs(ranges[j]).max()))
     return limits
+
+
+def _tendons(model, joint_name: list[str], source: Path) -> list[TreeTendon]:
+    """The fixed tendons that an actuator drives, each with its joints' coefficients and its force limit; a
+    spatial tendon (wrapping sites or geoms) is refused, as no finger model here follows its path."""
+    import mujoco  # deferred: MuJoCo, only for MJCF hands
+
+    efforts = _efforts(model, mujoco.mjtTrn.mjTRN_TENDON)
+    driven = {int(model.actuator_trnid[a, 0]) for a in range(model.nu)
+              if model.actuator_trntype[a] == mujoco.mjtTrn.mjTRN_TENDON}  # fmt: skip
+    tendons = []
+    for t in range(model.ntendon):
+        name = _name(model, mujoco.mjtObj.mjOBJ_TENDON, t, "tendon")
+        wraps = range(int(model.tendon_adr[t]), int(model.tendon_adr[t] + model.tendon_num[t]))
+        if any(model.wrap_type[w] != mujoco.mjtWrap.mjWRAP_JOINT for w in wraps):
+            raise BadInputError(
+                source, f"tendon '{name}' is spatial (it wraps sites or geoms): only fixed tendons, over joints, "
+                "are supported",
+            )  # fmt: skip
+        if t not in driven:
+            continue  # a passive tendon: the physics check keeps it, no motor pulls it
+        coefficients: dict[str, float] = {}
+        for w in wraps:
+            joint = joint_name[int(model.wrap_objid[w])]
+            coefficients[joint] = coefficients.get(joint, 0.0) + float(model.wrap_prm[w])
+        tendons.append(TreeTendon(name, coefficients, efforts.get(t)))
+    return tendons
 
 
 def _couplings(model, source: Path) -> dict[int, tuple[int, float, float]]:
@@ -156,7 +200,8 @@ def read_mjcf(source: Path) -> Tree:
         if count > 1:
             raise BadInputError(source, f"body '{body_name[b]}' has {count} joints; one joint per body is supported")
         shifts[b] = model.jnt_pos[model.body_jntadr[b]].copy() if count else np.zeros(3)
-    efforts, couplings = _efforts(model), _couplings(model, source)
+    efforts, couplings = _efforts(model, mujoco.mjtTrn.mjTRN_JOINT), _couplings(model, source)
+    tendons = _tendons(model, joint_name, source)
     links, joints = {}, []
     for b in range(1, model.nbody):
         link = TreeLink(body_name[b])
@@ -188,4 +233,4 @@ def read_mjcf(source: Path) -> Tree:
                 mimic=None if j not in couplings else (joint_name[couplings[j][0]], *couplings[j][1:]),
             )
         joints.append(tree_joint)
-    return Tree(links, joints)
+    return Tree(links, joints, tendons=tendons)

@@ -111,10 +111,25 @@ class Capability:
         return cls("tendons", names, moment_arms * max_forces, np.eye(moment_arms.shape[0]))
 
     @classmethod
-    def motors(cls, names: tuple[str, ...], efforts: np.ndarray, transmission: np.ndarray) -> Capability:
-        """One motor per row of ``transmission``, each limited to ``|torque| <= effort`` (N.m)."""
-        both = np.hstack([np.diag(efforts), -np.diag(efforts)])
+    def motors(
+        cls, names: tuple[str, ...], efforts: np.ndarray, transmission: np.ndarray, directions: np.ndarray | None = None
+    ) -> Capability:
+        """One motor per name, each limited to ``|force| <= effort`` (N.m, or N), pushing the rows of
+        ``transmission`` along its column of ``directions`` (rows x motors; the identity, a motor per row, unless
+        given: a motor on a fixed tendon pulls every joint the tendon passes, by its coefficient)."""
+        directions = np.eye(len(names)) if directions is None else np.asarray(directions, dtype=float)
+        both = np.hstack([directions * efforts, -directions * efforts])
         return cls("motors", tuple(f"{n}+" for n in names) + tuple(f"{n}-" for n in names), both, transmission)
+
+    @property
+    def independent_motors(self) -> bool:
+        """Motors each driving its own transmission row alone, pushing both ways (``A = [E, -E]``, E diagonal):
+        the form whose force limits are ``|T tau| <= E`` row by row."""
+        if self.kind != "motors":
+            return False
+        rows, count = self.torque_map.shape[0], self.torque_map.shape[1] // 2
+        push = self.torque_map[:, :count]
+        return rows == count and np.allclose(push, np.diag(np.diag(push)))
 
     @classmethod
     def combined(cls, parts: list[Capability]) -> Capability:

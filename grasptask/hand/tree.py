@@ -98,11 +98,23 @@ class TreeJoint:
 
 
 @dataclass
+class TreeTendon:
+    """A fixed tendon a motor drives: its length is ``sum(c_j q_j)`` over its joints, so a force ``f`` on it
+    gives joint ``j`` the torque ``c_j f``."""
+
+    name: str
+    coefficients: dict[str, float]
+    effort: float | None = None  # the largest force its motor gives (N, or N.m per unit coefficient)
+
+
+@dataclass
 class Tree:
     links: dict[str, TreeLink]
     joints: list[TreeJoint]
     #: links whose inertia breaks A + B >= C: the physics check balances them
     unbalanced: list[str] = field(default_factory=list)
+    #: the fixed tendons motors drive (an MJCF file's)
+    tendons: list[TreeTendon] = field(default_factory=list)
 
 
 @dataclass(frozen=True)
@@ -163,6 +175,18 @@ def _check_values(tree: Tree, source: Path) -> None:
                 f"joint '{joint.name}': its origin lies {reach:.3g} m along an axis from link '{joint.parent}', "
                 f"beyond a hand's {MAX_REACH_M:g} m (is the file in millimetres?)",
             )
+    joints = {j.name for j in tree.joints}
+    for tendon in tree.tendons:
+        for joint, coefficient in tendon.coefficients.items():
+            if joint not in joints:
+                raise BadInputError(source, f"tendon '{tendon.name}': joint '{joint}' is not a joint of the hand")
+            if not np.isfinite(coefficient) or not MIMIC_RATIO_RANGE[0] <= abs(coefficient) <= MIMIC_RATIO_RANGE[1]:
+                raise BadInputError(
+                    source, f"tendon '{tendon.name}': coefficient {coefficient:g} of joint '{joint}' is out of range "
+                    f"({MIMIC_RATIO_RANGE[0]:g} to {MIMIC_RATIO_RANGE[1]:g} in size)",
+                )  # fmt: skip
+        if tendon.effort is not None and not (np.isfinite(tendon.effort) and tendon.effort >= 0):
+            raise BadInputError(source, f"tendon '{tendon.name}': effort {tendon.effort} is not a force (finite, >= 0)")
     for link in tree.links.values():
         shapes = [c for c, _ in link.spheres] + [np.array([r for _, r in link.spheres])] + link.skin
         if not all(np.isfinite(v).all() for v in shapes):
@@ -422,20 +446,49 @@ def _mimic(tree: Tree, chains: dict[str, _Chain], source: Path) -> dict[str, tup
 
 
 def _capability(
-    joint_names: list[str], efforts: dict[str, float | None], couplings: dict, source: Path, options: HandOptions
+    joint_names: list[str],
+    efforts: dict[str, float | None],
+    couplings: dict,
+    tendons: list[TreeTendon],
+    source: Path,
+    options: HandOptions,
 ) -> Capability:
-    """A motor per joint that no other joint drives; a mimicking joint adds its torque to its master's row (a
-    jaw's force to the first jaw's: one motor closes both). A motor whose effort neither the file nor the YAML
-    gives is refused, naming the YAML's key that gives it: no strength is made up."""
+    """The motors' capability, by virtual work over the joints that move freely (the masters): a row of ``T`` per
+    master, summing the torques of the joints that follow it times their multipliers (a jaw's force and the
+    mimicking jaw's: one motor closes both); a motor on a joint pushes its row alone, a motor on a fixed tendon
+    pulls every row its joints reach, by their coefficients (``G^T c``). A master that no motor moves is refused,
+    naming the YAML's key that gives its effort: no strength is made up."""
     masters = [n for n in joint_names if n not in couplings]
     rows = {n: i for i, n in enumerate(masters)}
-    transmission = np.zeros((len(masters), len(joint_names)))
+    follow = np.zeros((len(joint_names), len(masters)))  # G: each column's joint as a multiple of its master
     for column, name in enumerate(joint_names):
         master, multiplier = (couplings[name][0], couplings[name][1]) if name in couplings else (name, 1.0)
         while master in couplings:  # a chain of mimics ends at one motor
             master, multiplier = couplings[master][0], multiplier * couplings[master][1]
-        transmission[rows[master], column] = multiplier
-    missing = [n for n in masters if not (efforts.get(n) or 0.0) > 0]
+        follow[column, rows[master]] = multiplier
+    columns = {n: k for k, n in enumerate(joint_names)}
+    names, directions, limits = [], [], []
+    pulled = np.zeros(len(masters), dtype=bool)
+    for tendon in tendons:
+        pull = np.zeros(len(joint_names))
+        for joint, coefficient in tendon.coefficients.items():
+            if joint in columns:
+                pull[columns[joint]] += coefficient
+        direction = follow.T @ pull
+        if not np.any(np.abs(direction) > 1e-12):
+            continue  # it moves none of these fingers' joints
+        if not (tendon.effort or 0.0) > 0:
+            raise options.fault(
+                source,
+                "efforts",
+                f"tendon '{tendon.name}': its motor's force limit must be positive, got {tendon.effort}; set it in a "
+                f"hand YAML beside the file, efforts: {{{tendon.name}: ...}}",
+            )
+        names.append(tendon.name)
+        directions.append(direction)
+        limits.append(float(tendon.effort))  # type: ignore[arg-type]
+        pulled |= np.abs(direction) > 1e-12
+    missing = [n for n in masters if not (efforts.get(n) or 0.0) > 0 and not pulled[rows[n]]]
     if missing and len(missing) == len(masters):
         raise options.fault(
             source,
@@ -452,8 +505,16 @@ def _capability(
             f"joint '{name}': effort must be a positive torque (N.m), or force (N) if it slides, got "
             f"{efforts.get(name)}; set it in a hand YAML beside the file, efforts: {{{name}: ...}}",
         )
-    limits = np.array([float(efforts[name]) for name in masters])  # type: ignore[arg-type]
-    return Capability.motors(tuple(masters), limits, transmission)
+    for name in masters:  # a joint's own motor, where it has an effort
+        effort = efforts.get(name)
+        if effort is not None and effort > 0:
+            names.append(name)
+            unit = np.zeros(len(masters))
+            unit[rows[name]] = 1.0
+            directions.append(unit)
+            limits.append(float(effort))
+    transmission = follow.T
+    return Capability.motors(tuple(names), np.array(limits), transmission, np.array(directions).T)
 
 
 def _pattern(names: list[str]) -> str:
@@ -468,7 +529,7 @@ def _pattern(names: list[str]) -> str:
 def _overrides(tree: Tree, options: HandOptions, source: Path) -> tuple[Tree, dict[str, str]]:
     """The file's joints with the YAML's efforts and velocities in place of the file's, and where each moving
     joint's effort comes from (the file, or the YAML's key). A pattern that matches no moving joint is refused."""
-    moving = [j.name for j in tree.joints if j.kind in MOVING]
+    moving = [j.name for j in tree.joints if j.kind in MOVING] + [t.name for t in tree.tendons]
     picked: dict[str, dict[str, tuple[str, float]]] = {"efforts": {}, "velocities": {}}
     for key, given in (("efforts", options.efforts), ("velocities", options.velocities)):
         for pattern, value in given.items():
@@ -479,21 +540,23 @@ def _overrides(tree: Tree, options: HandOptions, source: Path) -> tuple[Tree, di
             for name in matched:  # a joint's own name wins over a pattern, a later pattern over an earlier one
                 if pattern == name or picked[key].get(name, ("",))[0] != name:
                     picked[key][name] = (pattern, float(value))
-    joints, sources = [], {}
-    for joint in tree.joints:
-        effort, velocity = picked["efforts"].get(joint.name), picked["velocities"].get(joint.name)
+    sources = {}
+    for item in (*tree.joints, *tree.tendons):
+        effort = picked["efforts"].get(item.name)
         if effort is not None:
-            sources[joint.name] = f"{options.config.name if options.config else 'config'} efforts['{effort[0]}']"
-        elif joint.effort:
-            sources[joint.name] = "file"
-        joints.append(
-            replace(
-                joint,
-                effort=joint.effort if effort is None else effort[1],
-                velocity=joint.velocity if velocity is None else velocity[1],
-            )
+            sources[item.name] = f"{options.config.name if options.config else 'config'} efforts['{effort[0]}']"
+        elif item.effort:
+            sources[item.name] = "file"
+    joints = [
+        replace(
+            joint,
+            effort=picked["efforts"].get(joint.name, (None, joint.effort))[1],
+            velocity=picked["velocities"].get(joint.name, (None, joint.velocity))[1],
         )
-    return replace(tree, joints=joints), sources
+        for joint in tree.joints
+    ]
+    tendons = [replace(t, effort=picked["efforts"].get(t.name, (None, t.effort))[1]) for t in tree.tendons]
+    return replace(tree, joints=joints, tendons=tendons), sources
 
 
 def _refuse_unmoving(tree: Tree, into: dict[str, TreeJoint], palm: str, source: Path) -> None:
@@ -766,7 +829,7 @@ def hand_from_tree(tree: Tree, source: Path, options: HandOptions = HandOptions(
     held = held_joints(into, root, palm, options, source)
     joint_names = [j.name for f in fingers.values() for j in f.joints]
     efforts = {j.name: j.effort for j in tree.joints}
-    capability = _capability(joint_names, efforts, capability_couplings, source, options)
+    capability = _capability(joint_names, efforts, capability_couplings, tree.tendons, source, options)
     grasping = _grasping(fingers, options, source)
     return Hand(
         options.name or source.stem,
@@ -782,7 +845,7 @@ def hand_from_tree(tree: Tree, source: Path, options: HandOptions = HandOptions(
         held_joints=held,
         unbalanced_inertia=tuple(tree.unbalanced),
         cover_reach_m={name: link.cover_reach_m for name, link in tree.links.items() if link.meshes},
-        effort_sources={n: effort_sources.get(n, "") for n in joint_names if n not in capability_couplings},
+        effort_sources={n[:-1]: effort_sources.get(n[:-1], "") for n in capability.actuators if n.endswith("+")},
     )
 
 

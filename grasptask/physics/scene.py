@@ -276,7 +276,7 @@ def build_scene(
         transmission=transmission,
         torque_map=torque_map,
         actuation=actuation,
-        motors=capability.kind == "motors",
+        motors=capability.independent_motors,
         posture=posture,
         pad_bodies=pad_bodies,
         pad_points=pad_points,

@@ -155,12 +155,23 @@ def hand_lines(hand: Hand) -> list[str]:
 def joint_table(hand: Hand) -> pd.DataFrame:
     """One row per joint: its finger, limits, what drives it."""
     rows = []
-    capability = hand.capability  # a motor "J+" pushes joint J with torque_map's entry in its column
-    efforts = {
-        name[:-1]: float(np.abs(capability.torque_map[:, k]).max())
-        for k, name in enumerate(capability.actuators)
-        if capability.kind == "motors" and name.endswith("+")
-    }
+    capability = hand.capability  # a motor "M+" pushes the rows of T with its column of the torque map
+    pushing = [k for k, name in enumerate(capability.actuators) if name.endswith("+")]
+    columns = {name: k for k, name in enumerate(hand.joint_names)}
+
+    def effort(joint: Joint) -> str:
+        """Each motor that pushes the joint's row, with its torque (force) there: its own, or a tendon's."""
+        if capability.kind != "motors":
+            return ""
+        row = int(np.argmax(np.abs(capability.transmission[:, columns[joint.name]])))
+        unit = "N" if joint.sliding else "N.m"
+        said = []
+        for k in pushing:
+            value, motor = float(capability.torque_map[row, k]), capability.actuators[k][:-1]
+            if value:
+                said.append(f"{abs(value):g} {unit}" + ("" if motor in (joint.name, joint.coupled_to) else f" ({motor})"))
+        return ", ".join(said)
+
     for name, finger in hand.fingers.items():
         for joint in finger.joints:
             rows.append(
@@ -168,9 +179,7 @@ def joint_table(hand: Hand) -> pd.DataFrame:
                     "finger": name,
                     "joint": joint.name,
                     "range": _range(joint),
-                    "effort": f"{efforts[joint.name]:g} {'N' if joint.sliding else 'N.m'}"
-                    if joint.name in efforts
-                    else "",
+                    "effort": effort(joint),
                     "effort from": hand.effort_sources.get(joint.name, "")
                     or (f"its motor's ({joint.coupled_to})" if joint.coupled_to else ""),
                     "velocity": "" if joint.velocity is None else f"{joint.velocity:g} {'m/s' if joint.sliding else 'rad/s'}",
