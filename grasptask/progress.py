@@ -78,6 +78,19 @@ def preparing(message: str, say: Callable[[str], object] | None = None) -> Itera
         timer.cancel()
 
 
+@contextmanager
+def building(what: str) -> Iterator[list[str]]:
+    """Make something slow: say ``what`` once it has taken :data:`SAY_PREPARING_AFTER_S`, then how long it took,
+    with the notes the body adds (where it was kept); a quick one stays quiet."""
+    notes: list[str] = []
+    began = time.monotonic()
+    with preparing(f"{what} ..."):
+        yield notes
+    took = time.monotonic() - began
+    if took >= SAY_PREPARING_AFTER_S:
+        print(f"{what}: done in {_minutes(took)}" + "".join(f"; {n}" for n in notes), file=sys.stderr, flush=True)
+
+
 def _minutes(seconds: float) -> str:
     return f"{seconds:.0f} s" if seconds < 120 else f"{seconds / 60:.1f} min"
 

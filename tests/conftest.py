@@ -1,5 +1,8 @@
 from __future__ import annotations
 
+import os
+import tempfile
+
 import numpy as np
 import pytest
 from click.testing import CliRunner
@@ -14,6 +17,9 @@ from grasptask.stages import (
     run_simulate,
 )
 from grasptask.task.recordings import write_recording
+
+# the suite keeps its convex parts and distance grids in a folder of its own, not in the developer's ~/.cache
+os.environ.setdefault("GRASPTASK_CACHE", tempfile.mkdtemp(prefix="grasptask-test-cache-"))
 
 
 @pytest.fixture(scope="session")

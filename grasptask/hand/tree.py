@@ -466,28 +466,8 @@ def _capability(
         while master in couplings:  # a chain of mimics ends at one motor
             master, multiplier = couplings[master][0], multiplier * couplings[master][1]
         follow[column, rows[master]] = multiplier
-    columns = {n: k for k, n in enumerate(joint_names)}
-    names, directions, limits = [], [], []
-    pulled = np.zeros(len(masters), dtype=bool)
-    for tendon in tendons:
-        pull = np.zeros(len(joint_names))
-        for joint, coefficient in tendon.coefficients.items():
-            if joint in columns:
-                pull[columns[joint]] += coefficient
-        direction = follow.T @ pull
-        if not np.any(np.abs(direction) > 1e-12):
-            continue  # it moves none of these fingers' joints
-        if not (tendon.effort or 0.0) > 0:
-            raise options.fault(
-                source,
-                "efforts",
-                f"tendon '{tendon.name}': its motor's force limit must be positive, got {tendon.effort}; set it in a "
-                f"hand YAML beside the file, efforts: {{{tendon.name}: ...}}",
-            )
-        names.append(tendon.name)
-        directions.append(direction)
-        limits.append(float(tendon.effort))  # type: ignore[arg-type]
-        pulled |= np.abs(direction) > 1e-12
+    names, directions, limits = _tendon_motors(joint_names, follow, tendons, source, options)
+    pulled = np.abs(np.array(directions).reshape(-1, len(masters))).sum(axis=0) > 1e-12
     missing = [n for n in masters if not (efforts.get(n) or 0.0) > 0 and not pulled[rows[n]]]
     if missing and len(missing) == len(masters):
         raise options.fault(
@@ -515,6 +495,34 @@ def _capability(
             limits.append(float(effort))
     transmission = follow.T
     return Capability.motors(tuple(names), np.array(limits), transmission, np.array(directions).T)
+
+
+def _tendon_motors(
+    joint_names: list[str], follow: np.ndarray, tendons: list[TreeTendon], source: Path, options: HandOptions
+) -> tuple[list[str], list[np.ndarray], list[float]]:
+    """Each tendon's motor that moves these fingers: its name, its direction ``G^T c`` over the masters' rows
+    and its force limit."""
+    columns = {n: k for k, n in enumerate(joint_names)}
+    names, directions, limits = [], [], []
+    for tendon in tendons:
+        pull = np.zeros(len(joint_names))
+        for joint, coefficient in tendon.coefficients.items():
+            if joint in columns:
+                pull[columns[joint]] += coefficient
+        direction = follow.T @ pull
+        if not np.any(np.abs(direction) > 1e-12):
+            continue  # it moves none of these fingers' joints
+        if not (tendon.effort or 0.0) > 0:
+            raise options.fault(
+                source,
+                "efforts",
+                f"tendon '{tendon.name}': its motor's force limit must be positive, got {tendon.effort}; set it in a "
+                f"hand YAML beside the file, efforts: {{{tendon.name}: ...}}",
+            )
+        names.append(tendon.name)
+        directions.append(direction)
+        limits.append(float(tendon.effort))  # type: ignore[arg-type]
+    return names, directions, limits
 
 
 def _pattern(names: list[str]) -> str:

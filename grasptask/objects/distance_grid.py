@@ -18,6 +18,9 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.spatial import cKDTree
 
+from grasptask.io import cache
+from grasptask.progress import building
+
 #: grid points farther than this from the surface take their distance from a sparse subset of the samples
 FAR_M, COARSE_SAMPLES = 0.02, 5000
 
@@ -44,6 +47,32 @@ class DistanceGrid:
         """``(n, 3)``: the grid points at least ``depth`` (m) inside the surface."""
         index = np.argwhere(self.values <= -depth)
         return self.origin + self.spacing * index
+
+
+def kept_grid(name: str, made_from: tuple, make: Callable[[], DistanceGrid]) -> DistanceGrid:
+    """The grid ``make`` gives, made once for ``made_from`` (the arrays and settings it is made of) and kept
+    (:mod:`grasptask.io.cache`): a scan's took 2-4 s, in every worker of every sweep."""
+    import trimesh  # its sampling makes the points
+
+    digest = cache.key("distance_grid", *made_from, FAR_M, COARSE_SAMPLES, trimesh.__version__)
+
+    def arrays() -> dict[str, np.ndarray]:
+        grid = make()
+        return {"origin": grid.origin, "spacing": np.array(grid.spacing), "values": grid.values}
+
+    with building(f"{name}: its signed-distance grid for the synthesis") as notes:
+        entry = cache.cached("distance_grid", digest, arrays, _check_grid)
+        notes.append(f"kept in {entry.path} for later runs" if entry.path else "not kept (no cache)")
+    found = entry.arrays
+    return DistanceGrid(np.asarray(found["origin"], dtype=float), float(found["spacing"]), found["values"])
+
+
+def _check_grid(arrays: dict[str, np.ndarray]) -> None:
+    origin, spacing, values = arrays["origin"], arrays["spacing"], arrays["values"]
+    if origin.shape != (3,) or spacing.shape != () or values.ndim != 3 or min(values.shape) < 2:
+        raise ValueError("a grid of the wrong shape")
+    if not (np.isfinite(origin).all() and np.isfinite(values).all() and float(spacing) > 0):
+        raise ValueError("a grid that is not finite")
 
 
 def distance_grid(

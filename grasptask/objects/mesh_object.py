@@ -19,7 +19,7 @@ import numpy as np
 import trimesh
 from scipy.spatial import cKDTree
 
-from grasptask.objects.distance_grid import DistanceGrid, distance_grid
+from grasptask.objects.distance_grid import DistanceGrid, distance_grid, kept_grid
 from grasptask.objects.surface import ImplicitObject, SurfaceIndex, Symmetry, surface_mesh
 
 #: the default spacing of the synthesis surrogate's grid (m): its zero set within 0.7 mm of the mug's triangles
@@ -133,14 +133,19 @@ class MeshObject(ImplicitObject):
         """The synthesis surrogate's data: samples every 0.5 mm, signs from the mesh's inside test. Made once per
         object: a worker builds two or three models on it, and the spline's coefficients are made once per grid."""
         count = int(min(400_000, max(20_000, self.mesh.area / 5e-4**2)))
-        points, faces = trimesh.sample.sample_surface(self.mesh, count, seed=0)
-        return distance_grid(
-            np.asarray(points),
-            self.mesh.face_normals[faces],
-            self.bounds(),
-            self.grid_spacing,
-            inside=self.mesh.contains,
-        )
+
+        def make() -> DistanceGrid:
+            points, faces = trimesh.sample.sample_surface(self.mesh, count, seed=0)
+            return distance_grid(
+                np.asarray(points),
+                self.mesh.face_normals[faces],
+                self.bounds(),
+                self.grid_spacing,
+                inside=self.mesh.contains,
+            )
+
+        vertices, faces = np.asarray(self.mesh.vertices, np.float64), np.asarray(self.mesh.faces, np.int64)
+        return kept_grid(self.name, ("mesh", vertices, faces, count, self.grid_spacing), make)
 
 
 @dataclass(eq=False)
@@ -206,7 +211,10 @@ class PointCloudObject(ImplicitObject):
     @cached_property
     def distance_grid(self) -> DistanceGrid:
         """The synthesis surrogate's data, signs from the nearest point's normal; made once per object."""
-        return distance_grid(self.points, self.normals, self.bounds(), self.grid_spacing)
+        made_from = ("points", np.asarray(self.points, np.float64), np.asarray(self.normals, np.float64), self.grid_spacing)
+        return kept_grid(
+            self.name, made_from, lambda: distance_grid(self.points, self.normals, self.bounds(), self.grid_spacing)
+        )
 
     def picture(self, faces: int = 5000) -> trimesh.Trimesh:
         """A closed surface for drawing: marching cubes of the cloud's signed distance."""

@@ -18,11 +18,13 @@ import trimesh
 
 from grasptask.grasp.grasp_pose import Grasp
 from grasptask.hand.hand_model import Hand
+from grasptask.io import cache
 from grasptask.hand.kinematics import forward
 from grasptask.objects.mesh_object import MeshObject
 from grasptask.objects.surface import ImplicitObject
 from grasptask.physics.hand_file import compile_spec, file_hand_spec, quaternion
 from grasptask.physics.physics_settings import PhysicsSettings
+from grasptask.progress import building
 
 #: contype / conaffinity bits: hand geoms touch the object only, never each other
 HAND_BIT, OBJECT_BIT = 2, 1
@@ -100,16 +102,65 @@ class Scene:
         return len(self.pad_bodies)
 
 
-def _convex_parts(mesh: trimesh.Trimesh) -> tuple[trimesh.Trimesh, ...]:
-    """``mesh``'s hull when it is convex, else a CoACD decomposition's hulls."""
+#: CoACD's concavity threshold and seed: what shapes an object's parts (with the mesh, part of the cache's key)
+COACD_THRESHOLD, COACD_SEED = 0.05, 0
+
+
+def convex_parts(mesh: trimesh.Trimesh, name: str = "object") -> tuple[trimesh.Trimesh, ...]:
+    """``mesh``'s hull when it is convex, else a CoACD decomposition's hulls; made once per mesh and settings and
+    kept (:mod:`grasptask.io.cache`): a scan's took a minute, for ``physics`` and ``export`` alike."""
+    from importlib.metadata import version
+
+    vertices, faces = np.asarray(mesh.vertices, dtype=np.float64), np.asarray(mesh.faces, dtype=np.int64)
+    digest = cache.key("convex", vertices, faces, CONVEX_VOLUME_EXCESS, COACD_THRESHOLD, COACD_SEED, version("coacd"))
+    with building(f"{name}: its convex parts for MuJoCo (CoACD)") as notes:
+        entry = cache.cached("convex", digest, lambda: _packed(_decomposed(mesh)), _check_parts)
+        notes.append(f"kept in {entry.path} for later runs" if entry.path else "not kept (no cache)")
+    arrays = entry.arrays
+    starts = np.concatenate([[0], np.cumsum(arrays["vertex_counts"])])
+    firsts = np.concatenate([[0], np.cumsum(arrays["face_counts"])])
+    return tuple(
+        trimesh.Trimesh(arrays["vertices"][starts[k] : starts[k + 1]], arrays["faces"][firsts[k] : firsts[k + 1]],
+                        process=False)  # fmt: skip
+        for k in range(len(arrays["vertex_counts"]))
+    )
+
+
+def _decomposed(mesh: trimesh.Trimesh) -> tuple[trimesh.Trimesh, ...]:
     hull = mesh.convex_hull
     if hull.volume <= (1 + CONVEX_VOLUME_EXCESS) * abs(mesh.volume):
         return (hull,)
     import coacd  # heavy, and needed for non-convex objects only
 
     coacd.set_log_level("error")
-    pieces = coacd.run_coacd(coacd.Mesh(mesh.vertices, mesh.faces), threshold=0.05, seed=0)
+    pieces = coacd.run_coacd(coacd.Mesh(mesh.vertices, mesh.faces), threshold=COACD_THRESHOLD, seed=COACD_SEED)
     return tuple(trimesh.Trimesh(v, f).convex_hull for v, f in pieces)
+
+
+def _packed(parts: tuple[trimesh.Trimesh, ...]) -> dict[str, np.ndarray]:
+    """The parts as four plain arrays: stacked vertices and faces (each part's faces counted from its own first
+    vertex), and each part's counts."""
+    return {
+        "vertices": np.vstack([np.asarray(p.vertices, dtype=np.float64) for p in parts]),
+        "faces": np.vstack([np.asarray(p.faces, dtype=np.int64) for p in parts]),
+        "vertex_counts": np.array([len(p.vertices) for p in parts], dtype=np.int64),
+        "face_counts": np.array([len(p.faces) for p in parts], dtype=np.int64),
+    }
+
+
+def _check_parts(arrays: dict[str, np.ndarray]) -> None:
+    """Parts MuJoCo can take: finite vertices, each part's faces within its own vertices, at least one part."""
+    vertices, faces = arrays["vertices"], arrays["faces"]
+    counts, face_counts = arrays["vertex_counts"], arrays["face_counts"]
+    if vertices.ndim != 2 or vertices.shape[1] != 3 or faces.ndim != 2 or faces.shape[1] != 3:
+        raise ValueError("parts of the wrong shape")
+    if not len(counts) or len(counts) != len(face_counts) or counts.min() < 4 or face_counts.min() < 4:
+        raise ValueError("no parts, or a part of fewer than 4 vertices or faces")
+    if counts.sum() != len(vertices) or face_counts.sum() != len(faces) or not np.isfinite(vertices).all():
+        raise ValueError("counts that do not add up, or vertices that are not finite")
+    limit = np.repeat(counts, face_counts)
+    if faces.min() < 0 or (faces.max(axis=1) >= limit).any():
+        raise ValueError("a face names a vertex its part does not have")
 
 
 def object_body(obj: ImplicitObject, settings: PhysicsSettings) -> ObjectBody:
@@ -120,7 +171,7 @@ def object_body(obj: ImplicitObject, settings: PhysicsSettings) -> ObjectBody:
         mesh = obj.picture(PICTURE_FACES)
         mesh = trimesh.Trimesh(obj.project(mesh.vertices), mesh.faces)
     mass = getattr(obj, "mass_kg", None) or settings.object_mass_kg
-    return ObjectBody(_convex_parts(mesh), float(mass))
+    return ObjectBody(convex_parts(mesh, getattr(obj, "name", "object")), float(mass))
 
 
 def _collider(body, size: float, pos: np.ndarray, friction: list[float]) -> None:

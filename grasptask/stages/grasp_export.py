@@ -19,7 +19,7 @@ from grasptask.objects.surface import ImplicitObject
 from grasptask.paths import DEFAULT_PHYSICS_CONFIG, as_paths
 from grasptask.physics.judge import Holding
 from grasptask.physics.physics_settings import load_physics_settings
-from grasptask.progress import Progress, preparing, timed_stage
+from grasptask.progress import Progress, timed_stage
 from grasptask.records.sweeps import SolvedGrasps, Sweep, SweepInputs
 from grasptask.verifier.verify import verify
 
@@ -118,12 +118,11 @@ class _Exporter:
         self.holding: Holding | None = None
 
     def prepare_scenes(self, physics_config: Path) -> None:
-        """The object's convex parts for MuJoCo, made once (CoACD can take a minute on a scan: said first)."""
+        """The object's convex parts for MuJoCo, made once and kept (CoACD can take a minute on a scan: said)."""
         settings = load_physics_settings(physics_config)
         grasp_settings = self.sweep.settings
         friction, torsion = grasp_settings.friction_coefficient, grasp_settings.torsional_friction_m
-        with preparing(f"export {self.sweep.task}: building the object's convex parts for MuJoCo ..."):
-            self.holding = Holding.of(self.obj, friction, settings, 1.0, torsion)
+        self.holding = Holding.of(self.obj, friction, settings, 1.0, torsion)
 
     def write(self, staged: StagedOutput, row: dict, grasp: Grasp) -> dict[str, Any]:
         """One grasp's files, and its entry in ``grasps.json``."""

@@ -103,7 +103,7 @@ def run_physics(options: PhysicsOptions) -> PhysicsSummary:
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # inherited by the simulation processes
     out = options.out
     sweep = options.open_sweep()
-    with preparing(f"physics {sweep.task}: building the object's convex parts and the first scene ..."):
+    with preparing(f"physics {sweep.task}: preparing the object and the first scene ..."):
         judge = _judge_for(options, sweep)  # every input checked here, before any work
     # --out held, and known to be writable, from the start: a second run into it is refused, not overwritten
     with folder_lock(out, f"physics {sweep.task}"):
