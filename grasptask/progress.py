@@ -1,7 +1,12 @@
 """Progress on long stages: a bar on a terminal; when stderr is not one (a log file, CI, a batch job), a short
 line at intervals and one at the end, with what is done, the stage's own counts and the time left.
 
-The interval is ``GRASPTASK_PROGRESS_S`` seconds (default 30; 0 prints a line for every item)."""
+A log never goes quiet for longer than the interval while a stage runs: where nothing has been said for that
+long (a start that takes minutes, a model that takes ten to build), a heartbeat says what is running and for how
+long, with the counts so far. What runs is registered by whoever runs it (:func:`working`, :func:`finished`).
+
+The interval is ``GRASPTASK_PROGRESS_S`` seconds (default 30; 0 prints a line for every item, and no
+heartbeat)."""
 
 from __future__ import annotations
 
@@ -11,7 +16,8 @@ import sys
 import threading
 import time
 from collections.abc import Callable, Iterable, Iterator
-from contextlib import contextmanager
+from contextlib import ExitStack, contextmanager, nullcontext
+from dataclasses import dataclass
 from typing import IO, Any, ParamSpec, TypeVar
 
 from tqdm import tqdm
@@ -64,18 +70,112 @@ def timed_stage(stage: Callable[P, R]) -> Callable[P, R]:
 SAY_PREPARING_AFTER_S = 3.0
 
 
+#: what the heartbeat speaks of: the stages' bars and set-ups under way (innermost last), the work running (by
+#: key: a label and when it began), and when a line was last said
+_lock = threading.Lock()
+_active: list[Any] = []
+_running: dict[Any, tuple[str, float]] = {}
+_last_said = [0.0]
+_beating: list[threading.Thread] = []
+
+
+def _said(text: str, stream: IO[str] | None = None) -> None:
+    """Print a progress line, and note when (the heartbeat waits an interval from the last)."""
+    print(text, file=stream if stream is not None else sys.stderr, flush=True)
+    _last_said[0] = time.monotonic()
+
+
+def working(key: Any, label: str) -> None:
+    """``label`` (``start 17``) is running from now, under ``key``; the heartbeat says it with its time."""
+    with _lock:
+        _running[key] = (label, time.monotonic())
+
+
+def finished(key: Any) -> None:
+    with _lock:
+        _running.pop(key, None)
+
+
+@dataclass
+class _SetUp:
+    """A set-up under way (:func:`preparing`): what it prepares, since when, and where it speaks."""
+
+    message: str
+    began: float
+    speak: Callable[[str], object]
+
+
 @contextmanager
-def preparing(message: str, say: Callable[[str], object] | None = None) -> Iterator[None]:
-    """Say ``message`` (on stderr, or with ``say``) once the work inside has taken :data:`SAY_PREPARING_AFTER_S`:
-    a physics check that built its scenes for 50 s said nothing until its first grasp."""
-    speak = say if say is not None else (lambda text: print(text, file=sys.stderr, flush=True))
-    timer = threading.Timer(SAY_PREPARING_AFTER_S, speak, args=(message,))
-    timer.daemon = True
-    timer.start()
+def _active_while(item: Any) -> Iterator[None]:
+    """``item`` is what the heartbeat speaks of while the block runs."""
+    with _lock:
+        _active.append(item)
+        _last_said[0] = max(_last_said[0], time.monotonic())
+        _start_heartbeat()
     try:
         yield
     finally:
-        timer.cancel()
+        with _lock:
+            _active.remove(item)
+
+
+def _start_heartbeat() -> None:
+    """One daemon thread for the process, started with the first stage that is to be heard (under the lock)."""
+    if _beating and _beating[0].is_alive():
+        return
+    thread = threading.Thread(target=_heartbeat, name="grasptask-heartbeat", daemon=True)
+    _beating[:] = [thread]
+    thread.start()
+
+
+def _heartbeat() -> None:
+    while True:
+        every = _interval_or_none()
+        time.sleep(min(1.0, every / 4) if every else 1.0)
+        with _lock:
+            if not _active:
+                continue
+            now = time.monotonic()
+            if not every or now - _last_said[0] < every:
+                continue
+            top = _active[-1]
+            line = top.line(now) if isinstance(top, Progress) else f"{top.message} still at it, {_minutes(now - top.began)}"
+            running = sorted(_running.values(), key=lambda item: item[1])
+            if running:
+                shown = ", ".join(f"{label} for {_minutes(now - began)}" for label, began in running[:6])
+                line += f"; running: {shown}" + (f" and {len(running) - 6} more" if len(running) > 6 else "")
+            _last_said[0] = now
+        if isinstance(top, Progress):
+            if top.bar is None:
+                _said(line, top.stream)
+        else:
+            top.speak(line)
+
+
+def _interval_or_none() -> float | None:
+    """The heartbeat's interval; None where a bad setting is left for the stage itself to refuse."""
+    try:
+        return interval_s()
+    except BadInputError:
+        return None
+
+
+@contextmanager
+def preparing(message: str, say: Callable[[str], object] | None = None) -> Iterator[None]:
+    """Say ``message`` (on stderr, or with ``say``) once the work inside has taken :data:`SAY_PREPARING_AFTER_S`,
+    and again with its time at every interval it goes on: a physics check that built its scenes for 50 s said
+    nothing until its first grasp, a 21,284-variable model nothing for 11 minutes."""
+    speak = say if say is not None else (lambda text: _said(text))
+    timer = threading.Timer(SAY_PREPARING_AFTER_S, speak, args=(message,))
+    timer.daemon = True
+    terminal = bool(getattr(sys.stderr, "isatty", lambda: False)())
+    heard = nullcontext() if terminal and say is None else _active_while(_SetUp(message, time.monotonic(), speak))
+    with heard:
+        timer.start()
+        try:
+            yield
+        finally:
+            timer.cancel()
 
 
 @contextmanager
@@ -88,7 +188,7 @@ def building(what: str) -> Iterator[list[str]]:
         yield notes
     took = time.monotonic() - began
     if took >= SAY_PREPARING_AFTER_S:
-        print(f"{what}: done in {_minutes(took)}" + "".join(f"; {n}" for n in notes), file=sys.stderr, flush=True)
+        _said(f"{what}: done in {_minutes(took)}" + "".join(f"; {n}" for n in notes))
 
 
 def _minutes(seconds: float) -> str:
@@ -115,6 +215,9 @@ class Progress:
         ) else None  # fmt: skip
         if self.bar is not None:  # the bar's clock from the stage's start too
             self.bar.start_t -= self.counting - self.began
+        self._heard = ExitStack()
+        if self.bar is None and self.every > 0:  # a log: the heartbeat speaks of it while it runs
+            self._heard.enter_context(_active_while(self))
 
     def update(self, n: int = 1, **counts: Any) -> None:
         self.done += n
@@ -127,7 +230,7 @@ class Progress:
         now = time.monotonic()
         if now - self.last >= self.every and self.done < self.total:
             self.last = now
-            print(self.line(now), file=self.stream, flush=True)
+            _said(self.line(now), self.stream)
 
     def line(self, now: float | None = None) -> str:
         """``desc: done/total unit (percent), counts, elapsed, time left``."""
@@ -146,10 +249,11 @@ class Progress:
     def close(self, finished: bool = True) -> None:
         """Close the bar, or print the last line, so that a log shows how the stage ended (not when it failed:
         the error is then the one line to read)."""
+        self._heard.close()
         if self.bar is not None:
             self.bar.close()
         elif finished and self.done > self.initial:
-            print(self.line(), file=self.stream, flush=True)
+            _said(self.line(), self.stream)
         self.bar, self.done, self.initial = None, 0, 0  # closed: a second close prints nothing
 
     def __enter__(self) -> Progress:

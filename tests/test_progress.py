@@ -109,3 +109,50 @@ def test_counts_are_said_in_the_singular_where_there_is_one(count, word, said):
     from grasptask.stages import plural
 
     assert plural(count, word) == said
+
+
+def test_a_log_never_goes_quiet_while_a_start_runs(monkeypatch):
+    """A sweep whose starts take minutes printed only when one finished (90 s, then 2.7 min, ...): the heartbeat
+    says what is running, for how long and how many are done, every interval nothing else was said."""
+    import time
+
+    from grasptask.progress import finished, working
+
+    monkeypatch.setenv(INTERVAL_ENV, "0.2")
+    log = io.StringIO()
+    with Progress(3, "synthesize cutting", "starts", stream=log) as shown:
+        working("worker 0", "start 17")
+        time.sleep(0.9)
+        finished("worker 0")
+        shown.update(1, verified=1, failing=0)
+        time.sleep(0.05)
+    lines = log.getvalue().splitlines()
+    beats = [line for line in lines if "running: start 17 for" in line]
+    assert len(beats) >= 2, lines
+    assert beats[0].startswith("synthesize cutting: 0/3 starts (0%)") and "elapsed" in beats[0]
+    time.sleep(0.5)  # the stage is over: nothing more is said
+    assert log.getvalue().splitlines() == lines
+
+
+def test_a_long_set_up_is_said_again_with_its_time(monkeypatch):
+    import time
+
+    from grasptask import progress as progress_module
+
+    monkeypatch.setenv(INTERVAL_ENV, "0.2")
+    monkeypatch.setattr(progress_module, "SAY_PREPARING_AFTER_S", 0.05)
+    said: list[str] = []
+    with progress_module.preparing("synthesize cutting: building the NLP in 2 workers ...", said.append):
+        time.sleep(1.0)
+    assert said[0] == "synthesize cutting: building the NLP in 2 workers ..."
+    again = [line for line in said[1:] if "still at it" in line]
+    assert len(again) >= 2, said
+
+
+def test_a_sweeps_log_says_which_start_runs_between_the_starts_it_finishes(monkeypatch, tasks, tmp_path, cli):
+    monkeypatch.setenv(INTERVAL_ENV, "0.3")
+    result = cli("synthesize", "--tasks", tasks, "--task", "drawing", "--out", tmp_path / "g", "--starts", "2",
+                 "--workers", "1")  # fmt: skip
+    assert result.exit_code == 0, result.output
+    beats = [line for line in result.output.splitlines() if "; running: start" in line]
+    assert beats and all(line.startswith("synthesize drawing: ") for line in beats), result.output

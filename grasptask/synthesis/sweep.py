@@ -27,6 +27,7 @@ from typing import Any, Protocol
 
 from grasptask.errors import BadInputError
 from grasptask.io.child_processes import UNGUARDED_SCRIPT_EXIT, die_with_parent
+from grasptask.progress import finished, working
 from grasptask.synthesis.context import Job, SolverContext, build_failure, failed_row, solve_guarded
 from grasptask.synthesis.starts import Start
 
@@ -96,6 +97,12 @@ class Executor(Protocol):
     def close(self) -> None: ...
 
 
+def _label(start: Any) -> str:
+    """What a log's heartbeat calls a start (a search's, a polish's) while it runs."""
+    kind = {"SearchTask": "search of start", "Polish": "polish of start"}.get(type(start).__name__, "start")
+    return f"{kind} {getattr(start, 'start_id', '?')}"
+
+
 class SerialExecutor:
     """Every start in this process, one after the other."""
 
@@ -116,7 +123,12 @@ class SerialExecutor:
         assert self.context is not None, "start() first"
         for start in starts:
             _check_stop()
-            on_result(solve_guarded(self.context, start))
+            working(self, _label(start))
+            try:
+                row = solve_guarded(self.context, start)
+            finally:
+                finished(self)
+            on_result(row)
         _check_stop()
 
     def close(self) -> None:
@@ -212,6 +224,7 @@ class PoolExecutor:
             if pending and worker_id in self.procs and not STOP.is_set():
                 start = pending.pop(0)
                 holding[worker_id] = (start, time.time())
+                working((self, worker_id), _label(start))
                 self.procs[worker_id][1].put(start)
 
         for worker_id in self.ready:
@@ -232,6 +245,7 @@ class PoolExecutor:
                 assign(worker_id)
             elif kind == "done" and worker_id in holding:
                 holding.pop(worker_id)
+                finished((self, worker_id))
                 on_result(payload)
                 assign(worker_id)
             self._replace_lost(holding, on_result, spawn=bool(pending) and not STOP.is_set())
@@ -250,6 +264,7 @@ class PoolExecutor:
             self.procs.pop(worker_id)
             if held is not None:
                 holding.pop(worker_id)
+                finished((self, worker_id))
                 start, began = held
                 message = f"worker killed after {now - began:.0f} s" if hung else f"worker exit code {proc.exitcode}"
                 on_result(failed_row(start, "hung" if hung else "crashed", now - began, message))
