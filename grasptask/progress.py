@@ -139,7 +139,11 @@ def _heartbeat() -> None:
             if not every or now - _last_said[0] < every:
                 continue
             top = _active[-1]
-            line = top.line(now) if isinstance(top, Progress) else f"{top.message} still at it, {_minutes(now - top.began)}"
+            line = (
+                top.line(now)
+                if isinstance(top, Progress)
+                else f"{top.message} still at it, {_minutes(now - top.began)}"
+            )
             running = sorted(_running.values(), key=lambda item: item[1])
             if running:
                 shown = ", ".join(f"{label} for {_minutes(now - began)}" for label, began in running[:6])

@@ -241,3 +241,72 @@ def write_jaw_gripper(root: Path, effort_n: float = JAW_EFFORT_N, pads: str = "b
     path = package / "urdf" / "panda_gripper.urdf"
     path.write_text(text)
     return path
+
+
+#: a LEAP-like hand's finger links, as (link, length along the finger (m), its collision boxes: centre and size in
+#: the link's frame, m): thin printed shells, as the published LEAP URDF covers its links with boxes 4 mm thick
+LEAP_LINKS = (
+    ("mcp", 0.0, [((0.0, 0.0, 0.0), (0.024, 0.028, 0.012))]),
+    ("pip", 0.046, [((0.0, 0.012, 0.023), (0.020, 0.004, 0.040)), ((0.0, -0.012, 0.023), (0.020, 0.004, 0.040)),
+                    ((0.009, 0.0, 0.023), (0.004, 0.022, 0.040))]),
+    ("dip", 0.036, [((-0.008, 0.0, 0.018), (0.004, 0.020, 0.034)), ((0.008, 0.0, 0.018), (0.004, 0.020, 0.034))]),
+    ("fingertip", 0.0, [((-0.004, 0.0, 0.010), (0.004, 0.022, 0.030))]),
+)  # fmt: skip
+
+
+def leap_tip_mesh() -> trimesh.Trimesh:
+    """The fingertip's rubber pad, as a printed hand publishes it: a mesh (no sphere, no box), the front of a
+    flattened capsule over the last 3 cm of the finger, facing +x (the way the finger closes)."""
+    pad = trimesh.creation.capsule(height=0.022, radius=0.0095, count=[24, 16])
+    pad.apply_scale([0.8, 1.0, 1.0])
+    pad.apply_translation([0.0, 0.0, 0.021])
+    keep = pad.vertices[:, 0] >= -0.002
+    front = trimesh.convex.convex_hull(pad.vertices[keep])
+    return front
+
+
+def write_leap_like(root: Path, effort_nm: float = 0.95) -> Path:
+    """A four-finger hand laid out as the published LEAP URDF is: an empty ``base`` fixed to ``palm_lower``, the
+    palm and every finger link covered by thin collision boxes (thousands of spheres in all), each fingertip a
+    mesh pad (``meshes/collision/white_tip.obj``, no sphere), joints named by number, 0.95 N.m motors, visual
+    meshes named that are not there. Three fingers rise along +z from the palm and close towards +x; the thumb
+    rises in front of them and closes towards -x."""
+    folder = root / "leap_hand"
+    (folder / "meshes" / "collision").mkdir(parents=True, exist_ok=True)
+    leap_tip_mesh().export(folder / "meshes" / "collision" / "white_tip.obj")
+
+    def boxes(items) -> str:
+        return "".join(
+            f'<collision><origin xyz="{c[0]} {c[1]} {c[2]}"/><geometry><box size="{s[0]} {s[1]} {s[2]}"/></geometry>'
+            "</collision>"
+            for c, s in items
+        )
+
+    palm = [((-0.012, 0.0, -0.025), (0.004, 0.11, 0.05)), ((-0.004, 0.0, -0.052), (0.02, 0.11, 0.004))]
+    links = ['<link name="base"/>', '<link name="palm_lower"><visual><geometry><mesh filename="meshes/visual/'
+             f'palm_lower.obj"/></geometry></visual>{boxes(palm)}</link>']  # fmt: skip
+    joints = ['<joint name="base_joint" type="fixed"><parent link="base"/><child link="palm_lower"/>'
+              '<origin xyz="0 0.038 0.098" rpy="0 -1.57079 0"/></joint>']  # fmt: skip
+    limits = {"mcp": (-1.047, 1.047), "pip": (-0.314, 2.23), "dip": (-0.506, 1.885), "fingertip": (-0.366, 2.042)}
+    number = 0
+    fingers = [("", (0.0, -0.045, 0.0), 0.0), ("_2", (0.0, 0.0, 0.0), 0.0), ("_3", (0.0, 0.045, 0.0), 0.0),
+               ("_thumb", (0.06, 0.0, -0.03), np.pi)]  # fmt: skip
+    for suffix, base, turn in fingers:
+        parent, origin = "palm_lower", f'xyz="{base[0]} {base[1]} {base[2]}" rpy="0 0 {turn:.6f}"'
+        for name, length, items in LEAP_LINKS:
+            link = f"{name}{suffix}"
+            extra = '<collision><geometry><mesh filename="meshes/collision/white_tip.obj"/></geometry></collision>'
+            links.append(f'<link name="{link}"><visual><geometry><mesh filename="meshes/visual/{name}.obj"/>'
+                         f"</geometry></visual>{boxes(items)}{extra if name == 'fingertip' else ''}</link>")  # fmt: skip
+            axis = "0 0 1" if name == "mcp" else "0 1 0"  # the mcp swings the finger sideways, the rest curl it
+            low, high = limits[name]
+            joints.append(
+                f'<joint name="{number}" type="revolute"><origin {origin}/><parent link="{parent}"/>'
+                f'<child link="{link}"/><axis xyz="{axis}"/>'
+                f'<limit effort="{effort_nm}" velocity="8.48" lower="{low}" upper="{high}"/></joint>'
+            )
+            parent, origin, number = link, f'xyz="0 0 {length if length else 0.012}"', number + 1
+    path = folder / "leap_hand_right.urdf"
+    path.write_text('<?xml version="1.0" encoding="utf-8"?>\n<robot name="leap_right">\n' + "\n".join(links + joints)
+                    + "\n</robot>\n")  # fmt: skip
+    return path

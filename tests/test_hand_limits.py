@@ -40,7 +40,13 @@ def test_efforts_by_name_and_pattern_load_the_hand_and_say_where_each_came_from(
     yaml = tmp_path / "bh.yaml"
     yaml.write_text('model: bh_cad.urdf\nefforts: {"j*2": 1.5, "j1*": 0.9, j12: 2.0}\nvelocities: {"j*": 1.2}\n')
     hand = load_hand(yaml)
-    limits = dict(zip([a[:-1] for a in hand.capability.actuators if a.endswith("+")], hand.capability.torque_map.max(axis=0), strict=False))
+    limits = dict(
+        zip(
+            [a[:-1] for a in hand.capability.actuators if a.endswith("+")],
+            hand.capability.torque_map.max(axis=0),
+            strict=False,
+        )
+    )
     # j12 by its own name; j11 by the later pattern j1*; j22, j32 by j*2; the distal joints mimic their motors
     assert limits["j12"] == pytest.approx(2.0) and limits["j11"] == pytest.approx(0.9)
     assert limits["j22"] == pytest.approx(1.5) and limits["j32"] == pytest.approx(1.5)
@@ -97,7 +103,9 @@ def test_mimic_loops_and_absurd_multipliers_are_one_line(tmp_path, cli):
 
 def test_a_nan_velocity_and_a_planar_finger_joint_are_named(tmp_path, cli):
     _hostile(tmp_path, cli, TWO_FINGERS.replace('velocity="1"', 'velocity="nan"', 1), "joint 'j1': velocity nan")
-    _hostile(tmp_path, cli, TWO_FINGERS.replace('velocity="1"', 'velocity="-2"', 1), "joint 'j1': velocity -2 is negative")
+    _hostile(
+        tmp_path, cli, TWO_FINGERS.replace('velocity="1"', 'velocity="-2"', 1), "joint 'j1': velocity -2 is negative"
+    )
     for kind in ("planar", "floating"):
         text = TWO_FINGERS.replace('<joint name="j2" type="revolute">', f'<joint name="j2" type="{kind}">')
         _hostile(tmp_path, cli, text, f"joint 'j2' is {kind}: only revolute, continuous and prismatic joints")

@@ -85,12 +85,19 @@ def test_a_cell_of_structs_with_their_own_period_and_a_struct_array(tmp_path, cl
     """The second study's layout: proc_data, a cell of structs {name, dt, X, ...}, each trial its own dt; and a
     struct array, data(k).ft."""
     recorded = trials(3)
-    procs = [{"name": f"trial {k}", "dt": 0.01 * (k + 1), "X": d[:, 1:].T, "J": np.eye(3)} for k, d in enumerate(recorded)]
+    procs = [
+        {"name": f"trial {k}", "dt": 0.01 * (k + 1), "X": d[:, 1:].T, "J": np.eye(3)} for k, d in enumerate(recorded)
+    ]
     variables = {"proc_data": cell(*procs), "dt": 0.01, "data": struct_array([{"ft": d} for d in recorded])}
     write_mat(tmp_path / "proc.mat", variables, version)
-    (tmp_path / "proc.yaml").write_text("name: proc\nmatlab: {variable: 'proc_data{*}.X', period_s: 'proc_data{*}.dt'}\n")
+    (tmp_path / "proc.yaml").write_text(
+        "name: proc\nmatlab: {variable: 'proc_data{*}.X', period_s: 'proc_data{*}.dt'}\n"
+    )
     (tmp_path / "arr.yaml").write_text("name: arr\nmatlab: {wrench: [2, 3, 4, 5, 6, 7], time: 1}\n")
-    rows = [{"path": "proc.mat", "tool": "proc.yaml"}, {"path": "proc.mat", "tool": "arr.yaml", "variable": "data(*).ft", "subject": "2"}]
+    rows = [
+        {"path": "proc.mat", "tool": "proc.yaml"},
+        {"path": "proc.mat", "tool": "arr.yaml", "variable": "data(*).ft", "subject": "2"},
+    ]
     result = cli("fit-task", manifest(tmp_path, rows), "--out", tmp_path / "out")
     assert result.exit_code == 0, result.output
     table = fitted(tmp_path / "out")
@@ -130,12 +137,22 @@ def test_bad_layouts_are_one_line_naming_the_element(tmp_path, cli, version):
     (tmp_path / "t7.yaml").write_text("name: t7\nmatlab: {wrench: [2, 3, 4, 5, 6, 7], time: 1}\n")
     row = {"path": "bad.mat", "tool": "t.yaml"}
     _refused(cli, tmp_path, [{**row, "variable": "good{3}.Tool_FT"}], "good is 1x2, so it has no element 3 (1 to 2)")
-    _refused(cli, tmp_path, [{**row, "variable": "mixed{*}.Tool_FT"}], "'mixed{3}.Tool_FT' is 3x", "unlike 'mixed{1}.Tool_FT'")
+    _refused(
+        cli,
+        tmp_path,
+        [{**row, "variable": "mixed{*}.Tool_FT"}],
+        "'mixed{3}.Tool_FT' is 3x",
+        "unlike 'mixed{1}.Tool_FT'",
+    )
     _refused(cli, tmp_path, [{**row, "variable": "holey{*}.Tool_FT"}], "holey{2} is empty (0x0 double)")
     _refused(cli, tmp_path, [{**row, "variable": "good{*}.Force"}], "has no field 'Force' (it has: Hand_FT, Tool_FT)")
-    _refused(cli, tmp_path, [{**row, "variable": "cpx"}], "'cpx' is 6x150 complex double: a force/torque recording is real")
+    _refused(
+        cli, tmp_path, [{**row, "variable": "cpx"}], "'cpx' is 6x150 complex double: a force/torque recording is real"
+    )
     _refused(cli, tmp_path, [{**row, "variable": "good{*}{*}"}], "2 wildcards")
-    _refused(cli, tmp_path, [{**row, "tool": "t7.yaml", "variable": "empty"}], "'empty' is 7x0 double: it holds 0 samples")
+    _refused(
+        cli, tmp_path, [{**row, "tool": "t7.yaml", "variable": "empty"}], "'empty' is 7x0 double: it holds 0 samples"
+    )
     _refused(cli, tmp_path, [{**row, "tool": "t7.yaml", "variable": "single"}], "only 1 sample (at least 10")
     (tmp_path / "rate.yaml").write_text("name: r\nmatlab: {rate_hz: good}\n")
     _refused(cli, tmp_path, [{**row, "tool": "rate.yaml", "variable": "good{1}.Tool_FT"}], "'good' is 1x2 cell")

@@ -88,9 +88,9 @@ def test_report_with_a_sweep_renders_every_optimum(full_report):
 
 
 def test_report_views_are_inlined_once_and_share_the_object(full_report):
-    """An interactive view per optimum and per task's ellipsoids, plotly.js inlined once, nothing from the
-    network, and the object's surface written once however many views show it."""
-    from plotly.offline import get_plotlyjs
+    """An interactive view per optimum and per task's ellipsoids, plotly.js inlined once (packed), nothing from
+    the network, and the object's surface written once however many views show it."""
+    from grasptask.report.page import packed_plotly
 
     results, summary = full_report
     page = (results / "report" / "index.html").read_text()
@@ -99,7 +99,7 @@ def test_report_views_are_inlined_once_and_share_the_object(full_report):
         f"view-ellipsoids_{t}" for t in ("drawing", "cutting", "screwdriving")
     ]
     assert summary.views == 4 and page.count('<div class="view"') == 4
-    assert page.count(get_plotlyjs()[:200]) == 1
+    assert page.count(packed_plotly()[:200]) == 1 and page.count('id="plotly-gz"') == 1
     markup = _markup(page)
     assert not re.search(r'src="(?!data:)', markup) and not re.search(r"(src|href)=.https?:", markup)
     assert page.count('id="shared-mesh-') == 1

@@ -1,10 +1,11 @@
-"""MJCF hands, compiled with ``mujoco``: bodies with their hinge joints, collision geoms, actuators (for the
-torque limits), joint equalities (for coupled joints) and fixed tendons that actuators drive (a motor pulling
-several joints by their coefficients: the Franka hand's two jaws, the Shadow hand's last two joints of a finger). Visual-only geoms (``contype`` and ``conaffinity``
-0) and the assets only they use are dropped before compiling, so a missing visual mesh does not stop loading.
+"""MJCF hands, compiled with ``mujoco``: bodies with their hinge joints, collision geoms, actuators (for the torque
+limits), joint equalities (for coupled joints) and fixed tendons that actuators drive (a motor pulling several
+joints by their coefficients: the Franka hand's two jaws, the Shadow hand's last two joints of a finger). Visual-
+only geoms (``contype`` and ``conaffinity`` 0) and the assets only they use are dropped before compiling, so a
+missing visual mesh does not stop loading.
 
-MuJoCo turns a body about its joint's position inside it; the project's link frame sits on the joint, so each
-body's geoms and children are shifted by that position. A joint's torque limit is the smallest of its own
+MuJoCo turns a body about its joint's position inside it; the project's link frame sits on the joint, so each body's
+geoms and children are shifted by that position. A joint's torque limit is the smallest of its own
 ``actuatorfrcrange``, an actuator's ``forcerange`` and a motor's ``ctrlrange``, times the actuator's gear; a
 tendon's force limit the same, from the actuators on it and its own ``actuatorfrcrange``.
 """

@@ -177,12 +177,12 @@ def _check_values(tree: Tree, source: Path) -> None:
             )
     joints = {j.name for j in tree.joints}
     for tendon in tree.tendons:
-        for joint, coefficient in tendon.coefficients.items():
-            if joint not in joints:
-                raise BadInputError(source, f"tendon '{tendon.name}': joint '{joint}' is not a joint of the hand")
+        for name, coefficient in tendon.coefficients.items():
+            if name not in joints:
+                raise BadInputError(source, f"tendon '{tendon.name}': joint '{name}' is not a joint of the hand")
             if not np.isfinite(coefficient) or not MIMIC_RATIO_RANGE[0] <= abs(coefficient) <= MIMIC_RATIO_RANGE[1]:
                 raise BadInputError(
-                    source, f"tendon '{tendon.name}': coefficient {coefficient:g} of joint '{joint}' is out of range "
+                    source, f"tendon '{tendon.name}': coefficient {coefficient:g} of joint '{name}' is out of range "
                     f"({MIMIC_RATIO_RANGE[0]:g} to {MIMIC_RATIO_RANGE[1]:g} in size)",
                 )  # fmt: skip
         if tendon.effort is not None and not (np.isfinite(tendon.effort) and tendon.effort >= 0):
@@ -549,7 +549,8 @@ def _overrides(tree: Tree, options: HandOptions, source: Path) -> tuple[Tree, di
                 if pattern == name or picked[key].get(name, ("",))[0] != name:
                     picked[key][name] = (pattern, float(value))
     sources = {}
-    for item in (*tree.joints, *tree.tendons):
+    items: list[TreeJoint | TreeTendon] = [*tree.joints, *tree.tendons]
+    for item in items:
         effort = picked["efforts"].get(item.name)
         if effort is not None:
             sources[item.name] = f"{options.config.name if options.config else 'config'} efforts['{effort[0]}']"

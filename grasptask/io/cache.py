@@ -23,6 +23,7 @@ import zipfile
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -107,7 +108,8 @@ def _write(path: Path, digest: str, arrays: Arrays) -> Path | None:
         handle, temporary = tempfile.mkstemp(dir=path.parent, prefix=".", suffix=".npz.tmp")
         try:
             with os.fdopen(handle, "wb") as stream:
-                np.savez(stream, **arrays, **{_KEY: np.array(digest), _FORMAT: np.array(FORMAT)})
+                payload: dict[str, Any] = {**arrays, _KEY: np.array(digest), _FORMAT: np.array(FORMAT)}
+                np.savez(stream, **payload)
                 stream.flush()
                 os.fsync(stream.fileno())
             os.replace(temporary, path)

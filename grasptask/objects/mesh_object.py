@@ -211,7 +211,12 @@ class PointCloudObject(ImplicitObject):
     @cached_property
     def distance_grid(self) -> DistanceGrid:
         """The synthesis surrogate's data, signs from the nearest point's normal; made once per object."""
-        made_from = ("points", np.asarray(self.points, np.float64), np.asarray(self.normals, np.float64), self.grid_spacing)
+        made_from = (
+            "points",
+            np.asarray(self.points, np.float64),
+            np.asarray(self.normals, np.float64),
+            self.grid_spacing,
+        )
         return kept_grid(
             self.name, made_from, lambda: distance_grid(self.points, self.normals, self.bounds(), self.grid_spacing)
         )

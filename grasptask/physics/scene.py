@@ -18,8 +18,8 @@ import trimesh
 
 from grasptask.grasp.grasp_pose import Grasp
 from grasptask.hand.hand_model import Hand
-from grasptask.io import cache
 from grasptask.hand.kinematics import forward
+from grasptask.io import cache
 from grasptask.objects.mesh_object import MeshObject
 from grasptask.objects.surface import ImplicitObject
 from grasptask.physics.hand_file import compile_spec, file_hand_spec, quaternion
@@ -120,8 +120,9 @@ def convex_parts(mesh: trimesh.Trimesh, name: str = "object") -> tuple[trimesh.T
     starts = np.concatenate([[0], np.cumsum(arrays["vertex_counts"])])
     firsts = np.concatenate([[0], np.cumsum(arrays["face_counts"])])
     return tuple(
-        trimesh.Trimesh(arrays["vertices"][starts[k] : starts[k + 1]], arrays["faces"][firsts[k] : firsts[k + 1]],
-                        process=False)  # fmt: skip
+        trimesh.Trimesh(
+            arrays["vertices"][starts[k] : starts[k + 1]], arrays["faces"][firsts[k] : firsts[k + 1]], process=False
+        )  # fmt: skip
         for k in range(len(arrays["vertex_counts"]))
     )
 

@@ -281,6 +281,24 @@ def unfinished_sweeps(root: str | Path) -> list[Path]:
     return [f for f in _beside_a_sweep(Path(root), LOG) if summarised_rows(f) != len(read_log(f / LOG).rows)]
 
 
+def unfinished_state(folder: Path) -> str:
+    """What an unfinished sweep's folder holds, said as what it is: a run that ended before any start finished
+    (an empty log), or starts that no run record summarises (interrupted, or still running)."""
+    rows, summarised = len(read_log(folder / LOG).rows), summarised_rows(folder)
+    if rows == 0:
+        earlier = f"; the run record summarises {summarised} starts the log no longer holds" if summarised else ""
+        return (
+            f"{folder}: a sweep that ended before any start finished ({LOG} is empty){earlier}; run it again, or "
+            "go on with synthesize --resume"
+        )
+    said = f"{rows} start" + ("" if rows == 1 else "s")
+    record = "no run.json summarises" if summarised is None else f"its run.json summarises {summarised} of"
+    return (
+        f"{folder}: {LOG} holds {said}, and {record} them (interrupted, or still running); finish the sweep "
+        "with synthesize --resume"
+    )
+
+
 def _beside_a_sweep(root: Path, name: str) -> list[Path]:
     found = []
     for path in root.rglob(name):

@@ -14,7 +14,7 @@ import pandas as pd
 from grasptask.errors import BadInputError
 from grasptask.report.style import apply_style, save_figure, task_colour
 from grasptask.task.ellipsoid import FORCE, TORQUE, semi_axes
-from grasptask.task.fit import ellipsoid_matrices, entry_tool, load_wrenches
+from grasptask.task.fit import ellipsoid_matrices, entry_tool, expand_trials, load_wrenches
 from grasptask.task.manifest import read_manifest
 from grasptask.task.units import PAPER_TORQUE_UNIT, TORQUE_UNITS
 
@@ -36,7 +36,7 @@ def recording_samples(
     rng = np.random.default_rng(seed)
     tools: dict[Path, Any] = {}
     samples: dict[str, np.ndarray] = {}
-    for entry in read_manifest(manifest):
+    for entry in expand_trials(read_manifest(manifest), tools):  # a .mat row of {*} is one recording a trial
         if entry.id not in wanted:
             continue
         wrenches = load_wrenches(entry, entry_tool(entry, tools)).wrenches

@@ -15,7 +15,7 @@ from grasptask.exports.scene_meshes import PALM_COLOUR, finger_colour, spheres_m
 from grasptask.hand.hand_model import Finger, Hand, Joint
 from grasptask.hand.kinematics import forward
 from grasptask.hand.mesh_cover import BOUND_M, MAX_SPHERES
-from grasptask.report.interactive import _line, _mesh_trace, figure_json
+from grasptask.report.interactive import _line, _mesh_trace, figure_json, instanced_spheres
 from grasptask.report.page import Section, Table, View, render_html
 
 #: the pad normals' drawn length (m)
@@ -169,7 +169,9 @@ def joint_table(hand: Hand) -> pd.DataFrame:
         for k in pushing:
             value, motor = float(capability.torque_map[row, k]), capability.actuators[k][:-1]
             if value:
-                said.append(f"{abs(value):g} {unit}" + ("" if motor in (joint.name, joint.coupled_to) else f" ({motor})"))
+                said.append(
+                    f"{abs(value):g} {unit}" + ("" if motor in (joint.name, joint.coupled_to) else f" ({motor})")
+                )
         return ", ".join(said)
 
     for name, finger in hand.fingers.items():
@@ -182,7 +184,9 @@ def joint_table(hand: Hand) -> pd.DataFrame:
                     "effort": effort(joint),
                     "effort from": hand.effort_sources.get(joint.name, "")
                     or (f"its motor's ({joint.coupled_to})" if joint.coupled_to else ""),
-                    "velocity": "" if joint.velocity is None else f"{joint.velocity:g} {'m/s' if joint.sliding else 'rad/s'}",
+                    "velocity": ""
+                    if joint.velocity is None
+                    else f"{joint.velocity:g} {'m/s' if joint.sliding else 'rad/s'}",
                     "coupled to": _coupling(joint).removeprefix(" = ").strip(" ()"),
                 }
             )
@@ -198,17 +202,16 @@ def hand_figure(hand: Hand) -> go.Figure:
     if len(palm_points):
         traces.append(_points(palm_points, PALM_COLOUR, "palm surface"))
     if len(pose.palm_radii):
-        traces.append(
-            _mesh_trace(spheres_mesh(pose.palm_samples[0], pose.palm_radii), PALM_COLOUR, "palm spheres", 0.2)
-        )
+        traces.append(instanced_spheres(pose.palm_samples[0], pose.palm_radii, PALM_COLOUR, "palm spheres", 0.2))
     for k, (name, finger) in enumerate(pose.fingers.items()):
         colour, label = finger_colour(name, k), html.escape(name)
         surface = finger.skin()[0]
         if len(surface):
             traces.append(_points(surface, colour, f"{label} surface", legendgroup=name))
         if len(finger.radii):
-            mesh = spheres_mesh(finger.samples[0], finger.radii)
-            traces.append(_mesh_trace(mesh, colour, f"{label} spheres", 0.25, legendgroup=name))
+            traces.append(
+                instanced_spheres(finger.samples[0], finger.radii, colour, f"{label} spheres", 0.25, legendgroup=name)
+            )
         traces.append(_line(finger.joint_positions[0], colour, f"{label} chain", showlegend=False, legendgroup=name))
         pad, normal = finger.contact[0], finger.pad_normal[0]
         traces.append(_line(np.vstack([pad, pad + NORMAL_M * normal]), "black", f"{label} pad normal", width=6))
@@ -241,8 +244,15 @@ def _flat_face(finger: Finger, rotation: np.ndarray, origin: np.ndarray) -> trim
     return trimesh.Trimesh(np.array(corners) @ rotation.T + origin, [[0, 1, 2], [0, 2, 3]], process=False)
 
 
+#: the most surface points a trace shows: a printed hand's thin shells sample to 10,000 a finger, and a spread
+#: of 3,000 shows the surface as well, at a third of the page
+SURFACE_POINTS_SHOWN = 3000
+
+
 def _points(points: np.ndarray, colour: str, name: str, **extra) -> go.Scatter3d:
     p = np.asarray(points, dtype=np.float32)
+    if len(p) > SURFACE_POINTS_SHOWN:  # evenly through the samples, the same ones every time
+        p = p[np.linspace(0, len(p) - 1, SURFACE_POINTS_SHOWN).round().astype(int)]
     return go.Scatter3d(x=p[:, 0], y=p[:, 1], z=p[:, 2], mode="markers", name=name,
                         marker={"size": 1.5, "color": colour}, hoverinfo="skip", **extra)  # fmt: skip
 

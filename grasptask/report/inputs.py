@@ -1,6 +1,7 @@
 """What a results folder holds, found by the layout the pipelines write:
 
-    DIR/recordings/manifest.csv          simulate (or your own recordings' manifest)
+    DIR/recordings/manifest.csv          simulate (or your own recordings' manifest; else the one the task
+                                         models' provenance names, wherever it is)
     DIR/tasks/stats.csv, ellipsoids.parquet, task_models.json      fit-task
     DIR/tasks/distances.parquet, distance_summary.json             distances
     DIR/grasps/<task>/run.json, solutions.parquet, optima.parquet  synthesize
@@ -26,6 +27,7 @@ from grasptask.io.tables import read_table
 from grasptask.paths import DEFAULT_HAND, DEFAULT_OBJECT
 from grasptask.physics.judge import TRACE_COLUMNS
 from grasptask.records.sweeps import SOLUTIONS, Sweep, SweepFiles, finished_sweeps, unfinished_sweeps
+from grasptask.task.manifest import is_manifest
 
 
 def paper_setup(files: SweepFiles) -> bool:
@@ -46,6 +48,23 @@ def simulated_recordings(manifest: Path) -> bool:
         return False
     entry = ledger.get(manifest.name) if isinstance(ledger, dict) else None
     return isinstance(entry, dict) and entry.get("command") == "simulate"
+
+
+def manifest_read(task_models: Path) -> Path | None:
+    """The manifest fit-task read to make ``task_models``, as their provenance records it (None: none that is
+    still there, or models fitted to recording files without one)."""
+    try:
+        provenance = json.loads(task_models.read_text()).get("provenance") or {}
+    except (OSError, ValueError, AttributeError):
+        return None
+    if not isinstance(provenance, dict) or provenance.get("command") != "fit-task":
+        return None
+    inputs = provenance.get("inputs") or {}
+    for name in inputs if isinstance(inputs, dict) else ():
+        path = Path(name)
+        if path.suffix.lower() == ".csv" and is_manifest(path):
+            return path
+    return None
 
 
 @dataclass(frozen=True)
@@ -70,7 +89,13 @@ class ResultsFolder:
 
     @property
     def manifest(self) -> Path:
-        return self._tasks_file("manifest.csv", up="recordings")
+        """The recordings' manifest: ``recordings/manifest.csv``, else the one fit-task read for the task models
+        (their provenance names it), wherever it is (``simulate --out rec``, a lab's own folder)."""
+        laid_out = self._tasks_file("manifest.csv", up="recordings")
+        if laid_out.is_file():
+            return laid_out
+        read = manifest_read(self.task_models)
+        return read if read is not None else laid_out
 
     @property
     def stats(self) -> Path:

@@ -4,6 +4,7 @@ plotly.js when it scrolls into sight (:mod:`grasptask.report.page`)."""
 
 from __future__ import annotations
 
+import base64
 import hashlib
 import html
 from typing import Any
@@ -34,6 +35,28 @@ def _mesh_trace(mesh: trimesh.Trimesh, colour: str, name: str, opacity: float, *
         x=vertices[:, 0], y=vertices[:, 1], z=vertices[:, 2], i=faces[:, 0], j=faces[:, 1], k=faces[:, 2],
         color=colour, opacity=opacity, name=name, flatshading=False,
         lighting={"ambient": 0.55, "diffuse": 0.7, "specular": 0.15}, **{"showlegend": True, **extra},
+    )  # fmt: skip
+
+
+#: the sphere every instanced sphere is drawn as: an icosphere of 42 vertices and 80 faces, unit radius
+_TEMPLATE = trimesh.creation.icosphere(subdivisions=1, radius=1.0)
+
+
+def instanced_spheres(
+    centres: np.ndarray, radii: np.ndarray, colour: str, name: str, opacity: float, **extra: Any
+) -> go.Mesh3d:
+    """Spheres as one mesh that the page builds from one template sphere and a centre and radius each (16 bytes a
+    sphere, not 1 KB): a LEAP hand's 6,600 collision spheres drawn one by one made a 13.9 MB page."""
+    packed = np.column_stack([np.asarray(centres, dtype=np.float32).reshape(-1, 3), np.asarray(radii, np.float32)])
+    spheres = {
+        "data": base64.b64encode(np.ascontiguousarray(packed, dtype="<f4").tobytes()).decode("ascii"),
+        "vertices": np.round(_TEMPLATE.vertices, 6).ravel().tolist(),
+        "faces": np.asarray(_TEMPLATE.faces).ravel().tolist(),
+    }
+    return go.Mesh3d(
+        x=[], y=[], z=[], i=[], j=[], k=[], color=colour, opacity=opacity, name=name, flatshading=False,
+        meta={"spheres": spheres}, lighting={"ambient": 0.55, "diffuse": 0.7, "specular": 0.15},
+        **{"showlegend": True, **extra},
     )  # fmt: skip
 
 

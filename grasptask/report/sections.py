@@ -23,7 +23,7 @@ from grasptask.paths import PAPER_ELLIPSOID_TABLES
 from grasptask.progress import progress
 from grasptask.records.reference import PaperSynthesis
 from grasptask.records.solutions import contacts_from_row, grasp_from_row, normals_from_row
-from grasptask.records.sweeps import Sweep
+from grasptask.records.sweeps import Sweep, unfinished_state
 from grasptask.report import paper_tables
 from grasptask.report.distance_plots import plot_embedding, plot_heatmap
 from grasptask.report.ellipsoid_plots import load_samples_or_note, plot_task_ellipsoids
@@ -283,12 +283,7 @@ def sweeps_section(results: ResultsFolder, sweeps: dict[str, Sweep], paper: Pape
         f"as a grasp only when the independent verifier accepts it.{paper_said}",
     )
     for folder in results.unfinished_sweeps():
-        section.blocks.append(
-            Note(
-                f"{folder}: solutions.jsonl holds starts that no run.json summarises (interrupted?); finish the sweep"
-                " with synthesize --resume"
-            )
-        )
+        section.blocks.append(Note(unfinished_state(folder)))
     if not sweeps:
         section.blocks.append(_no_sweeps(results))
         return section

@@ -16,8 +16,8 @@ from grasptask.task import recording_checks as checks
 from grasptask.task.ellipsoid import Ellipsoid, ellipsoid_matrices, is_singular, second_moment
 from grasptask.task.frames import transform_wrenches
 from grasptask.task.manifest import RecordingEntry, default_id
-from grasptask.task.recording_checks import Finding
 from grasptask.task.matlab import MAT_SUFFIX
+from grasptask.task.recording_checks import Finding
 from grasptask.task.recordings import MIN_SAMPLES, Layout, mat_elements, read_recording, window_mask
 from grasptask.task.rosbag import read_wrench_bag
 from grasptask.task.spd import spd_problem

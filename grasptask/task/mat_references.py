@@ -31,7 +31,7 @@ _CHANNEL = re.compile(r"\s*\[\s*(?P<k>\d+)\s*\]\s*$")
 _INDEX = re.compile(r"^\s*(\*|\d+(?:\s*,\s*\d+)*)\s*$")
 
 #: a step: a field's name, or an element's index (a tuple of ints from 1; None for the wildcard)
-Step = tuple[str, str | tuple[int, ...] | None]
+Step = tuple[str, Any]
 
 
 @dataclass(frozen=True)
@@ -59,7 +59,7 @@ class Reference:
             if kind == "field":
                 text += f".{index}"
             else:
-                text += "{" + (WILDCARD if index is None else ",".join(map(str, index))) + "}"  # type: ignore[arg-type]
+                text += "{" + (WILDCARD if index is None else ",".join(map(str, index))) + "}"
         return text
 
 
@@ -90,7 +90,7 @@ def parse(path: str | Path, text: str, key: str = "") -> Reference:
     reference = Reference(text.strip(), match.group(1), tuple(steps), int(channel["k"]) if channel else None)
     if reference.wildcards > 1:
         raise BadInputError(path, f"'{text}' has {reference.wildcards} wildcards; one '*' at most", column=key or None)
-    if any(kind == "index" and index is not None and min(index) < 1 for kind, index in steps):  # type: ignore[type-var]
+    if any(kind == "index" and index is not None and min(index) < 1 for kind, index in steps):
         raise BadInputError(path, f"'{text}': MATLAB counts elements from 1", column=key or None)
     return reference
 
@@ -100,7 +100,9 @@ def resolve(path: str | Path, variables: Mapping[str, Any], reference: Reference
     answer it, naming the step at fault and what is there."""
     value = variables.get(reference.name)
     if value is None:
-        raise BadInputError(path, f"no variable '{reference.name}' for '{reference.text}' (the file holds: {describe(variables)})")
+        raise BadInputError(
+            path, f"no variable '{reference.name}' for '{reference.text}' (the file holds: {describe(variables)})"
+        )
     for count, (kind, index) in enumerate(reference.steps[:steps], start=1):
         here = reference.prefix(count - 1)
         if _empty(value):
@@ -110,7 +112,7 @@ def resolve(path: str | Path, variables: Mapping[str, Any], reference: Reference
         elif index is None:
             raise BadInputError(path, f"'{reference.text}': name one element of {here} in place of '*'")
         else:
-            value = _element(path, reference, here, value, index)  # type: ignore[arg-type]
+            value = _element(path, reference, here, value, index)
     return value
 
 
@@ -122,9 +124,13 @@ def _empty(value: Any) -> bool:
 
 def _field(path: str | Path, reference: Reference, here: str, value: Any, name: str) -> Any:
     if not isinstance(value, Struct):
-        raise BadInputError(path, f"'{reference.text}': {here} is {describe_value(value)}, not a struct with field '{name}'")
+        raise BadInputError(
+            path, f"'{reference.text}': {here} is {describe_value(value)}, not a struct with field '{name}'"
+        )
     if name not in value.fields:
-        raise BadInputError(path, f"'{reference.text}': {here} has no field '{name}' (it has: {', '.join(value.fields)})")
+        raise BadInputError(
+            path, f"'{reference.text}': {here} has no field '{name}' (it has: {', '.join(value.fields)})"
+        )
     if len(value.items) != 1:
         raise BadInputError(
             path, f"'{reference.text}': {here} is a {size(value.shape)} struct array: name an element, {here}(k).{name}"
@@ -141,7 +147,8 @@ def _element(path: str | Path, reference: Reference, here: str, value: Any, inde
         linear = index[0]
         if linear > len(value.items):
             raise BadInputError(
-                path, f"'{reference.text}': {here} is {size(shape)}, so it has no element {linear} (1 to {len(value.items)})"
+                path,
+                f"'{reference.text}': {here} is {size(shape)}, so it has no element {linear} (1 to {len(value.items)})",
             )
     else:
         padded = tuple(shape) + (1,) * max(0, len(index) - len(shape))
@@ -244,7 +251,9 @@ def channels(
         data = samples_first(path, where, matrix(path, variables, reference), samples, highest[where])
         if reference.channel is None:
             if data.shape[1] != 1:
-                raise BadInputError(path, f"'{where}' has {data.shape[1]} channels: name one as {where}[k] for {key}; {hint}")
+                raise BadInputError(
+                    path, f"'{where}' has {data.shape[1]} channels: name one as {where}[k] for {key}; {hint}"
+                )
             column = data[:, 0]
         else:
             k = reference.channel
