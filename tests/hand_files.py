@@ -295,9 +295,10 @@ def write_leap_like(root: Path, effort_nm: float = 0.95) -> Path:
         parent, origin = "palm_lower", f'xyz="{base[0]} {base[1]} {base[2]}" rpy="0 0 {turn:.6f}"'
         for name, length, items in LEAP_LINKS:
             link = f"{name}{suffix}"
-            extra = '<collision><geometry><mesh filename="meshes/collision/white_tip.obj"/></geometry></collision>'
+            tip = '<collision><geometry><mesh filename="meshes/collision/white_tip.obj"/></geometry></collision>'
+            tip = tip if name == "fingertip" else ""
             links.append(f'<link name="{link}"><visual><geometry><mesh filename="meshes/visual/{name}.obj"/>'
-                         f"</geometry></visual>{boxes(items)}{extra if name == 'fingertip' else ''}</link>")  # fmt: skip
+                         f"</geometry></visual>{boxes(items)}{tip}</link>")  # fmt: skip
             axis = "0 0 1" if name == "mcp" else "0 1 0"  # the mcp swings the finger sideways, the rest curl it
             low, high = limits[name]
             joints.append(

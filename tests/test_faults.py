@@ -475,3 +475,36 @@ def test_a_pipeline_goes_on_with_a_sweep_stage_stopped_part_way(tasks, tmp_path)
     assert "going on from there" in again.stdout and f"{len(kept)} already done" in again.stdout
     rows = {r["start_id"]: r for r in log_rows(out)}
     assert len(rows) == 6 and all(rows[k] == row for k, row in kept.items())
+
+
+def test_a_rerun_whose_tables_fail_to_write_leaves_the_finished_sweep_whole(tasks, tmp_path, cli, monkeypatch):
+    """A seed-5 rerun over a finished seed-0 sweep, every start solved, then a full disk while it writes its
+    tables: it used to have moved its log and sweep.json (seed 5) in place already, beside the seed-0 run.json and
+    tables, and --resume with seed 0 was refused ("run with another seed (5, now 0)"). The finished sweep stays
+    whole until the rerun's results are all written; either sweep's --resume then goes on."""
+    import errno
+
+    import grasptask.io.artifacts
+
+    args = ["synthesize", "--tasks", tasks, "--task", "drawing", "--out", tmp_path, "--solver-config", TINY,
+            "--starts", "2", "--executor", "serial"]  # fmt: skip
+    assert cli(*args).exit_code in ENDED
+    folder = tmp_path / "drawing"
+    names = ("solutions.jsonl", "sweep.json", "run.json", "solutions.parquet", "optima.parquet")
+    before = {name: (folder / name).read_bytes() for name in names}
+
+    def full_disk(*_, **__):
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    with monkeypatch.context() as patched:
+        patched.setattr(grasptask.io.artifacts.pq, "write_table", full_disk)
+        failed = cli(*args, "--seed", "5")
+    assert failed.exit_code == 2 and "No space left on device" in failed.output, failed.output
+    assert {name: (folder / name).read_bytes() for name in names} == before
+    assert (folder / ".solutions.jsonl.new").read_text().count("\n") == 2  # the rerun's rows, kept to resume
+    original = cli(*args, "--resume")
+    assert original.exit_code in ENDED and "2 already done" in original.output, original.output
+    rerun = cli(*args, "--seed", "5", "--resume")
+    assert rerun.exit_code in ENDED and "2 already done" in rerun.output, rerun.output
+    assert json.loads((folder / "sweep.json").read_text())["definition"]["seed"] == 5
+    assert not list(folder.glob(".*.new")) and json.loads((folder / "run.json").read_text())["log_rows"] == 2

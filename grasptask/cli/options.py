@@ -251,7 +251,7 @@ _PREPROCESS = [
     ),
     click.option(
         "--resample",
-        type=click.FloatRange(min=0, min_open=True),
+        type=click.FloatRange(min=0, min_open=True, max=100_000),
         default=None,
         help="Put every recording on an even grid at this rate (Hz), by linear interpolation, before any other "
         "step (default: as sampled; fit-task says where sampling is uneven).",

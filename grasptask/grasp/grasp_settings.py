@@ -12,6 +12,9 @@ from pydantic.dataclasses import dataclass
 from grasptask.io.config_schema import SCHEMA, Flag, NonNegative, Positive, Share, load_yaml, validated
 from grasptask.paths import DEFAULT_GRASP_CONFIG
 
+#: the largest torsional friction a pad can have (m): see ``torsional_friction_m``
+MAX_TORSIONAL_FRICTION_M = 0.05
+
 
 @dataclass(frozen=True, config=SCHEMA)
 class GraspSettings:
@@ -44,8 +47,9 @@ class GraspSettings:
     #: m, a flat pad's torsional friction: it resists a twist about the contact normal up to this times its
     #: normal force (the soft-finger contact of Salisbury and Mason; 0: point contacts only). 0.005 m is
     #: MuJoCo's default torsional friction (geom friction[1]), and mu L / 4 for a pad pressed along a line of
-    #: L = 40 mm with mu = 0.5 and even pressure. A fingertip that is not flat is a point contact.
-    torsional_friction_m: NonNegative = 0.005
+    #: L = 40 mm with mu = 0.5 and even pressure. A fingertip that is not flat is a point contact. At most
+    #: 0.05 m: mu L / 4 of a pad 10 cm long with mu = 2, beyond any fingertip (1e6 ran a hopeless sweep)
+    torsional_friction_m: Annotated[float, Strict(), Field(ge=0, le=MAX_TORSIONAL_FRICTION_M)] = 0.005
 
     def __post_init__(self) -> None:
         if self.activation_margin >= min(self.activation_max, self.motor_activation_max):

@@ -147,6 +147,7 @@ class StagedOutput:
         self.out = Path(out)
         self.provenance = provenance
         self._staged: list[str] = []
+        self._carried: dict[str, Path] = {}
         self._tmp = Path()  # the staging folder, made on entry
         self._lock: Any = None
 
@@ -215,11 +216,27 @@ class StagedOutput:
     def write_with(self, name: str, writer: Callable[[Path], object]) -> None:
         writer(self.path(name))
 
+    def carry(self, name: str, source: Path) -> None:
+        """File ``name`` of the new ``out`` is ``source``, a file of ``out`` kept outside the ledger (a rerun's
+        staged log, ``.solutions.jsonl.new``, becoming ``solutions.jsonl``): both change with the rest in the one
+        swap, and ``source`` itself is not carried over."""
+        self._carried[name] = Path(source)
+
     def _commit(self) -> None:
         staged = set(self._staged)
-        gone = _superseded(self.out, self.provenance.command, staged) if self.out.is_dir() else set()
+        gone = (
+            _superseded(self.out, self.provenance.command, staged | set(self._carried)) if self.out.is_dir() else set()
+        )
+        moved = {source.name for source in self._carried.values() if source.parent.resolve() == self.out.resolve()}
+        for name, source in self._carried.items():
+            target = self._tmp / name
+            target.parent.mkdir(parents=True, exist_ok=True)
+            try:
+                os.link(source, target)
+            except OSError:
+                shutil.copy2(source, target)
         if self.out.is_dir():
-            _link_tree(self.out, self._tmp, skip=staged | gone)
+            _link_tree(self.out, self._tmp, skip=staged | gone | set(self._carried) | moved)
         _record_provenance(self.out, self._tmp, self._staged, self.provenance, gone)
         _sync_tree(self._tmp)
         if not self.out.exists():

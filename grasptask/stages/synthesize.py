@@ -422,12 +422,6 @@ def _go_on_from(options: SynthesisOptions, prepared: _Prepared, done: LogContent
         _check_fresh(folder, read_log(folder / LOG_FILE) if staged else done, done if staged else None)
 
 
-def _take_place(folder: Path, prepared: _Prepared) -> None:
-    """A finished rerun's log and records in place of the sweep that was there."""
-    for name in [LOG_FILE, *_records(folder, prepared)]:
-        os.replace(_staged(folder, name), folder / name)
-
-
 def _run_locked(
     options: SynthesisOptions,
     prepared: _Prepared,
@@ -470,8 +464,9 @@ def _run_locked(
                     raise
         finally:
             executor.close()
-    if staged:  # all its starts solved: the rerun takes the finished sweep's place
-        _take_place(folder, prepared)
+    # all its starts solved, a rerun takes the finished sweep's place in the same swap as its tables: a failure
+    # before it (a full disk) leaves the finished sweep whole and resumable, and the rerun's files beside it
+    carried = {name: _staged(folder, name) for name in [LOG_FILE, *_records(folder, prepared)]} if staged else {}
     run = summarise(
         options,
         rows,
@@ -484,6 +479,7 @@ def _run_locked(
         object_facts=prepared.object_facts,
         job=prepared.job,
         library=prepared.library,
+        carried=carried,
     )
     if prepared.library is not None:
         _add_to_library(prepared.library, prepared.job.task, folder, echo)
@@ -639,6 +635,7 @@ def summarise(
     object_facts: dict[str, Any] | None = None,
     job: Job | None = None,
     library: Library | None = None,
+    carried: dict[str, Path] | None = None,
 ) -> dict:
     """Write the sweep's ``solutions.parquet``, ``optima.parquet`` and ``run.json`` from its rows; the run
     summary. ``solved`` is how many of the rows this run solved in its ``wall_seconds`` (None: all of them).
@@ -671,6 +668,8 @@ def summarise(
     inputs = [options.tasks, options.hand, options.object_used, options.solver_config, options.grasp_config]
     judge = _physics_judge(solutions, job) if job is not None and job.physics is not None else None
     with StagedOutput(options.folder, Provenance.of("synthesize", config, inputs, options.seed)) as staged:
+        for name, source in (carried or {}).items():  # a rerun's log and records, in place of the finished sweep's
+            staged.carry(name, source)
         staged.write_parquet("solutions.parquet", solutions)
         staged.write_parquet("optima.parquet", optima)
         staged.write_json(RUN_FILE, run)

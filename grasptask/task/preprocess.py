@@ -7,6 +7,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from grasptask.errors import BadInputError
+
 
 @dataclass(frozen=True)
 class Preprocess:
@@ -25,11 +27,30 @@ class Preprocess:
     resample_hz: float | None = None
     drop_spikes: bool = False
 
+    def __post_init__(self) -> None:
+        if self.resample_hz is not None and not 0 < self.resample_hz <= MAX_RESAMPLE_HZ:
+            raise BadInputError(
+                "--resample", f"{self.resample_hz:g} Hz is beyond {MAX_RESAMPLE_HZ:g} Hz (force/torque sensors "
+                "sample at a few kHz)",
+            )  # fmt: skip
+
+
+#: the highest rate a recording is resampled to (Hz): F/T sensors sample at up to a few kHz (an ATI Net F/T
+#: at 7 kHz); 1e9 Hz asked for 68 GiB
+MAX_RESAMPLE_HZ = 100_000.0
+#: the most samples one recording is resampled to: 20 million (1.1 GB of wrenches), an hour at 5.5 kHz
+MAX_RESAMPLED = 20_000_000
+
 
 def resample(t: np.ndarray, wrenches: np.ndarray, rate_hz: float) -> tuple[np.ndarray, np.ndarray]:
     """The samples linearly interpolated onto an even grid at ``rate_hz`` from the first sample's time, so that
     each sample stands for the same time in the ellipsoid's mean."""
-    grid = t[0] + np.arange(int(np.floor((t[-1] - t[0]) * rate_hz + 1e-9)) + 1) / rate_hz
+    count = float(np.floor((t[-1] - t[0]) * rate_hz + 1e-9)) + 1
+    if count > MAX_RESAMPLED:
+        raise ValueError(
+            f"resampling {t[-1] - t[0]:.6g} s at {rate_hz:g} Hz makes {count:.3g} samples, beyond {MAX_RESAMPLED:.3g}"
+        )
+    grid = t[0] + np.arange(int(count)) / rate_hz
     return grid, np.column_stack([np.interp(grid, t, wrenches[:, c]) for c in range(wrenches.shape[1])])
 
 
