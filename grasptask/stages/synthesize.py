@@ -422,6 +422,12 @@ def _go_on_from(options: SynthesisOptions, prepared: _Prepared, done: LogContent
         _check_fresh(folder, read_log(folder / LOG_FILE) if staged else done, done if staged else None)
 
 
+def _rerun_files(folder: Path, prepared: _Prepared) -> dict[str, Path]:
+    """A rerun's log and records, all its starts solved: they take the finished sweep's place in the same swap as
+    its tables, so that a failure before it (a full disk) leaves the finished sweep whole and resumable."""
+    return {name: _staged(folder, name) for name in [LOG_FILE, *_records(folder, prepared)]}
+
+
 def _run_locked(
     options: SynthesisOptions,
     prepared: _Prepared,
@@ -464,9 +470,6 @@ def _run_locked(
                     raise
         finally:
             executor.close()
-    # all its starts solved, a rerun takes the finished sweep's place in the same swap as its tables: a failure
-    # before it (a full disk) leaves the finished sweep whole and resumable, and the rerun's files beside it
-    carried = {name: _staged(folder, name) for name in [LOG_FILE, *_records(folder, prepared)]} if staged else {}
     run = summarise(
         options,
         rows,
@@ -479,7 +482,7 @@ def _run_locked(
         object_facts=prepared.object_facts,
         job=prepared.job,
         library=prepared.library,
-        carried=carried,
+        carried=_rerun_files(folder, prepared) if staged else None,
     )
     if prepared.library is not None:
         _add_to_library(prepared.library, prepared.job.task, folder, echo)
