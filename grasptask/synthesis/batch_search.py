@@ -1,0 +1,203 @@
+"""The search (SPEC section 12): every start of a batch moved at once by gradient steps on the palm pose and the
+joints, nothing else, with a fixed iteration budget.
+
+Each start minimises ``log Q + penalties`` (:mod:`grasptask.synthesis.batch_geometry`): eq. 12's Q from eq. 8's
+closed form, scale-free as a logarithm so that one step size serves every task and hand, and the penalties of what
+the paper's NLP holds as constraints, each squared in units of a millimetre (or of a hundredth of a radian). The
+contacts' distance is held to a stand-off that falls from :attr:`SearchSettings.standoff_m` to zero at
+:attr:`SearchSettings.standoff_until` of the iterations, as BODex's schedule does: the fingers close on the object
+from outside rather than through it. Q enters after :attr:`SearchSettings.quality_after` of them, once the pads
+are near the surface.
+
+The method is Adam (per-variable steps, cosine-decayed), the joints projected onto their limits after each step.
+A start whose value or gradient is not finite stops where it is and is said so (``search-nan``); the rest of its
+batch goes on, as each start's evaluation reads no other's. The whole budget runs as one compiled loop.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from functools import cached_property
+from typing import Any
+
+import numpy as np
+
+from grasptask.hand.hand_model import GraspingHand
+from grasptask.objects.surface import ImplicitObject
+from grasptask.synthesis.batch_geometry import (
+    CONVERGED_M,
+    Field,
+    HandArrays,
+    closed_form_q,
+    contacts,
+    distance,
+    fingers,
+    jax_module,
+    rotation_vector,
+)
+from grasptask.task.task_model import TaskModel
+
+#: the units the penalties are squared in: a millimetre, a hundredth of a radian
+MM, CRAD = 1e-3, 1e-2
+
+
+@dataclass(frozen=True)
+class SearchSettings:
+    """The search's budget, schedule and steps (the solver config's ``batch`` section declares them)."""
+
+    iterations: int = 300
+    standoff_m: float = 0.01
+    standoff_until: float = 0.6
+    quality_after: float = 0.3
+    step_position_m: float = 0.002
+    step_turn_rad: float = 0.03
+    step_joint_rad: float = 0.03
+    rho: float = 1e3
+    facing_weight: float = 10.0
+
+
+@dataclass(frozen=True)
+class BatchEnd:
+    """Where each start of a batch ended: its palm pose and joints, how far each contact is from the surface
+    (m), the deepest collision sphere, Q of the closed form, and whether the search ended finite."""
+
+    palm_rotation: np.ndarray  # (N, 3, 3)
+    palm_position: np.ndarray  # (N, 3)
+    joint_angles: np.ndarray  # (N, n), every joint (couplings applied)
+    gaps: np.ndarray  # (N, b)
+    depth: np.ndarray  # (N,) m, the deepest collision sphere's penetration (0: none)
+    facing: np.ndarray  # (N,) worst pad facing shortfall, in cosine
+    Q: np.ndarray  # (N,)
+    finite: np.ndarray  # (N,) bool
+
+    def converged(self) -> np.ndarray:
+        """Every contact within :data:`CONVERGED_M` of the surface, no sphere deeper than that, the pads facing."""
+        near = (np.abs(self.gaps) <= CONVERGED_M).all(axis=1)
+        return self.finite & near & (self.depth <= CONVERGED_M) & (self.facing <= 1e-3) & np.isfinite(self.Q)
+
+
+@dataclass
+class BatchSearch:
+    """The search of one hand on one object for one task, traced and compiled once per batch size."""
+
+    hand: GraspingHand
+    obj: ImplicitObject
+    task: TaskModel
+    pad_angle_max_deg: float
+    rolling: bool = True
+    settings: SearchSettings = field(default_factory=SearchSettings)
+
+    @cached_property
+    def arrays(self) -> HandArrays:
+        return HandArrays.of(self.hand, self.pad_angle_max_deg, self.rolling)
+
+    @cached_property
+    def field(self) -> Field:
+        return Field.of(self.obj)
+
+    def run(self, palm_rotation: np.ndarray, palm_position: np.ndarray, joints: np.ndarray) -> BatchEnd:
+        """Search from each start ``(R_0, d_0, q_0)`` (batched, ``q_0`` every joint); where each ended."""
+        jax = jax_module()
+        jnp = jax.numpy
+        arrays = self.arrays
+        free = np.asarray(joints, dtype=float)[:, arrays.free]
+        params = {"w": jnp.zeros((len(free), 3)), "d": jnp.asarray(palm_position, float), "q": jnp.asarray(free)}
+        final, finite = self._compiled(len(free))(params, jnp.asarray(palm_rotation, float))
+        return self._end(final, np.asarray(palm_rotation, float), np.asarray(finite))
+
+    def value(self, params: dict, rotation0: Any, standoff: Any, quality: Any) -> tuple[Any, Any]:
+        """One start's value and what ends it (its gaps, deepest sphere, facing shortfall, Q)."""
+        jnp = jax_module().numpy
+        arrays, s = self.arrays, self.settings
+        rotation = rotation0 @ rotation_vector(jnp, params["w"])
+        q = jnp.asarray(arrays.couple) @ params["q"] + arrays.couple_offset
+        placed = fingers(jnp, arrays, rotation, params["d"], q)
+        touch = contacts(jnp, arrays, self.field, placed)
+        Q = closed_form_q(jnp, touch.points, touch.jacobians, self.task, s.rho)
+        gap = (touch.gaps - standoff) / MM
+        spheres = jnp.concatenate([p.spheres for p in placed] + [params["d"] + arrays.palm_points @ rotation.T])
+        radii = np.concatenate([f.sphere_radii for f in arrays.fingers] + [arrays.palm_radii])
+        depth = jnp.maximum(-distance(jnp, self.field, spheres, jnp.asarray(radii)), 0.0)
+        facing = jnp.stack([jnp.dot(p.pad_normal, n) for p, n in zip(placed, touch.normals, strict=True)])
+        short = jnp.maximum(arrays.pad_cos - facing, 0.0)
+        flat = np.array([f.flat for f in arrays.fingers])
+        tilt = jnp.where(flat, 1.0 - facing, 0.0)
+        limits = jnp.maximum(q - arrays.upper, 0.0) + jnp.maximum(arrays.lower - q, 0.0)
+        value = (
+            quality * jnp.log(Q)
+            + jnp.sum(gap**2)
+            + jnp.sum((depth / MM) ** 2)
+            + s.facing_weight * jnp.sum((short / 0.01) ** 2 + (tilt / 0.01) ** 2)
+            + jnp.sum((limits / CRAD) ** 2)
+            + self._self_collision(jnp, placed)
+        )
+        return value, (touch.gaps, jnp.max(depth), jnp.max(short), Q)
+
+    def _self_collision(self, jnp: Any, placed: list) -> Any:
+        pairs = self.arrays.proxy_pairs
+        if not len(pairs):
+            return 0.0
+        centres = jnp.concatenate([p.spheres[f.proxies] for p, f in zip(placed, self.arrays.fingers, strict=True)])
+        radii = np.concatenate([f.sphere_radii[f.proxies] for f in self.arrays.fingers])
+        apart = jnp.sqrt(jnp.sum((centres[pairs[:, 0]] - centres[pairs[:, 1]]) ** 2, axis=-1) + 1e-18)
+        overlap = jnp.maximum(radii[pairs[:, 0]] + radii[pairs[:, 1]] - apart, 0.0)
+        return jnp.sum((overlap / MM) ** 2)
+
+    @cached_property
+    def _runners(self) -> dict[int, Any]:
+        return {}
+
+    def _compiled(self, size: int) -> Any:
+        """The whole search of a batch of ``size`` starts as one compiled function."""
+        if size not in self._runners:
+            self._runners[size] = self._build()
+        return self._runners[size]
+
+    def _build(self) -> Any:
+        jax = jax_module()
+        jnp = jax.numpy
+        s, arrays = self.settings, self.arrays
+        steps = {"w": s.step_turn_rad, "d": s.step_position_m, "q": s.step_joint_rad}
+        low, high = arrays.lower[arrays.free], arrays.upper[arrays.free]
+        graded = jax.vmap(jax.value_and_grad(self.value, has_aux=True), in_axes=(0, 0, None, None))
+        total = s.iterations
+
+        def run(params: dict, rotation0: Any) -> tuple:
+            def body(t: Any, state: tuple) -> tuple:
+                params, first, second, finite = state
+                progress = t / total
+                standoff = s.standoff_m * jnp.maximum(0.0, 1.0 - progress / s.standoff_until)
+                quality = jnp.clip((progress - s.quality_after) / 0.1, 0.0, 1.0)
+                (value, _), grads = graded(params, rotation0, standoff, quality)
+                ok = jnp.isfinite(value)
+                for grad in grads.values():
+                    ok = ok & jnp.all(jnp.isfinite(grad), axis=-1)
+                finite = finite & ok
+                decay = 0.1 + 0.45 * (1 + jnp.cos(jnp.pi * progress))
+                new, moments, squares = {}, {}, {}
+                for key, grad in grads.items():
+                    grad = jnp.where(finite[:, None], jnp.nan_to_num(grad), 0.0)
+                    moments[key] = 0.9 * first[key] + 0.1 * grad
+                    squares[key] = 0.999 * second[key] + 0.001 * grad**2
+                    mean, var = moments[key] / (1 - 0.9 ** (t + 1)), squares[key] / (1 - 0.999 ** (t + 1))
+                    new[key] = params[key] - steps[key] * decay * mean / (jnp.sqrt(var) + 1e-12)
+                new["q"] = jnp.clip(new["q"], low, high)
+                return new, moments, squares, finite
+
+            zeros = {k: jnp.zeros_like(v) for k, v in params.items()}
+            state = (params, zeros, dict(zeros), jnp.ones(len(params["q"]), dtype=bool))
+            params, _, _, finite = jax.lax.fori_loop(0, total, body, state)
+            return params, finite
+
+        return jax.jit(run)
+
+    def _end(self, params: dict, rotation0: np.ndarray, finite: np.ndarray) -> BatchEnd:
+        jax = jax_module()
+        jnp = jax.numpy
+        evaluate = jax.jit(jax.vmap(self.value, in_axes=(0, 0, None, None)))
+        _, (gaps, depth, short, Q) = evaluate(params, jnp.asarray(rotation0), 0.0, 1.0)
+        w = np.asarray(params["w"])
+        rotations = np.array([r0 @ np.asarray(rotation_vector(jnp, jnp.asarray(v))) for r0, v in zip(rotation0, w, strict=True)])
+        joints = np.asarray(params["q"]) @ self.arrays.couple.T + self.arrays.couple_offset
+        return BatchEnd(rotations, np.asarray(params["d"]), joints, np.asarray(gaps), np.asarray(depth),
+                        np.asarray(short), np.asarray(Q), finite)  # fmt: skip

@@ -1,0 +1,120 @@
+"""The search's batch evaluation (issue 88): contacts, normals and Jacobians as functions of the palm pose and the
+joints alone, equal to the hand's own kinematics at the same pose; its gradient against finite differences; a
+batch of one and of many giving the same end points; a start whose value is not finite a status of its own."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy.spatial.transform import Rotation
+
+from grasptask.grasp.grasp_settings import load_grasp_settings
+from grasptask.hand import load_hand
+from grasptask.hand.kinematics import forward
+from grasptask.objects import load_object
+from grasptask.synthesis.batch_geometry import Field, HandArrays, closed_form_q, contacts, fingers, jax_module
+from grasptask.synthesis.batch_search import BatchSearch, SearchSettings
+from grasptask.task.task_model import load_task_models
+
+TOOL = "configs/objects/tool.yaml"
+
+
+@pytest.fixture(scope="module")
+def jnp():
+    return jax_module().numpy
+
+
+def posed(hand, seed: int):
+    rng = np.random.default_rng(seed)
+    q = hand.apply_coupling(hand.lower + rng.random(hand.n_joints) * (hand.upper - hand.lower))
+    return Rotation.random(random_state=seed).as_matrix(), rng.normal(size=3) * 0.03, q
+
+
+@pytest.mark.parametrize("hand_file", ["configs/hands/human.yaml", "configs/hands/allegro.yaml"])
+@pytest.mark.parametrize("seed", [0, 1])
+def test_the_batch_contacts_normals_and_jacobians_are_the_kinematics(jnp, hand_file, seed):
+    hand = load_hand(hand_file).grasping_hand()
+    obj = load_object(TOOL)
+    rotation, position, q = posed(hand, seed)
+    arrays, field = HandArrays.of(hand, 45.0), Field.of(obj)
+    placed = fingers(jnp, arrays, jnp.asarray(rotation), jnp.asarray(position), jnp.asarray(q))
+    touch = contacts(jnp, arrays, field, placed)
+    pose = forward(hand, q, rotation, position)
+    offsets = hand.contact_offsets()
+    at = np.where(offsets[:, None] > 0, pose.pad_centres()[0], pose.contacts()[0])
+    outward = obj.gradient(at)
+    outward /= np.linalg.norm(outward, axis=1, keepdims=True)
+    expected = at - offsets[:, None] * outward
+    np.testing.assert_allclose(np.asarray(touch.points), expected, atol=1e-9)
+    np.testing.assert_allclose(np.asarray(touch.normals), -outward, atol=1e-9)
+    for J, reference in zip(touch.jacobians, pose.jacobians_at(expected[None]), strict=True):
+        np.testing.assert_allclose(np.asarray(J), reference[0].T, atol=1e-9)
+    spheres = np.concatenate([np.asarray(f.spheres) for f in placed])
+    np.testing.assert_allclose(spheres, np.concatenate([f.samples[0] for f in pose.fingers.values()]), atol=1e-12)
+
+
+def test_the_closed_form_q_is_the_force_problems(jnp, tasks):
+    """Eq. 8's closed form on arrays equals the CasADi expression the force problem's value is checked against."""
+    import casadi
+
+    from grasptask.synthesis.force_problem import symbolic_quality
+
+    hand = load_hand("configs/hands/human.yaml").grasping_hand()
+    task = load_task_models(tasks)["cutting"]
+    rotation, position, q = posed(hand, 3)
+    pose = forward(hand, q, rotation, position)
+    points = pose.contacts()[0]
+    jacobians = [J[0].T for J in pose.jacobians_at(points[None])]
+    ours = float(closed_form_q(jnp, jnp.asarray(points), [jnp.asarray(J) for J in jacobians], task, 1e3))
+    theirs = float(symbolic_quality(casadi.DM(points), [casadi.DM(J) for J in jacobians], task, 1e3))
+    assert ours == pytest.approx(theirs, rel=1e-9)
+
+
+@pytest.fixture(scope="module")
+def search(tasks):
+    hand = load_hand("configs/hands/human.yaml").grasping_hand()
+    settings = load_grasp_settings()
+    task = load_task_models(tasks)["drawing"]
+    return BatchSearch(hand, load_object(TOOL), task, settings.pad_angle_max_deg, settings.rolling_contacts,
+                       SearchSettings(iterations=40))  # fmt: skip
+
+
+def starts(hand, count: int):
+    poses = [posed(hand, seed) for seed in range(count)]
+    rotation = np.array([p[0] for p in poses])
+    position = np.array([[0.0, 0.0, 0.0] + p[1] * 0.1 + np.array([0.06, 0.0, 0.0]) for p in poses]).reshape(-1, 3)
+    return rotation, position, np.array([p[2] for p in poses])
+
+
+def test_the_gradient_is_the_values_own(search):
+    """The compiled search's gradient (JAX's reverse mode) against central differences of the value."""
+    jax = jax_module()
+    jnp = jax.numpy
+    rotation, position, q = starts(search.hand, 1)
+    params = {"w": jnp.asarray([0.01, -0.02, 0.03]), "d": jnp.asarray(position[0]),
+              "q": jnp.asarray(q[0][search.arrays.free])}  # fmt: skip
+    value = jax.jit(lambda p: search.value(p, jnp.asarray(rotation[0]), 0.002, 1.0)[0])
+    grad = jax.grad(lambda p: search.value(p, jnp.asarray(rotation[0]), 0.002, 1.0)[0])(params)
+    for key in params:
+        for k in range(len(params[key])):
+            step = 1e-6
+            up = {**params, key: params[key].at[k].add(step)}
+            down = {**params, key: params[key].at[k].add(-step)}
+            numeric = (float(value(up)) - float(value(down))) / (2 * step)
+            assert float(grad[key][k]) == pytest.approx(numeric, rel=1e-4, abs=1e-3 * (1 + abs(numeric)))
+
+
+def test_a_batch_of_one_and_of_many_end_alike_and_a_nan_start_is_its_own(search):
+    rotation, position, q = starts(search.hand, 6)
+    whole = search.run(rotation, position, q)
+    for k in (0, 4):
+        alone = search.run(rotation[k : k + 1], position[k : k + 1], q[k : k + 1])
+        np.testing.assert_allclose(alone.joint_angles[0], whole.joint_angles[k], atol=1e-12)
+        np.testing.assert_allclose(alone.palm_position[0], whole.palm_position[k], atol=1e-12)
+    broken = position.copy()
+    broken[2] = np.nan
+    ended = search.run(rotation, broken, q)
+    assert not ended.finite[2] and not ended.converged()[2]
+    keep = [0, 1, 3, 4, 5]
+    assert ended.finite[keep].all()
+    np.testing.assert_allclose(ended.joint_angles[keep], whole.joint_angles[keep], atol=1e-12)
