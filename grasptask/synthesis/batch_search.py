@@ -197,7 +197,9 @@ class BatchSearch:
         evaluate = jax.jit(jax.vmap(self.value, in_axes=(0, 0, None, None)))
         _, (gaps, depth, short, Q) = evaluate(params, jnp.asarray(rotation0), 0.0, 1.0)
         w = np.asarray(params["w"])
-        rotations = np.array([r0 @ np.asarray(rotation_vector(jnp, jnp.asarray(v))) for r0, v in zip(rotation0, w, strict=True)])
+        rotations = np.array(
+            [r0 @ np.asarray(rotation_vector(jnp, jnp.asarray(v))) for r0, v in zip(rotation0, w, strict=True)]
+        )
         joints = np.asarray(params["q"]) @ self.arrays.couple.T + self.arrays.couple_offset
         return BatchEnd(rotations, np.asarray(params["d"]), joints, np.asarray(gaps), np.asarray(depth),
                         np.asarray(short), np.asarray(Q), finite)  # fmt: skip
