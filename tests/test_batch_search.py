@@ -13,7 +13,8 @@ from grasptask.hand import load_hand
 from grasptask.hand.kinematics import forward
 from grasptask.objects import load_object
 from grasptask.synthesis.batch_geometry import Field, HandArrays, closed_form_q, contacts, fingers, jax_module
-from grasptask.synthesis.batch_search import BatchSearch, SearchSettings
+from grasptask.synthesis.batch_search import BatchSearch
+from grasptask.synthesis.solver_config import BatchSearchConfig
 from grasptask.task.task_model import load_task_models
 
 TOOL = "configs/objects/tool.yaml"
@@ -76,7 +77,7 @@ def search(tasks):
     settings = load_grasp_settings()
     task = load_task_models(tasks)["drawing"]
     return BatchSearch(hand, load_object(TOOL), task, settings.pad_angle_max_deg, settings.rolling_contacts,
-                       SearchSettings(iterations=40))  # fmt: skip
+                       BatchSearchConfig(iterations=40))  # fmt: skip
 
 
 def starts(hand, count: int):

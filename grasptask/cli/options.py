@@ -185,9 +185,9 @@ _SYNTHESIS = [
         type=click.Choice(["paper", "search"]),
         default="paper",
         show_default=True,
-        help="paper: every start solved to its end by the Section 6 NLP (the paper's route); search: the geometry "
-        "searched with the force problem as its objective, end points grouped into basins, one per basin polished "
-        "by the same NLP (docs/guide/search.md).",
+        help="paper: every start solved to its end by the Section 6 NLP (the paper's route); search: every start's "
+        "palm pose and joints searched at once in batches (JAX), end points grouped into basins, one per basin "
+        "polished by the same NLP (docs/guide/search.md).",
     ),
     click.option(
         "--solver",

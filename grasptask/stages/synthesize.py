@@ -619,6 +619,7 @@ def _solve_by_search(executor: Any, todo: list, rows: list[dict], log: Path, beg
         prepared.symmetry,
         solver.search_round,
         solver.polish_per_basin,
+        solver.search.batch_size,
         known_basins(rows),
     )
     with _recorded(log, rows, began) as record:

@@ -124,10 +124,6 @@ def write_nl_rows(model: Any) -> tuple[str, list, list]:
     return nl.getvalue(), list(info.variables), list(info.constraints)
 
 
-#: a term added to the NL file's objective: a CasADi expression of the variables, in the NL file's order
-Objective = Callable[[Any], Any]
-
-
 class CasadiNLP:
     """The NL model imported into CasADi once: its functions, bounds and variable order, and the derivatives
     IPOPT asks for (``x``, ``sigma`` and ``lam`` symbols; the objective's gradient, the constraints' Jacobian and
@@ -135,7 +131,7 @@ class CasadiNLP:
     With one, its placeholder rows become the B-spline surface: the rest keeps SX derivatives, called from MX,
     and the spline's derivatives are added as :func:`grasptask.synthesis.spline.surrogate_terms` writes them."""
 
-    def __init__(self, nl_text: str, surrogate: SurrogateSpec | None = None, added: Objective | None = None):
+    def __init__(self, nl_text: str, surrogate: SurrogateSpec | None = None):
         with tempfile.TemporaryDirectory() as tmp:
             path = os.path.join(tmp, "model.nl")
             with open(path, "w") as handle:
@@ -157,9 +153,6 @@ class CasadiNLP:
         self.sigma: Any = casadi.SX.sym("sigma")
         self.lam: Any = casadi.SX.sym("lambda", n_g)
         self.f, self.g = whole(self.x)
-        if added is not None:  # the search's force-problem value, a closed form of some of the columns
-            whole = casadi.Function("nlp", [self.x], [self.f + added(self.x), self.g])
-            self.f = whole(self.x)[0]
         self._derivatives: tuple | None = None
         if surrogate is None:
             return  # its derivatives are made when asked for: CasADi's nlpsol makes its own
@@ -197,10 +190,8 @@ class CasadiNLP:
 class CasadiBackend:
     name = "casadi"
 
-    def __init__(
-        self, nl_text: str, ipopt_options: dict, surrogate: SurrogateSpec | None = None, added: Objective | None = None
-    ):
-        self.nlp = CasadiNLP(nl_text, surrogate, added)
+    def __init__(self, nl_text: str, ipopt_options: dict, surrogate: SurrogateSpec | None = None):
+        self.nlp = CasadiNLP(nl_text, surrogate)
         options: dict[str, Any] = {f"ipopt.{k}": v for k, v in ipopt_options.items()}
         options.update({"expand": self.nlp.expandable, "print_time": False, "error_on_fail": False})
         if not self.nlp.expandable:  # CasADi would differentiate the MX graph itself, several times slower
@@ -235,13 +226,11 @@ class CyipoptBackend:
 
     name = "cyipopt"
 
-    def __init__(
-        self, nl_text: str, ipopt_options: dict, surrogate: SurrogateSpec | None = None, added: Objective | None = None
-    ):
+    def __init__(self, nl_text: str, ipopt_options: dict, surrogate: SurrogateSpec | None = None):
         import cyipopt  # installed by `make setup-cyipopt`
 
         self.cyipopt = cyipopt
-        nlp = self.nlp = CasadiNLP(nl_text, surrogate, added)
+        nlp = self.nlp = CasadiNLP(nl_text, surrogate)
         x = nlp.x
         grad, jac, upper = nlp.derivatives()
         hess = upper.T  # cyipopt takes the lower triangle

@@ -4,9 +4,9 @@ joints, nothing else, with a fixed iteration budget.
 Each start minimises ``log Q + penalties`` (:mod:`grasptask.synthesis.batch_geometry`): eq. 12's Q from eq. 8's
 closed form, scale-free as a logarithm so that one step size serves every task and hand, and the penalties of what
 the paper's NLP holds as constraints, each squared in units of a millimetre (or of a hundredth of a radian). The
-contacts' distance is held to a stand-off that falls from :attr:`SearchSettings.standoff_m` to zero at
-:attr:`SearchSettings.standoff_until` of the iterations, as BODex's schedule does: the fingers close on the object
-from outside rather than through it. Q enters after :attr:`SearchSettings.quality_after` of them, once the pads
+contacts' distance is held to a stand-off that falls from :attr:`BatchSearchConfig.standoff_m` to zero at
+:attr:`BatchSearchConfig.standoff_until` of the iterations, as BODex's schedule does: the fingers close on the object
+from outside rather than through it. Q enters after :attr:`BatchSearchConfig.quality_after` of them, once the pads
 are near the surface.
 
 The method is Adam (per-variable steps, cosine-decayed), the joints projected onto their limits after each step.
@@ -26,6 +26,7 @@ from grasptask.hand.hand_model import GraspingHand
 from grasptask.objects.surface import ImplicitObject
 from grasptask.synthesis.batch_geometry import (
     CONVERGED_M,
+    FACING_SLACK,
     Field,
     HandArrays,
     closed_form_q,
@@ -35,25 +36,11 @@ from grasptask.synthesis.batch_geometry import (
     jax_module,
     rotation_vector,
 )
+from grasptask.synthesis.solver_config import BatchSearchConfig
 from grasptask.task.task_model import TaskModel
 
 #: the units the penalties are squared in: a millimetre, a hundredth of a radian
 MM, CRAD = 1e-3, 1e-2
-
-
-@dataclass(frozen=True)
-class SearchSettings:
-    """The search's budget, schedule and steps (the solver config's ``batch`` section declares them)."""
-
-    iterations: int = 300
-    standoff_m: float = 0.01
-    standoff_until: float = 0.6
-    quality_after: float = 0.3
-    step_position_m: float = 0.002
-    step_turn_rad: float = 0.03
-    step_joint_rad: float = 0.03
-    rho: float = 1e3
-    facing_weight: float = 10.0
 
 
 @dataclass(frozen=True)
@@ -71,9 +58,11 @@ class BatchEnd:
     finite: np.ndarray  # (N,) bool
 
     def converged(self) -> np.ndarray:
-        """Every contact within :data:`CONVERGED_M` of the surface, no sphere deeper than that, the pads facing."""
+        """Every contact within :data:`CONVERGED_M` of the surface, no sphere deeper than that, the pads facing
+        the surface within :data:`FACING_SLACK` of their limit."""
         near = (np.abs(self.gaps) <= CONVERGED_M).all(axis=1)
-        return self.finite & near & (self.depth <= CONVERGED_M) & (self.facing <= 1e-3) & np.isfinite(self.Q)
+        facing = self.facing <= FACING_SLACK
+        return self.finite & near & (self.depth <= CONVERGED_M) & facing & np.isfinite(self.Q)
 
 
 @dataclass
@@ -85,7 +74,7 @@ class BatchSearch:
     task: TaskModel
     pad_angle_max_deg: float
     rolling: bool = True
-    settings: SearchSettings = field(default_factory=SearchSettings)
+    settings: BatchSearchConfig = field(default_factory=BatchSearchConfig)
 
     @cached_property
     def arrays(self) -> HandArrays:

@@ -25,20 +25,17 @@ from grasptask.records import solutions as schema
 from grasptask.synthesis.feedback import Limits, tightened
 from grasptask.synthesis.judging import Judges
 from grasptask.synthesis.solver_config import SolverConfig
-from grasptask.synthesis.solvers import assign, build_models, positions, values
+from grasptask.synthesis.solvers import assign, build_models, values
 from grasptask.synthesis.starts import Start
 from grasptask.task.task_model import TaskModel, load_task_models
 
 if TYPE_CHECKING:  # the solver stack loads in the workers, not where a Job is made
     from grasptask.synthesis.backends import SolveResult
+    from grasptask.synthesis.batch_search import BatchEnd, BatchSearch
     from grasptask.synthesis.force_problem import ForceProblem
     from grasptask.synthesis.nlp import GraspNLP
     from grasptask.synthesis.polish import Polish
-    from grasptask.synthesis.search import SearchEnd, SearchTask
-    from grasptask.synthesis.solvers import Solver
-
-#: IPOPT's outcomes from which a search's end point is grouped and polished
-CONVERGED = ("optimal", "acceptable")
+    from grasptask.synthesis.search import SearchBatch, SearchEnd
 
 
 @dataclass(frozen=True)
@@ -110,13 +107,14 @@ class SolverContext:
         self.approach = self.hand.approach
 
     @cached_property
-    def search_model(self) -> Solver:
-        """The search's model (route search), built on first use: the paper's route never needs it."""
-        from grasptask.synthesis.solvers import build_solver
+    def batch_search(self) -> BatchSearch:
+        """The search of route search, traced on first use: the paper's route never needs it."""
+        from grasptask.synthesis.batch_search import BatchSearch
 
-        job, solver = self.job, self.job.solver
-        parts = (self.hand, self.obj, self.task, self.settings, solver, job.backend)
-        return build_solver(*parts, solver.search_torque_axes, max_iter=solver.search_iterations, search=True)
+        hand, settings = self.nlp.hand, self.settings
+        return BatchSearch(
+            hand, self.obj, self.task, settings.pad_angle_max_deg, settings.rolling_contacts, self.job.solver.search
+        )
 
     @cached_property
     def force_problem(self) -> ForceProblem:
@@ -141,36 +139,38 @@ class SolverContext:
             return replace(start, palm_rotation=start.palm_rotation @ self.approach.T)
         return start
 
-    def search(self, task: SearchTask) -> SearchEnd:
-        """The search from a start: placed in each posture in turn (the solver config's first, then its retry
-        postures) until IPOPT converges; the force problem at the end point."""
-        from grasptask.synthesis.search import SearchEnd, end_point
+    def search(self, task: SearchBatch) -> list[SearchEnd]:
+        """A batch of starts searched together from their placed poses (the solver config's first posture); each
+        end point that converged judged by the force problem at the NLP's geometry there."""
+        from grasptask.synthesis.search import EndGrasp, SearchEnd
 
-        search, start = self.search_model, self._facing(task.start)
-        seconds, iterations, attempt = 0.0, 0, 0
-        for fraction in self.job.solver.postures:
-            attempt += 1
-            began = time.perf_counter()
-            joints = self.nlp.hand.posture(fraction)
-            self._place(search.nlp, start, joints)
-            result = search.solve(values(search.order))
-            seconds, iterations = seconds + time.perf_counter() - began, iterations + result.iterations
-            if result.status in CONVERGED and result.x is not None:
-                break
-        if result.status not in CONVERGED or result.x is None:
-            return SearchEnd(task.start_id, result.status, iterations, seconds, attempt, result.message)
         began = time.perf_counter()
-        grasp = end_point(search, result.x)  # the search model now holds the end point's contacts, cones, Jacobians
-        forces = self.force_problem.solve(search.nlp.geometry())
-        seconds += time.perf_counter() - began
-        return SearchEnd(
-            task.start_id, result.status, iterations, seconds, attempt, result.message, grasp, forces, result.x
-        )
-
-    @cached_property
-    def _from_search(self) -> np.ndarray:
-        """Where each of the first model's variables is in the search model's order (-1: not there)."""
-        return positions(self.search_model, self.models.first)
+        joints = self.nlp.hand.posture(self.job.solver.postures[0])
+        poses = []
+        for start in task.starts:
+            self._place(self.nlp, self._facing(start), joints)
+            read = self.nlp.read()
+            poses.append((read["palm_rotation"], read["palm_position"], read["joint_angles"]))
+        rotation, position, angles = (np.array(column) for column in zip(*poses, strict=True))
+        ended = self.batch_search.run(rotation, position, angles)
+        converged, iterations = ended.converged(), self.job.solver.search.iterations
+        share = (time.perf_counter() - began) / len(task.starts)
+        out = []
+        for k, start in enumerate(task.starts):
+            if not converged[k]:
+                why = "not finite" if not ended.finite[k] else _shortfall(ended, k)
+                status = "search-nan" if not ended.finite[k] else "search-far"
+                out.append(SearchEnd(start.start_id, status, iterations, share, 1, why))
+                continue
+            spent = time.perf_counter()
+            self.nlp.initialise(ended.palm_rotation[k], ended.palm_position[k], ended.joint_angles[k])
+            read = self.nlp.read()
+            grasp = EndGrasp(read["palm_rotation"], read["palm_position"], read["joint_angles"], read["contacts"],
+                             read["normals"])  # fmt: skip
+            forces = self.force_problem.solve(self.nlp.geometry())
+            seconds = share + time.perf_counter() - spent
+            out.append(SearchEnd(start.start_id, "converged", iterations, seconds, 1, "", grasp, forces))
+        return out
 
     def polish(self, task: Polish) -> dict:
         """A basin's end point solved by the paper's NLP from it, forces and all (:mod:`.polish`)."""
@@ -178,14 +178,10 @@ class SolverContext:
 
     def _polish_point(self, end: SearchEnd) -> np.ndarray:
         """The first model's initial point at a search's end point (the model initialised there already): the
-        force problem's forces and the search's eq. 4 weights, then every variable the search model shares with
-        it (contacts, normals, cones, Jacobians) as the search left them."""
-        assert end.forces is not None and end.grasp is not None and end.x is not None, "a polish of a failed search"
-        self.nlp.set_forces(end.forces, end.grasp.phi)
-        x0 = values(self.models.first.order)
-        shared = self._from_search >= 0
-        x0[shared] = end.x[self._from_search[shared]]
-        return x0
+        force problem's forces at that geometry, every defined variable from the pose."""
+        assert end.forces is not None and end.grasp is not None, "a polish of a search that did not converge"
+        self.nlp.set_forces(end.forces)
+        return values(self.models.first.order)
 
     def _place(self, nlp: GraspNLP, start: Start, joints: np.ndarray) -> float | None:
         """``nlp`` initialised at ``start`` in the posture ``joints``: placed at the object (the solver config's
@@ -197,12 +193,12 @@ class SolverContext:
         nlp.initialise(start.palm_rotation, start.palm_position, joints)
         return None
 
-    def run(self, task: Start | SearchTask | Polish) -> dict | SearchEnd:
-        """A worker's job: a start of the paper's route, a search, or a polish."""
+    def run(self, task: Start | SearchBatch | Polish) -> dict | list[SearchEnd]:
+        """A worker's job: a start of the paper's route, a batch's search, or a polish."""
         from grasptask.synthesis.polish import Polish
-        from grasptask.synthesis.search import SearchTask
+        from grasptask.synthesis.search import SearchBatch
 
-        if isinstance(task, SearchTask):
+        if isinstance(task, SearchBatch):
             return self.search(task)
         if isinstance(task, Polish):
             return self.polish(task)
@@ -321,6 +317,15 @@ def _solved_but(result: SolveResult, judged: tuple | None, failure: str | None =
     if judged is None or result.status not in ("optimal", "acceptable") or judged[1].ok:
         return False
     return failure is None or failure in judged[1].failures
+
+
+def _shortfall(ended: BatchEnd, k: int) -> str:
+    """Why a search's end point is not grouped: how far from the surface, how deep, how far from facing it."""
+    gap = float(np.abs(ended.gaps[k]).max())
+    return (
+        f"search ended {1e3 * gap:.2f} mm from the surface, a collision sphere {1e3 * float(ended.depth[k]):.2f} mm "
+        f"deep, a pad {float(ended.facing[k]):.3f} short of facing it"
+    )
 
 
 def failed_row(start: Any, status: str, seconds: float, message: str) -> dict:

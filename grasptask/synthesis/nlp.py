@@ -21,10 +21,6 @@ family of variables and constraints, in this order, and the component names carr
                                         task's longest axes only when asked: :func:`build_model`)
     objective                eq. 12     Q plus the small terms of :class:`Regularisation`
 
-:func:`search_equations` gives the search's model (SPEC section 12): the same geometry without eq. 8 and 12, whose
-forces the force problem (:mod:`grasptask.synthesis.force_problem`) holds, and eq. 10 for none of the task's axes or
-its longest.
-
 Every quantity that several constraints share (frames, contacts, normals, cone edges, wrenches, Jacobians, edge
 torques) is a variable defined once by an equality, so that eq. 4, 10 and 12 are bilinear in them and the
 Hessian stays sparse. Unit vectors and rotation entries carry no bounds: their equalities bound them, and a bound
@@ -74,8 +70,6 @@ class NLPBuilder:
     torque_axes: range
     #: the object's axis of revolution (direction, point) about which the grasp's turn is held; None: free
     held_axis: tuple[np.ndarray, np.ndarray] | None = None
-    #: eq. 10's rows kept by a slack of this weight (the search's, as the force problem's); 0: exact, the paper's
-    eq10_slack_weight: float = 0.0
     #: a two-contact grasp's line between its pads, in the palm frame, whose turn the objective holds near the
     #: start's (:func:`pair_turn`); None: more contacts, or no such term
     pair_line: np.ndarray | None = None
@@ -503,15 +497,6 @@ def torque_feasibility(nlp: NLPBuilder) -> None:
     m.act = pyo.Var(blocks, actuators, bounds=(0, cap), doc="tendon or motor activations per task wrench (eq. 1)")
     m.eq10_wrench = pyo.ConstraintList()
     m.eq10_torque = pyo.ConstraintList()
-    rows = 6 + len(capability.transmission)
-    soft = nlp.eq10_slack_weight > 0  # the search's: a grasp that cannot meet eq. 10 yet is graded, not infeasible
-    if soft:
-        m.eq10_slack = pyo.Var(blocks, range(rows), initialize=0.0, doc="eq. 10's residuals (search only)")
-
-    def exact(lhs: Any, rhs: Any, a: int, s: int, r: int) -> Any:
-        """``lhs == rhs``, or with the search's slack on the left; the paper's rows as they always were."""
-        return lhs + m.eq10_slack[a, s, r] == rhs if soft else lhs == rhs
-
     floor = nlp.settings.min_normal_force_n
     if floor > 0:  # the margin's least normal force: a component only where the margin asks for one
         m.eq10_normal = pyo.ConstraintList()
@@ -521,7 +506,7 @@ def torque_feasibility(nlp: NLPBuilder) -> None:
         target = (1.0 if s == 0 else -1.0) * lengths[a] * axes[a]
         for r in range(6):
             applied = sum(m.lam[a, s, j, e] * wrenches[j][e][r] for j, e in cells)
-            m.eq10_wrench.add(exact(applied, float(target[r]), a, s, r))
+            m.eq10_wrench.add(applied == float(target[r]))
         if floor > 0:  # each contact presses with at least the margin's normal force
             for j in range(nlp.b):
                 pressing = sum(
@@ -535,7 +520,7 @@ def torque_feasibility(nlp: NLPBuilder) -> None:
             produced = sum(
                 float(capability.torque_map[r, q]) * m.act[a, s, q] for q in np.flatnonzero(capability.torque_map[r])
             )
-            m.eq10_torque.add(exact(carried, produced, a, s, 6 + r))
+            m.eq10_torque.add(carried == produced)
 
 
 def objective(nlp: NLPBuilder) -> None:
@@ -613,26 +598,6 @@ EQUATIONS: tuple[Callable[[NLPBuilder], None], ...] = (
     torque_feasibility,
     objective,
 )
-
-
-def search_objective(nlp: NLPBuilder) -> None:
-    """The search's Pyomo objective: the regularising terms and the penalty on eq. 10's slacks. The force
-    problem's value, the search's objective proper, is added where the model is imported into CasADi
-    (:mod:`grasptask.synthesis.search`), a closed form Pyomo cannot write."""
-    m, weight = nlp.model, nlp.eq10_slack_weight
-    residuals = weight * sum(v**2 for v in m.eq10_slack.values()) if m.component("eq10_slack") is not None else 0
-    closure, feasibility = _regularising(nlp)
-    m.eq12_objective = pyo.Objective(
-        expr=closure + feasibility + residuals + pair_turn(nlp), doc="eq. 10's residuals, regularised"
-    )
-
-
-def search_equations(torque_axes: int = 0) -> tuple[Callable[[NLPBuilder], None], ...]:
-    """The search's equation families (SPEC section 12): the geometry, eqs. 2-5 and 14-23, without the task
-    forces (eq. 8, 12), whose part of Q the force problem's closed form gives; with ``torque_axes``, eq. 7's
-    edge torques and eq. 10 for that many of the task's longest axes (:func:`build_model`'s ``torque_axes``)."""
-    left_out = (task_forces_and_quality, objective) + (() if torque_axes else (edge_torques, torque_feasibility))
-    return tuple(f for f in EQUATIONS if f not in left_out) + (search_objective,)
 
 
 @dataclass
@@ -741,8 +706,6 @@ class GraspNLP:
             var.set_value(0.1)
         for var in m.act.values():
             var.set_value(0.2)
-        for var in m.eq10_slack.values() if m.component("eq10_slack") is not None else []:
-            var.set_value(0.0)  # not the last search's: a start's search depends on no other
 
     def set_forces(self, forces: ForceSolution, phi: np.ndarray | None = None) -> None:
         """The task forces, eq. 10's cone-edge forces and activations at the force problem's solution for this
@@ -838,8 +801,6 @@ def build_model(
     regularisation: Regularisation = Regularisation(),
     torque_axes: int | None = None,
     held_axis: tuple[np.ndarray, np.ndarray] | None = None,
-    equations: tuple[Callable[[NLPBuilder], None], ...] = EQUATIONS,
-    eq10_slack_weight: float = 0.0,
 ) -> GraspNLP:
     """The NLP for ``hand``'s grasping fingers on ``obj`` for ``task``: :data:`EQUATIONS` in order, its forces
     searched within ``bounds``, its objective eq. 12 plus the small terms of ``regularisation``.
@@ -850,10 +811,7 @@ def build_model(
     (:class:`~grasptask.synthesis.context.SolverContext`).
 
     ``held_axis``: the object's axis of revolution (direction, point) about which the grasp's turn is held at
-    each start's (:func:`held_axis_rotation`); None leaves it free, as the paper does.
-
-    ``equations``: the families to build, :data:`EQUATIONS` (the paper's model) or :func:`search_equations`;
-    ``eq10_slack_weight``: eq. 10's rows kept by a penalised slack (the search's), 0 for exact rows."""
+    each start's (:func:`held_axis_rotation`); None leaves it free, as the paper does."""
     grasping = hand.grasping_hand()
     n_axes = len(task.weights)
     builder = NLPBuilder(
@@ -866,12 +824,11 @@ def build_model(
         regularisation,
         range(n_axes if torque_axes is None else min(torque_axes, n_axes)),
         held_axis,
-        eq10_slack_weight,
         _pair_line(grasping) if regularisation.pair_turn > 0 else None,
         contact_offsets=grasping.contact_offsets(settings.rolling_contacts),
     )
     builder.surface.attach(builder.model, builder.definitions)
-    for equation in equations:
+    for equation in EQUATIONS:
         equation(builder)
     surrogate = builder.surface if isinstance(builder.surface, GridSurface) else None
     twists = frozenset((j, e) for j, e in builder.cells if e >= settings.cone_edges)

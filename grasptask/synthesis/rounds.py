@@ -2,9 +2,10 @@
 grouped into basins, each new basin polished, best end point first, until one is verified.
 
 A round's rows are handed on when the round is finished: ``polished`` (the paper's NLP from its end point),
-``same-basin`` (its basin's polished start, its own end point and force-problem Q) or a failed search's IPOPT
-status. What a round does depends only on its starts and the rounds before it, never on which worker finished
-first, so the rows are the same with any number of workers and on Dask.
+``same-basin`` (its basin's polished start, its own end point and force-problem Q) or a search that did not
+converge (``search-far``, ``search-nan``). What a round does depends only on its starts and the rounds before it,
+and its searches run in batches fixed by the round alone, never on which worker finished first, so the rows are the
+same with any number of workers and on Dask.
 """
 
 from __future__ import annotations
@@ -22,7 +23,7 @@ from grasptask.records.solutions import failed_row, grasp_columns
 from grasptask.synthesis.basins import EndPoint, group, joins
 from grasptask.synthesis.clustering import descriptor
 from grasptask.synthesis.polish import Polish
-from grasptask.synthesis.search import SearchEnd, SearchTask
+from grasptask.synthesis.search import SearchEnd, batches
 from grasptask.synthesis.starts import Start
 
 OnRow = Callable[[dict], None]
@@ -48,6 +49,7 @@ class Route:
     symmetry: dict | None
     round_size: int
     polish_per_basin: int
+    batch_size: int
     basins: list[Basin] = field(default_factory=list)
 
     def run(self, starts: list[Start], on_row: OnRow) -> None:
@@ -88,16 +90,26 @@ class Route:
         return [rows[s.start_id] for s in starts]
 
     def _search(self, starts: list[Start], name: str) -> dict[int, SearchEnd | dict]:
+        """The round's starts searched in fixed batches (:func:`~grasptask.synthesis.search.batches`); a batch
+        whose worker failed is that failure's row for each of its starts."""
         ends: dict[int, SearchEnd | dict] = {}
+        jobs = batches(starts, self.batch_size)
+        members = {job.start_id: job.starts for job in jobs}
         with Progress(len(starts), f"search {name}", "starts") as shown:
 
             def done(result: Any) -> None:
-                start_id = result["start_id"] if isinstance(result, dict) else result.start_id
-                ends[start_id] = result
+                if isinstance(result, dict):  # the worker's error, crash or hang, for every start of its batch
+                    for start in members[result["start_id"]]:
+                        ends[start.start_id] = {**result, "start_id": start.start_id, "orientation": start.orientation,
+                                                "position": start.position_name}  # fmt: skip
+                    shown.update(len(members[result["start_id"]]))
+                    return
+                for end in result:
+                    ends[end.start_id] = end
                 converged = sum(isinstance(e, SearchEnd) and e.converged for e in ends.values())
-                shown.update(1, converged=converged)
+                shown.update(len(result), converged=converged)
 
-            self.executor.run([SearchTask(s) for s in starts], done)
+            self.executor.run(jobs, done)
         return ends
 
     def _end_point(self, start_id: int, end: SearchEnd) -> EndPoint:
@@ -187,7 +199,7 @@ class Route:
         }
 
     def _unsearched(self, start: Start, end: SearchEnd) -> dict:
-        """A start whose search converged from no posture: IPOPT's status and why."""
+        """A start whose search did not converge: why (far from the surface, in collision, not finite)."""
         message = f"search: {end.message}"
         row = failed_row(start.start_id, start.orientation, start.position_name, end.status, end.seconds, message)
         figures = {"search_status": end.status, "search_attempts": end.attempts}

@@ -89,6 +89,32 @@ class Regularisation:
 
 
 @dataclass(frozen=True, config=SCHEMA)
+class BatchSearchConfig:
+    """The search of route search (SPEC section 12, :mod:`grasptask.synthesis.batch_search`): the starts of a
+    batch moved together by Adam on the palm pose and the joints, for a fixed budget of iterations."""
+
+    #: Adam's steps for every start of a batch; the rows depend on it, not on the machine
+    iterations: Annotated[int, Strict(), Field(ge=1, le=MAX_ITERATIONS)] = 600
+    #: starts searched as one batch (one compiled evaluation); a round's starts make batches of this many, in
+    #: start order, whatever the workers: the rows depend on it, not on them
+    batch_size: Annotated[int, Strict(), Field(ge=1, le=1008)] = 64
+    #: the contacts are held this far off the surface at first (m) ...
+    standoff_m: Annotated[float, Strict(), Field(ge=0, le=0.05)] = 0.01
+    #: ... falling to 0 at this share of the iterations (BODex's schedule: the fingers close from outside)
+    standoff_until: Annotated[float, Strict(), Field(gt=0, le=1)] = 0.6
+    #: eq. 12's Q enters the objective after this share of the iterations, once the pads are near the surface
+    quality_after: Fraction = 0.3
+    #: Adam's step sizes at first (they decay to a tenth): the palm's position (m), its turn and the joints (rad)
+    step_position_m: Annotated[float, Strict(), Field(gt=0, le=0.05)] = 0.005
+    step_turn_rad: Annotated[float, Strict(), Field(gt=0, le=0.5)] = 0.06
+    step_joint_rad: Annotated[float, Strict(), Field(gt=0, le=0.5)] = 0.06
+    #: the weight of the pads' facing penalty against the contacts' distance
+    facing_weight: NonNegative = 1.0
+    #: rho of eq. 8's closed form (the slack on G f = u_i): the search's, milder than the force problem's
+    rho: Positive = 1.0e3
+
+
+@dataclass(frozen=True, config=SCHEMA)
 class SolverConfig:
     """How each start is solved (``--solver-config``): the schema of the solver config file, every key's
     default and check declared here once. The paper's model is ``retry_postures=()``, ``feedback_rounds=0``,
@@ -131,12 +157,8 @@ class SolverConfig:
     #: rho, the weight of the force problem's penalised slacks (rho |s|^2 on G f = u_i, and on eq. 10's wrench
     #: rows): large enough that a grasp that closes has s ~ 0 and Q the NLP's, finite where it cannot close
     force_slack_weight: Positive = 1.0e7
-    #: the search's IPOPT iterations per attempt (route search)
-    search_iterations: Iterations = 500
-    #: route search: eq. 10 inside the search for the task's this many longest axes, its rows kept by slacks of
-    #: force_slack_weight (0: none, the force problem judges it at the end point); its polishes then start nearer
-    #: eq. 10's optimum
-    search_torque_axes: Annotated[int, Strict(), Field(ge=0, le=6)] = 1
+    #: route search: the batched search's budget, schedule and steps
+    search: BatchSearchConfig = field(default_factory=lambda: BatchSearchConfig())
     #: route search: starts searched in rounds of this many, each round's basins polished before the next round;
     #: the rows depend on it, not on the workers
     search_round: Annotated[int, Strict(), Field(ge=1, le=1000)] = 42

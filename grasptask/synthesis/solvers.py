@@ -65,26 +65,19 @@ def build_solver(
     backend: str = "casadi",
     torque_axes: int | None = None,
     max_iter: int | None = None,
-    search: bool = False,
 ) -> Solver:
     """The NLP written, imported into the ``backend`` and compiled for initialisation; ``max_iter`` caps IPOPT's
-    iterations below the solver config's. ``search``: the search's model instead of the paper's
-    (:mod:`grasptask.synthesis.search`), its objective the force problem's closed form."""
+    iterations below the solver config's."""
     from grasptask.synthesis.backends import BACKENDS, write_nl_rows  # the solver stack: CasADi, Pyomo
-    from grasptask.synthesis.nlp import EQUATIONS, build_model, search_equations  # deferred: Pyomo, in the workers
-    from grasptask.synthesis.search import SEARCH_IPOPT, search_objective
+    from grasptask.synthesis.nlp import build_model  # deferred: Pyomo, in the workers
 
     held = held_axis(obj, task, config.hold_axis_rotation)
-    equations = search_equations(torque_axes or 0) if search else EQUATIONS
     bounds, regularisation = config.search_bounds, config.regularisation
-    slack = config.force_slack_weight if search else 0.0  # the search grades eq. 10 as the force problem does
-    nlp = build_model(hand, obj, task, settings, bounds, regularisation, torque_axes, held, equations, slack)
+    nlp = build_model(hand, obj, task, settings, bounds, regularisation, torque_axes, held)
     text, order, rows = write_nl_rows(nlp.model)
     nlp.compile()  # now, so that its one-off cost is not counted in the first start's seconds
-    options = {**config.ipopt, **(SEARCH_IPOPT if search else {})}
-    options = options if max_iter is None else {**options, "max_iter": max_iter}
-    added = search_objective(nlp, order, task, config.force_slack_weight) if search else None
-    solver = BACKENDS[backend](text, options, nlp.surrogate_spec(order, rows), added)
+    options = config.ipopt if max_iter is None else {**config.ipopt, "max_iter": max_iter}
+    solver = BACKENDS[backend](text, options, nlp.surrogate_spec(order, rows))
     return Solver(nlp, order, solver, nlp.limit_positions(order, rows), nlp.held_positions(order))
 
 
