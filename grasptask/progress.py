@@ -77,6 +77,8 @@ _active: list[Any] = []
 _running: dict[Any, tuple[str, float]] = {}
 _last_said = [0.0]
 _beating: list[threading.Thread] = []
+#: set when a stage starts to be heard, so that the heartbeat reads its interval at once, not after its last sleep
+_wake = threading.Event()
 
 
 def _said(text: str, stream: IO[str] | None = None) -> None:
@@ -112,6 +114,7 @@ def _active_while(item: Any) -> Iterator[None]:
         _active.append(item)
         _last_said[0] = max(_last_said[0], time.monotonic())
         _start_heartbeat()
+        _wake.set()
     try:
         yield
     finally:
@@ -131,7 +134,9 @@ def _start_heartbeat() -> None:
 def _heartbeat() -> None:
     while True:
         every = _interval_or_none()
-        time.sleep(min(1.0, every / 4) if every else 1.0)
+        _wake.wait(min(1.0, every / 4) if every else 1.0)
+        _wake.clear()
+        every = _interval_or_none()
         with _lock:
             if not _active:
                 continue
