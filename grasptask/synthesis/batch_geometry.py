@@ -61,7 +61,7 @@ def jax_module() -> Any:
     from grasptask.io.cache import folder  # compiled searches kept with the other slow per-object work
 
     kept = folder()
-    if kept is not None and not jax.config.jax_compilation_cache_dir:
+    if kept is not None and not getattr(jax.config, "jax_compilation_cache_dir", None):
         jax.config.update("jax_compilation_cache_dir", str(kept / "jax"))
         jax.config.update("jax_persistent_cache_min_compile_time_secs", 1.0)
     return jax

@@ -99,7 +99,10 @@ class Executor(Protocol):
 
 def _label(start: Any) -> str:
     """What a log's heartbeat calls a start (a search's, a polish's) while it runs."""
-    kind = {"SearchTask": "search of start", "Polish": "polish of start"}.get(type(start).__name__, "start")
+    if type(start).__name__ == "SearchBatch":
+        ids = [s.start_id for s in start.starts]
+        return f"search of starts {ids[0]}-{ids[-1]}" if len(ids) > 1 else f"search of start {ids[0]}"
+    kind = "polish of start" if type(start).__name__ == "Polish" else "start"
     return f"{kind} {getattr(start, 'start_id', '?')}"
 
 
