@@ -95,9 +95,9 @@ def test_the_gradient_is_the_values_own(search):
     params = {"w": jnp.asarray([0.01, -0.02, 0.03]), "d": jnp.asarray(position[0]),
               "q": jnp.asarray(q[0][search.arrays.free])}  # fmt: skip
     value = jax.jit(lambda p: search.value(p, jnp.asarray(rotation[0]), 0.002, 1.0)[0])
-    grad = jax.grad(lambda p: search.value(p, jnp.asarray(rotation[0]), 0.002, 1.0)[0])(params)
+    grad = jax.jit(jax.grad(lambda p: search.value(p, jnp.asarray(rotation[0]), 0.002, 1.0)[0]))(params)
     for key in params:
-        for k in range(len(params[key])):
+        for k in range(0, len(params[key]), 2 if key == "q" else 1):
             step = 1e-6
             up = {**params, key: params[key].at[k].add(step)}
             down = {**params, key: params[key].at[k].add(-step)}

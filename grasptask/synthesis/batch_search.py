@@ -137,10 +137,16 @@ class BatchSearch:
         return {}
 
     def _compiled(self, size: int) -> Any:
-        """The whole search of a batch of ``size`` starts as one compiled function."""
+        """The whole search of a batch of ``size`` starts as one compiled function (made once per size)."""
         if size not in self._runners:
             self._runners[size] = self._build()
         return self._runners[size]
+
+    @cached_property
+    def _judged(self) -> Any:
+        """Each end point's gaps, deepest sphere, facing shortfall and Q, at no stand-off (compiled once)."""
+        jax = jax_module()
+        return jax.jit(jax.vmap(self.value, in_axes=(0, 0, None, None)))
 
     def _build(self) -> Any:
         jax = jax_module()
@@ -183,8 +189,7 @@ class BatchSearch:
     def _end(self, params: dict, rotation0: np.ndarray, finite: np.ndarray) -> BatchEnd:
         jax = jax_module()
         jnp = jax.numpy
-        evaluate = jax.jit(jax.vmap(self.value, in_axes=(0, 0, None, None)))
-        _, (gaps, depth, short, Q) = evaluate(params, jnp.asarray(rotation0), 0.0, 1.0)
+        _, (gaps, depth, short, Q) = self._judged(params, jnp.asarray(rotation0), 0.0, 1.0)
         w = np.asarray(params["w"])
         rotations = np.array(
             [r0 @ np.asarray(rotation_vector(jnp, jnp.asarray(v))) for r0, v in zip(rotation0, w, strict=True)]
