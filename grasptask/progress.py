@@ -154,11 +154,14 @@ def _heartbeat() -> None:
                 shown = ", ".join(f"{label} for {_minutes(now - began)}" for label, began in running[:6])
                 line += f"; running: {shown}" + (f" and {len(running) - 6} more" if len(running) > 6 else "")
             _last_said[0] = now
-        if isinstance(top, Progress):
-            if top.bar is None:
-                _said(line, top.stream)
-        else:
-            top.speak(line)
+        try:
+            if isinstance(top, Progress):
+                if top.bar is None:
+                    _said(line, top.stream)
+            else:
+                top.speak(line)
+        except (OSError, ValueError):  # a stream closed under it (a stage that ended meanwhile): said nothing
+            continue
 
 
 def _interval_or_none() -> float | None:
