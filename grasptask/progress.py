@@ -177,7 +177,7 @@ def preparing(message: str, say: Callable[[str], object] | None = None) -> Itera
     """Say ``message`` (on stderr, or with ``say``) once the work inside has taken :data:`SAY_PREPARING_AFTER_S`,
     and again with its time at every interval it goes on: a physics check that built its scenes for 50 s said
     nothing until its first grasp, a 21,284-variable model nothing for 11 minutes."""
-    speak = say if say is not None else (lambda text: _said(text))
+    speak = say if say is not None else _said
     timer = threading.Timer(SAY_PREPARING_AFTER_S, speak, args=(message,))
     timer.daemon = True
     terminal = bool(getattr(sys.stderr, "isatty", lambda: False)())

@@ -12,7 +12,7 @@ from grasptask.grasp.grasp_settings import load_grasp_settings
 from grasptask.hand import load_hand
 from grasptask.hand.kinematics import forward
 from grasptask.objects import load_object
-from grasptask.synthesis.batch_geometry import Field, HandArrays, closed_form_q, contacts, fingers, jax_module
+from grasptask.synthesis.batch_geometry import Field, HandArrays, contacts, fingers, jax_module
 from grasptask.synthesis.batch_search import BatchSearch
 from grasptask.synthesis.solver_config import BatchSearchConfig
 from grasptask.task.task_model import load_task_models
@@ -52,23 +52,6 @@ def test_the_batch_contacts_normals_and_jacobians_are_the_kinematics(jnp, hand_f
         np.testing.assert_allclose(np.asarray(J), reference[0].T, atol=1e-9)
     spheres = np.concatenate([np.asarray(f.spheres) for f in placed])
     np.testing.assert_allclose(spheres, np.concatenate([f.samples[0] for f in pose.fingers.values()]), atol=1e-12)
-
-
-def test_the_closed_form_q_is_the_force_problems(jnp, tasks):
-    """Eq. 8's closed form on arrays equals the CasADi expression the force problem's value is checked against."""
-    import casadi
-
-    from grasptask.synthesis.force_problem import symbolic_quality
-
-    hand = load_hand("configs/hands/human.yaml").grasping_hand()
-    task = load_task_models(tasks)["cutting"]
-    rotation, position, q = posed(hand, 3)
-    pose = forward(hand, q, rotation, position)
-    points = pose.contacts()[0]
-    jacobians = [J[0].T for J in pose.jacobians_at(points[None])]
-    ours = float(closed_form_q(jnp, jnp.asarray(points), [jnp.asarray(J) for J in jacobians], task, 1e3))
-    theirs = float(symbolic_quality(casadi.DM(points), [casadi.DM(J) for J in jacobians], task, 1e3))
-    assert ours == pytest.approx(theirs, rel=1e-9)
 
 
 @pytest.fixture(scope="module")

@@ -10,7 +10,6 @@ import textwrap
 import time
 from pathlib import Path
 
-import casadi
 import numpy as np
 import pandas as pd
 import pytest
@@ -19,7 +18,7 @@ from grasptask.grasp.grasp_settings import GraspSettings
 from grasptask.hand.hand_model import Capability
 from grasptask.synthesis.basins import EndPoint, group, joins
 from grasptask.synthesis.clustering import THRESHOLD
-from grasptask.synthesis.force_problem import ForceProblem, GraspGeometry, symbolic_quality
+from grasptask.synthesis.force_problem import ForceProblem, GraspGeometry
 from grasptask.task.ellipsoid import Ellipsoid
 from grasptask.task.task_model import TaskModel
 
@@ -96,12 +95,14 @@ def test_the_force_problems_gradient_is_its_finite_differences():
 
 
 def test_the_search_objective_is_the_force_problems_task_part():
-    """The closed form the search minimises equals the QP's eq. 8 part (Q and its penalised slack)."""
+    """The closed form the batched search minimises equals the QP's eq. 8 part (Q and its penalised slack)."""
+    from grasptask.synthesis.batch_geometry import closed_form_q, jax_module
+
+    jnp = jax_module().numpy
     settings = GraspSettings()
     problem, geometry = _problem(settings), _sphere_grasp(80.0, settings, seed=1)
-    closed = symbolic_quality(
-        casadi.DM(geometry.contacts), [casadi.DM(J) for J in geometry.jacobians], problem.task, RHO, floor=0.0
-    )
+    jacobians = [jnp.asarray(J) for J in geometry.jacobians]
+    closed = closed_form_q(jnp, jnp.asarray(geometry.contacts), jacobians, problem.task, RHO, floor=0.0)
     assert float(closed) == pytest.approx(_task_value(problem, geometry), rel=1e-8)
 
 

@@ -10,7 +10,7 @@ position ``d`` and its free joints (a coupled joint follows its master, ``q = C 
   ``g / |grad g|``, a scan's signed-distance grid as a cubic B-spline), the inward normal ``-grad d / |grad d|``;
   a rolling pad's contact is its sphere's point nearest the surface, ``p = c - (r - compliance) n_out``; a fixed or
   flat pad's, its point; eq. 7's Jacobians ``a_k x (p - P_k)`` there;
-- **eq. 12**'s Q from eq. 8's closed form (:func:`~grasptask.synthesis.force_problem.symbolic_quality`): the
+- **eq. 12**'s Q from eq. 8's closed form (:func:`closed_form_q`, the value of the force problem's eq. 8 part): the
   task forces that balance each axis with the least squared joint torques, tr((G W^-1 G^T + I / rho)^-1 U Gamma
   U^T);
 - **the penalties** for what the paper's NLP holds as constraints: the contact distance (eq. 3, on a stand-off
@@ -79,7 +79,6 @@ class FingerArrays:
     pad_point: np.ndarray  # (3,) in the last link's frame
     pad_centre: np.ndarray  # (3,)
     pad_normal: np.ndarray  # (3,)
-    pad_tangent: np.ndarray  # (3,)
     contact_offset: float  # r - compliance for a rolling pad, 0 for a point
     flat: bool
     sphere_links: np.ndarray  # (s,) int
@@ -126,7 +125,6 @@ class HandArrays:
                     pad_point=np.asarray(finger.pad.point, dtype=float),
                     pad_centre=np.asarray(finger.pad.centre, dtype=float),
                     pad_normal=np.asarray(finger.pad.normal, dtype=float),
-                    pad_tangent=np.asarray(finger.pad.tangent, dtype=float),
                     contact_offset=float(offsets[k]),
                     flat=bool(finger.pad.flat),
                     sphere_links=np.array([s.link for s in finger.spheres], dtype=int),
@@ -308,12 +306,11 @@ def _about(jnp: Any, axis: np.ndarray, angle: Any) -> Any:
 
 @dataclass(frozen=True)
 class Finger:
-    """One finger of one start, in the object frame: each joint's position and axis, the last link's frame, the
-    pad's sphere centre, point and normal, and the collision spheres' centres."""
+    """One finger of one start, in the object frame: each joint's position and axis, the pad's sphere centre,
+    point and normal, and the collision spheres' centres."""
 
     joints: Any  # (n, 3)
     axes: Any  # (n, 3)
-    last: Any  # (3, 3)
     pad_centre: Any
     pad_point: Any
     pad_normal: Any
@@ -346,7 +343,6 @@ def fingers(jnp: Any, hand: HandArrays, rotation: Any, position: Any, q: Any) ->
             Finger(
                 joints=jnp.stack(positions) @ rotation.T + position,
                 axes=jnp.stack(axes) @ rotation.T,
-                last=rotation @ frame,
                 pad_centre=rotation @ (point + frame @ finger.pad_centre) + position,
                 pad_point=rotation @ (point + frame @ finger.pad_point) + position,
                 pad_normal=rotation @ (frame @ finger.pad_normal),
@@ -385,8 +381,9 @@ def contacts(jnp: Any, hand: HandArrays, field: Field, placed: list[Finger]) -> 
 
 
 def closed_form_q(jnp: Any, points: Any, jacobians: list, task: TaskModel, rho: float, floor: float = 1e-10) -> Any:
-    """Eq. 12's Q of eq. 8's closed form: tr((G W^-1 G^T + I / rho)^-1 U Gamma U^T), ``W = blockdiag(J^T J)``
-    (:func:`~grasptask.synthesis.force_problem.symbolic_quality`'s, on arrays)."""
+    """Eq. 12's Q of eq. 8's closed form: tr((G W^-1 G^T + I / rho)^-1 U Gamma U^T), ``W = blockdiag(J^T J)``:
+    the sum over the axes of min_f gamma_i (|J^T f|^2 + rho |G f - u_i|^2), the force problem's eq. 8 part.
+    ``floor`` m^2 on W's diagonal keeps a finger with fewer than three joints invertible."""
     K = jnp.eye(6) / rho
     for j, J in enumerate(jacobians):
         W = J.T @ J + floor * jnp.eye(3)

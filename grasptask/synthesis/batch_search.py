@@ -21,6 +21,7 @@ from functools import cached_property
 from typing import Any
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from grasptask.hand.hand_model import GraspingHand
 from grasptask.objects.surface import ImplicitObject
@@ -190,10 +191,8 @@ class BatchSearch:
         jax = jax_module()
         jnp = jax.numpy
         _, (gaps, depth, short, Q) = self._judged(params, jnp.asarray(rotation0), 0.0, 1.0)
-        w = np.asarray(params["w"])
-        rotations = np.array(
-            [r0 @ np.asarray(rotation_vector(jnp, jnp.asarray(v))) for r0, v in zip(rotation0, w, strict=True)]
-        )
+        turns = Rotation.from_rotvec(np.array(params["w"])).as_matrix()  # exp([w]x), as rotation_vector
+        rotations = np.einsum("nij,njk->nik", rotation0, turns)
         joints = np.asarray(params["q"]) @ self.arrays.couple.T + self.arrays.couple_offset
         return BatchEnd(rotations, np.asarray(params["d"]), joints, np.asarray(gaps), np.asarray(depth),
                         np.asarray(short), np.asarray(Q), finite)  # fmt: skip

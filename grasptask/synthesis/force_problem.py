@@ -10,23 +10,23 @@ For each unit task axis u_i, with weight gamma_i and length L_i:
          each contact presses with the margin's least normal force
 
 Q is sum_i gamma_i |J^T f_i|^2 (eq. 12); ``value`` adds the slack penalties. The task forces' slack is weighed
-by the axis's own weight, so that the six axes' closed form shares one matrix (:func:`symbolic_quality`).
+by the axis's own weight, so that the six axes' closed form shares one matrix
+(:func:`~grasptask.synthesis.batch_geometry.closed_form_q`).
 Where the task forces can balance every axis (s = 0) Q is the Section 6 NLP's at the same geometry; where a
 grasp cannot close, the slacks keep the problem feasible and the value finite, falling as the contacts move
 toward closure. The task forces and
 eq. 10's cone forces share no variable, so the two parts of each QP are independent; they are one QP so that the
 polish gets every force of the NLP from one solve.
 
-:func:`symbolic_quality` is the eq. 8 part in closed form, a CasADi expression of the contacts and Jacobians,
-which the search (:mod:`grasptask.synthesis.search`) minimises with exact derivatives: its gradient is the
-envelope gradient that :meth:`ForceSolution.gradient` computes from the QP's solution and multipliers.
+:func:`~grasptask.synthesis.batch_geometry.closed_form_q` is the eq. 8 part in closed form, which the batched
+search (:mod:`grasptask.synthesis.batch_search`) minimises; :meth:`ForceSolution.gradient` is its envelope
+gradient, read off the QP's solution and multipliers.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
 from functools import cached_property
-from typing import Any
 
 import casadi
 import numpy as np
@@ -338,60 +338,3 @@ def quality(
             torques[j] = torques[j] + twists[i, k] * geometry.twist_torques[j]
         total += float(gamma) * sum(float(t @ t) for t in torques)
     return total
-
-
-def symbolic_quality(contacts: Any, jacobians: list[Any], task: TaskModel, rho: float, floor: float = 1e-10) -> Any:
-    """Eq. 8's part of the force problem's value in closed form, as a CasADi expression of the contacts (b x 3)
-    and each finger's Jacobian rows (n_j x 3): the sum over the axes of min_f gamma_i (f^T W f + rho |G f - u_i|^2),
-    which is tr((G W^-1 G^T + I / rho)^-1 U Gamma U^T), one 6 x 6 solve for the six axes. ``floor`` m^2 on W's
-    diagonal keeps a finger with fewer than three joints (whose W is singular: forces along its structure cost
-    no torque) invertible."""
-    blocks = []
-    for J in jacobians:
-        W = casadi.mtimes(J.T, J) + floor * casadi.DM.eye(3)
-        blocks.append(_inverse3(W))
-    G = casadi.horzcat(
-        *[casadi.vertcat(casadi.DM.eye(3), casadi.skew(contacts[j, :].T)) for j in range(len(jacobians))]
-    )
-    K = casadi.mtimes([G, casadi.diagcat(*blocks), G.T]) + casadi.DM.eye(6) / rho
-    B = np.asarray(task.axes, dtype=float).T * np.sqrt(np.asarray(task.weights, dtype=float))
-    # tr(B^T K^-1 B) = |L^-1 B|^2 with K = L L^T: a Cholesky factor written out is a far smaller expression, and
-    # so a far cheaper Hessian, than CasADi's symbolic solve (docs/design/synthesis.md)
-    L = _cholesky(K)
-    total = 0
-    for column in B.T:
-        y = _forward(L, column)
-        total += sum(v * v for v in y)
-    return total
-
-
-def _cholesky(K: Any) -> list[list[Any]]:
-    """The lower Cholesky factor of a symmetric positive definite CasADi matrix, entry by entry."""
-    n = K.shape[0]
-    L: list[list[Any]] = [[0] * n for _ in range(n)]
-    for i in range(n):
-        for j in range(i + 1):
-            rest = K[i, j] - sum(L[i][k] * L[j][k] for k in range(j))
-            L[i][j] = casadi.sqrt(rest) if i == j else rest / L[j][j]
-    return L
-
-
-def _forward(L: list[list[Any]], b: np.ndarray) -> list[Any]:
-    """y with L y = b, for a lower-triangular L."""
-    y: list[Any] = []
-    for i, value in enumerate(b):
-        y.append((float(value) - sum(L[i][k] * y[k] for k in range(i))) / L[i][i])
-    return y
-
-
-def _inverse3(M: Any) -> Any:
-    """A 3 x 3 symmetric matrix's inverse by its adjugate (a fixed expression, no pivoting)."""
-    a, b, c, e, f, i = M[0, 0], M[0, 1], M[0, 2], M[1, 1], M[1, 2], M[2, 2]
-    A, B, C = e * i - f * f, c * f - b * i, b * f - c * e
-    det = a * A + b * B + c * C
-    adjugate = casadi.vertcat(
-        casadi.horzcat(A, B, C),
-        casadi.horzcat(B, a * i - c * c, b * c - a * f),
-        casadi.horzcat(C, b * c - a * f, a * e - b * b),
-    )
-    return adjugate / det
