@@ -4,6 +4,8 @@ batch of one and of many giving the same end points; a start whose value is not 
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
@@ -17,7 +19,9 @@ from grasptask.synthesis.batch_search import BatchSearch
 from grasptask.synthesis.solver_config import BatchSearchConfig
 from grasptask.task.task_model import load_task_models
 
-TOOL = "configs/objects/tool.yaml"
+ROOT = Path(__file__).resolve().parents[1]
+TOOL = ROOT / "configs" / "objects" / "tool.yaml"
+HUMAN = ROOT / "configs" / "hands" / "human.yaml"
 
 
 @pytest.fixture(scope="module")
@@ -31,7 +35,7 @@ def posed(hand, seed: int):
     return Rotation.random(random_state=seed).as_matrix(), rng.normal(size=3) * 0.03, q
 
 
-@pytest.mark.parametrize("hand_file", ["configs/hands/human.yaml", "configs/hands/allegro.yaml"])
+@pytest.mark.parametrize("hand_file", [HUMAN, ROOT / "configs" / "hands" / "allegro.yaml"])
 @pytest.mark.parametrize("seed", [0, 1])
 def test_the_batch_contacts_normals_and_jacobians_are_the_kinematics(jnp, hand_file, seed):
     hand = load_hand(hand_file).grasping_hand()
@@ -56,7 +60,7 @@ def test_the_batch_contacts_normals_and_jacobians_are_the_kinematics(jnp, hand_f
 
 @pytest.fixture(scope="module")
 def search(tasks):
-    hand = load_hand("configs/hands/human.yaml").grasping_hand()
+    hand = load_hand(HUMAN).grasping_hand()
     settings = load_grasp_settings()
     task = load_task_models(tasks)["drawing"]
     return BatchSearch(hand, load_object(TOOL), task, settings.pad_angle_max_deg, settings.rolling_contacts,
