@@ -1,6 +1,7 @@
 """The search's batch evaluation (issue 88): contacts, normals and Jacobians as functions of the palm pose and the
 joints alone, equal to the hand's own kinematics at the same pose; its gradient against finite differences; a
-batch of one and of many giving the same end points; a start whose value is not finite a status of its own."""
+batch of one and of many giving the same end points; a start whose value is not finite a status of its own; eq. 10's
+forces reaching the bounded least squares' residual that scipy finds."""
 
 from __future__ import annotations
 
@@ -14,7 +15,17 @@ from grasptask.grasp.grasp_settings import load_grasp_settings
 from grasptask.hand import load_hand
 from grasptask.hand.kinematics import forward
 from grasptask.objects import load_object
-from grasptask.synthesis.batch_geometry import Field, HandArrays, contacts, fingers, jax_module
+from grasptask.synthesis.batch_geometry import (
+    Field,
+    HandArrays,
+    StrengthArrays,
+    contacts,
+    fingers,
+    jax_module,
+    strength_matrix,
+    strength_residuals,
+    strength_steps,
+)
 from grasptask.synthesis.batch_search import BatchSearch
 from grasptask.synthesis.solver_config import BatchSearchConfig
 from grasptask.task.task_model import load_task_models
@@ -63,8 +74,9 @@ def search(tasks):
     hand = load_hand(HUMAN).grasping_hand()
     settings = load_grasp_settings()
     task = load_task_models(tasks)["drawing"]
+    strength = StrengthArrays.of(hand.capability, task, [0, 1], settings, 0.05)
     return BatchSearch(hand, load_object(TOOL), task, settings.pad_angle_max_deg, settings.rolling_contacts,
-                       BatchSearchConfig(iterations=40))  # fmt: skip
+                       BatchSearchConfig(iterations=40, newton_iterations=5), strength)  # fmt: skip
 
 
 def starts(hand, count: int):
@@ -81,8 +93,9 @@ def test_the_gradient_is_the_values_own(search):
     rotation, position, q = starts(search.hand, 1)
     params = {"w": jnp.asarray([0.01, -0.02, 0.03]), "d": jnp.asarray(position[0]),
               "q": jnp.asarray(q[0][search.arrays.free])}  # fmt: skip
-    value = jax.jit(lambda p: search.value(p, jnp.asarray(rotation[0]), 0.002, 1.0)[0])
-    grad = jax.jit(jax.grad(lambda p: search.value(p, jnp.asarray(rotation[0]), 0.002, 1.0)[0]))(params)
+    z = jnp.full((len(search.strength.targets), search.strength.columns(len(search.arrays.fingers))), 0.3)
+    value = jax.jit(lambda p: search.value(p, jnp.asarray(rotation[0]), 0.002, 1.0, z)[0])
+    grad = jax.jit(jax.grad(lambda p: search.value(p, jnp.asarray(rotation[0]), 0.002, 1.0, z)[0]))(params)
     for key in params:
         for k in range(0, len(params[key]), 2 if key == "q" else 1):
             step = 1e-6
@@ -106,3 +119,26 @@ def test_a_batch_of_one_and_of_many_end_alike_and_a_nan_start_is_its_own(search)
     keep = [0, 1, 3, 4, 5]
     assert ended.finite[keep].all()
     np.testing.assert_allclose(ended.joint_angles[keep], whole.joint_angles[keep], atol=1e-12)
+
+
+@pytest.mark.parametrize("seed", [0, 3])
+def test_eq10s_forces_reach_the_least_residual_that_scipy_finds(search, jnp, seed):
+    """The search's projected-gradient steps on eq. 10's forces and activations, at a fixed geometry, end at the
+    least squared residual of the same bounded least squares, as scipy's lsq_linear solves it."""
+    from scipy.optimize import lsq_linear
+
+    strength, b = search.strength, len(search.arrays.fingers)
+    rotation, position, q = posed(search.hand, seed)
+    placed = fingers(jnp, search.arrays, jnp.asarray(rotation), jnp.asarray(position), jnp.asarray(q))
+    touch = contacts(jnp, search.arrays, search.field, placed)
+    M = strength_matrix(jnp, strength, touch, [f.pad_tangent for f in placed])
+    z = strength_steps(jnp, strength, M, jnp.zeros((len(strength.targets), M.shape[1])), b, 20000)
+    ours = np.sum(np.asarray(strength_residuals(jnp, strength, M, z)) ** 2, axis=1)
+    n_edges = b * strength.edges
+    upper = np.r_[np.full(n_edges, np.inf), np.full(M.shape[1] - n_edges, strength.cap)]
+    for k, target in enumerate(strength.scaled_targets):
+        size = np.linalg.norm(target)
+        rows = np.r_[np.full(6, 1.0 / size), np.ones(M.shape[0] - 6)]
+        wanted = np.r_[target, np.zeros(M.shape[0] - 6)] * rows
+        least = lsq_linear(np.asarray(M) * rows[:, None], wanted, bounds=(0.0, upper), tol=1e-12).cost * 2
+        assert ours[k] == pytest.approx(least, rel=1e-3, abs=1e-6)

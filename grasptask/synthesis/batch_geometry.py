@@ -79,6 +79,7 @@ class FingerArrays:
     pad_point: np.ndarray  # (3,) in the last link's frame
     pad_centre: np.ndarray  # (3,)
     pad_normal: np.ndarray  # (3,)
+    pad_tangent: np.ndarray  # (3,) the direction each friction cone's first edge follows
     contact_offset: float  # r - compliance for a rolling pad, 0 for a point
     flat: bool
     sphere_links: np.ndarray  # (s,) int
@@ -125,6 +126,7 @@ class HandArrays:
                     pad_point=np.asarray(finger.pad.point, dtype=float),
                     pad_centre=np.asarray(finger.pad.centre, dtype=float),
                     pad_normal=np.asarray(finger.pad.normal, dtype=float),
+                    pad_tangent=np.asarray(finger.pad.tangent, dtype=float),
                     contact_offset=float(offsets[k]),
                     flat=bool(finger.pad.flat),
                     sphere_links=np.array([s.link for s in finger.spheres], dtype=int),
@@ -314,6 +316,7 @@ class Finger:
     pad_centre: Any
     pad_point: Any
     pad_normal: Any
+    pad_tangent: Any
     spheres: Any  # (s, 3)
 
 
@@ -346,6 +349,7 @@ def fingers(jnp: Any, hand: HandArrays, rotation: Any, position: Any, q: Any) ->
                 pad_centre=rotation @ (point + frame @ finger.pad_centre) + position,
                 pad_point=rotation @ (point + frame @ finger.pad_point) + position,
                 pad_normal=rotation @ (frame @ finger.pad_normal),
+                pad_tangent=rotation @ (frame @ finger.pad_tangent),
                 spheres=spheres @ rotation.T + position,
             )
         )
@@ -391,3 +395,113 @@ def closed_form_q(jnp: Any, points: Any, jacobians: list, task: TaskModel, rho: 
         K = K + G @ jnp.linalg.solve(W, G.T)
     B = np.asarray(task.axes, dtype=float).T * np.sqrt(np.asarray(task.weights, dtype=float))
     return jnp.trace(jnp.linalg.solve(K, B @ B.T))
+
+
+@dataclass(frozen=True)
+class StrengthArrays:
+    """Eq. 10 as the search holds it: the real task wrenches ``+-L_i u_i`` of the axes the first model holds,
+    the linearised friction cones (``mu``, ``edges`` each), the hand's transmission ``T`` and torque map ``A``
+    with its activation cap and each transmission row's full strength (its scale). The least normal force is
+    left to the polish: as a hinge in the search it held the default human hand's fingers 2-16 mm off the
+    tool (4 of 4 test starts failed, none without it)."""
+
+    targets: np.ndarray  # (k, 6): per axis and sign
+    mu: float
+    edges: int
+    transmission: np.ndarray  # (r, joints)
+    torque_map: np.ndarray  # (r, actuators)
+    cap: float
+    row_strength: np.ndarray  # (r,) N m
+    #: the lever (m) a wrench's torque rows are divided by, so that its force and torque rows weigh alike
+    lever_m: float
+
+    @classmethod
+    def of(cls, capability: Any, task: TaskModel, axes: list[int], settings: Any, lever_m: float) -> StrengthArrays:
+        """``lever_m``: the object's size (half its bounding box's diagonal)."""
+        wrenches = [sign * task.lengths[a] * np.asarray(task.axes[a], float) for a in axes for sign in (1.0, -1.0)]
+        cap = settings.activation_cap(capability.kind) - settings.activation_margin
+        strength = np.abs(capability.torque_map).sum(axis=1) * cap
+        return cls(
+            np.array(wrenches), settings.friction_scale * settings.friction_coefficient, settings.cone_edges,
+            np.asarray(capability.transmission, float), np.asarray(capability.torque_map, float), cap,
+            np.maximum(strength, 1e-9), float(lever_m),
+        )  # fmt: skip
+
+    @property
+    def scaled_targets(self) -> np.ndarray:
+        """The wrenches with their torques divided by the lever, and their sizes so."""
+        scaled = self.targets / np.r_[1.0, 1.0, 1.0, np.full(3, self.lever_m)]
+        return scaled
+
+    def columns(self, b: int) -> int:
+        """Eq. 10's variables of one wrench: ``b`` contacts' cone-edge forces, then the activations."""
+        return b * self.edges + self.torque_map.shape[1]
+
+
+def strength_matrix(jnp: Any, strength: StrengthArrays, touch: Contacts, tangents: list) -> Any:
+    """Eq. 10's rows for one start, scaled: ``[G_edges, 0; T J^T L, -A]`` (wrench rows per unit of nothing, torque
+    rows per unit of each row's full strength), columns the cone-edge forces (eq. 24's edges about the normal,
+    the first along the pad's tangent) then the activations; and each contact's normal share of its edges."""
+    m, mu = strength.edges, strength.mu
+    angles = 2 * np.pi * np.arange(1, m + 1) / m
+    scale = 1.0 / np.sqrt(1 + mu**2)
+    wrench_columns, torque_columns = [], []
+    sizes = [len(J) for J in touch.jacobians]
+    offsets = np.cumsum([0, *sizes])
+    for j, (J, x_d) in enumerate(zip(touch.jacobians, tangents, strict=True)):
+        n = touch.normals[j]
+        w = x_d - jnp.dot(x_d, n) * n
+        t1 = w / jnp.sqrt(jnp.sum(w * w) + 1e-30)
+        t2 = jnp.cross(n, t1)
+        around = np.cos(angles)[:, None] * t1[None, :] + np.sin(angles)[:, None] * t2[None, :]
+        edges = scale * (n[None, :] + mu * around)
+        torque = jnp.cross(touch.points[j], edges) / strength.lever_m
+        wrench_columns.append(jnp.concatenate([edges, torque], axis=1))  # (m, 6)
+        torques = edges @ J.T  # (m, n_j): J^T l per edge
+        full = jnp.zeros((m, offsets[-1])).at[:, offsets[j] : offsets[j + 1]].set(torques)
+        torque_columns.append(full)
+    G = jnp.concatenate(wrench_columns).T  # (6, b m)
+    carried = (strength.transmission @ jnp.concatenate(torque_columns).T) / strength.row_strength[:, None]
+    produced = -strength.torque_map / strength.row_strength[:, None]
+    top = jnp.concatenate([G, jnp.zeros((6, strength.torque_map.shape[1]))], axis=1)
+    return jnp.concatenate([top, jnp.concatenate([carried, produced], axis=1)])
+
+
+def strength_residuals(jnp: Any, strength: StrengthArrays, M: Any, z: Any) -> Any:
+    """Each wrench's eq. 10 residuals at forces and activations ``z`` (k, columns): the wrench rows relative to
+    the wrench's size, the torque rows in shares of full strength."""
+    targets = jnp.asarray(strength.scaled_targets)
+    size = np.linalg.norm(strength.scaled_targets, axis=1)[:, None]
+    c = jnp.concatenate([targets, jnp.zeros((len(targets), M.shape[0] - 6))], axis=1)
+    rows = z @ M.T - c
+    return jnp.concatenate([rows[:, :6] / size, rows[:, 6:]], axis=1)
+
+
+def strength_steps(jnp: Any, strength: StrengthArrays, M: Any, z: Any, b: int, steps: int) -> Any:
+    """``steps`` projected-gradient steps on the sum of squared :func:`strength_residuals` over ``z`` (edge
+    forces >= 0, activations within [0, cap]), from ``z``: the search carries ``z`` from one of its iterations
+    to the next, so a few steps each keep it near the least residual of the moving geometry. The step is the
+    inverse of the Hessian's largest eigenvalue, by power iteration."""
+    import jax
+
+    n_edges = b * strength.edges
+    size = np.linalg.norm(strength.scaled_targets, axis=1)
+    upper = jnp.concatenate([jnp.full(n_edges, jnp.inf), jnp.full(M.shape[1] - n_edges, strength.cap)])
+    rows = np.ones((len(size), M.shape[0]))
+    rows[:, :6] = 1.0 / size[:, None]
+    S = jnp.asarray(rows)[:, :, None] * M[None]  # (k, rows, columns): each wrench's rows as it weighs them
+    v = jnp.ones((len(size), M.shape[1]))
+    for _ in range(8):
+        v = jnp.einsum("krc,kr->kc", S, jnp.einsum("krc,kc->kr", S, v))
+        v = v / jnp.sqrt(jnp.sum(v * v, axis=1, keepdims=True) + 1e-300)
+    lipschitz = 2.2 * jnp.sum(jnp.einsum("krc,kc->kr", S, v) ** 2, axis=1)[:, None] + 1e-12
+
+    def loss(zz: Any) -> Any:
+        return jnp.sum(strength_residuals(jnp, strength, M, zz) ** 2)
+
+    gradient = jax.grad(loss)
+
+    def body(_: Any, zz: Any) -> Any:
+        return jnp.clip(zz - gradient(zz) / lipschitz, 0.0, upper)
+
+    return jax.lax.fori_loop(0, steps, body, z)

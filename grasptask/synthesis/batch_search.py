@@ -30,12 +30,16 @@ from grasptask.synthesis.batch_geometry import (
     FACING_SLACK,
     Field,
     HandArrays,
+    StrengthArrays,
     closed_form_q,
     contacts,
     distance,
     fingers,
     jax_module,
     rotation_vector,
+    strength_matrix,
+    strength_residuals,
+    strength_steps,
 )
 from grasptask.synthesis.solver_config import BatchSearchConfig
 from grasptask.task.task_model import TaskModel
@@ -57,6 +61,7 @@ class BatchEnd:
     facing: np.ndarray  # (N,) worst pad facing shortfall, in cosine
     Q: np.ndarray  # (N,)
     finite: np.ndarray  # (N,) bool
+    strength: np.ndarray  # (N,) eq. 10's largest residual (relative; 0: the hand holds every wrench searched)
 
     def converged(self) -> np.ndarray:
         """Every contact within :data:`CONVERGED_M` of the surface, no sphere deeper than that, the pads facing
@@ -76,6 +81,8 @@ class BatchSearch:
     pad_angle_max_deg: float
     rolling: bool = True
     settings: BatchSearchConfig = field(default_factory=BatchSearchConfig)
+    #: eq. 10 for the wrenches the first model holds; None: the search leaves it to the polish
+    strength: StrengthArrays | None = None
 
     @cached_property
     def arrays(self) -> HandArrays:
@@ -92,11 +99,21 @@ class BatchSearch:
         arrays = self.arrays
         free = np.asarray(joints, dtype=float)[:, arrays.free]
         params = {"w": jnp.zeros((len(free), 3)), "d": jnp.asarray(palm_position, float), "q": jnp.asarray(free)}
-        final, finite = self._compiled(len(free))(params, jnp.asarray(palm_rotation, float))
-        return self._end(final, np.asarray(palm_rotation, float), np.asarray(finite))
+        z = jnp.zeros((len(free), *self._forces_shape))
+        final, z, finite = self._compiled(len(free))(params, jnp.asarray(palm_rotation, float), z)
+        return self._end(final, np.asarray(palm_rotation, float), z, np.asarray(finite))
 
-    def value(self, params: dict, rotation0: Any, standoff: Any, quality: Any) -> tuple[Any, Any]:
-        """One start's value and what ends it (its gaps, deepest sphere, facing shortfall, Q)."""
+    @property
+    def _forces_shape(self) -> tuple[int, int]:
+        """Eq. 10's forces and activations a start carries: per wrench searched, its columns."""
+        if self.strength is None:
+            return (0, 0)
+        return (len(self.strength.targets), self.strength.columns(len(self.arrays.fingers)))
+
+    def value(self, params: dict, rotation0: Any, standoff: Any, quality: Any, z: Any) -> tuple[Any, Any]:
+        """One start's value at eq. 10's forces and activations ``z`` (held: the search moves them apart, by
+        :func:`strength_steps`), and what ends it (its gaps, deepest sphere, facing shortfall, Q, eq. 10's
+        residuals and matrix)."""
         jnp = jax_module().numpy
         arrays, s = self.arrays, self.settings
         rotation = rotation0 @ rotation_vector(jnp, params["w"])
@@ -113,15 +130,22 @@ class BatchSearch:
         flat = np.array([f.flat for f in arrays.fingers])
         tilt = jnp.where(flat, 1.0 - facing, 0.0)
         limits = jnp.maximum(q - arrays.upper, 0.0) + jnp.maximum(arrays.lower - q, 0.0)
+        if self.strength is None:
+            M, held = jnp.zeros((0, 0)), jnp.zeros(1)
+        else:
+            tangents = [p.pad_tangent for p in placed]
+            M = strength_matrix(jnp, self.strength, touch, tangents)
+            held = strength_residuals(jnp, self.strength, M, z)
         value = (
-            quality * jnp.log(Q)
+            quality * s.strength_weight * jnp.sum((held / s.strength_unit) ** 2)
+            + quality * jnp.log(Q)
             + jnp.sum(gap**2)
             + jnp.sum((depth / MM) ** 2)
             + s.facing_weight * jnp.sum((short / 0.01) ** 2 + (tilt / 0.01) ** 2)
             + jnp.sum((limits / CRAD) ** 2)
             + self._self_collision(jnp, placed)
         )
-        return value, (touch.gaps, jnp.max(depth), jnp.max(short), Q)
+        return value, (touch.gaps, jnp.max(depth), jnp.max(short), Q, jnp.max(jnp.abs(held)), M)
 
     def _self_collision(self, jnp: Any, placed: list) -> Any:
         pairs = self.arrays.proxy_pairs
@@ -147,7 +171,16 @@ class BatchSearch:
     def _judged(self) -> Any:
         """Each end point's gaps, deepest sphere, facing shortfall and Q, at no stand-off (compiled once)."""
         jax = jax_module()
-        return jax.jit(jax.vmap(self.value, in_axes=(0, 0, None, None)))
+        return jax.jit(jax.vmap(self.value, in_axes=(0, 0, None, None, 0)))
+
+    def _forces_moved(self, M: Any, z: Any) -> Any:
+        """Each start's eq. 10 forces and activations ``z`` moved toward their least residual at its matrix ``M``."""
+        if self.strength is None:
+            return z
+        jax = jax_module()
+        b, steps = len(self.arrays.fingers), self.settings.strength_steps
+        moved = jax.vmap(lambda m, zz: strength_steps(jax.numpy, self.strength, m, zz, b, steps))
+        return moved(M, z)
 
     def _build(self) -> Any:
         jax = jax_module()
@@ -155,16 +188,16 @@ class BatchSearch:
         s, arrays = self.settings, self.arrays
         steps = {"w": s.step_turn_rad, "d": s.step_position_m, "q": s.step_joint_rad}
         low, high = arrays.lower[arrays.free], arrays.upper[arrays.free]
-        graded = jax.vmap(jax.value_and_grad(self.value, has_aux=True), in_axes=(0, 0, None, None))
+        graded = jax.vmap(jax.value_and_grad(self.value, has_aux=True), in_axes=(0, 0, None, None, 0))
         total = s.iterations
 
-        def run(params: dict, rotation0: Any) -> tuple:
+        def run(params: dict, rotation0: Any, z: Any) -> tuple:
             def body(t: Any, state: tuple) -> tuple:
-                params, first, second, finite = state
+                params, first, second, finite, z = state
                 progress = t / total
                 standoff = s.standoff_m * jnp.maximum(0.0, 1.0 - progress / s.standoff_until)
                 quality = jnp.clip((progress - s.quality_after) / 0.1, 0.0, 1.0)
-                (value, _), grads = graded(params, rotation0, standoff, quality)
+                (value, aux), grads = graded(params, rotation0, standoff, quality, z)
                 ok = jnp.isfinite(value)
                 for grad in grads.values():
                     ok = ok & jnp.all(jnp.isfinite(grad), axis=-1)
@@ -178,21 +211,64 @@ class BatchSearch:
                     mean, var = moments[key] / (1 - 0.9 ** (t + 1)), squares[key] / (1 - 0.999 ** (t + 1))
                     new[key] = params[key] - steps[key] * decay * mean / (jnp.sqrt(var) + 1e-12)
                 new["q"] = jnp.clip(new["q"], low, high)
-                return new, moments, squares, finite
+                z = jnp.where(finite[:, None, None], self._forces_moved(jnp.nan_to_num(aux[-1]), z), z)
+                return new, moments, squares, finite, z
 
             zeros = {k: jnp.zeros_like(v) for k, v in params.items()}
-            state = (params, zeros, dict(zeros), jnp.ones(len(params["q"]), dtype=bool))
-            params, _, _, finite = jax.lax.fori_loop(0, total, body, state)
-            return params, finite
+            state = (params, zeros, dict(zeros), jnp.ones(len(params["q"]), dtype=bool), z)
+            params, _, _, finite, z = jax.lax.fori_loop(0, total, body, state)
+            return self._newton(params, rotation0, finite, z)
 
         return jax.jit(run)
 
-    def _end(self, params: dict, rotation0: np.ndarray, finite: np.ndarray) -> BatchEnd:
+    def _newton(self, params: dict, rotation0: Any, finite: Any, z: Any) -> tuple[dict, Any, Any]:
+        """Damped Newton steps on each start's whole objective (no stand-off, Q in full) at its eq. 10 forces,
+        in units of Adam's steps: the Hessian's eigenvalues taken by magnitude (a saddle is left, not climbed
+        to), a step kept only where it lowers the value, the damping shrunk after a kept step and grown after a
+        refused one; the forces moved toward their least residual after each."""
         jax = jax_module()
         jnp = jax.numpy
-        _, (gaps, depth, short, Q) = self._judged(params, jnp.asarray(rotation0), 0.0, 1.0)
+        s, arrays = self.settings, self.arrays
+        n = params["q"].shape[1]
+        scale = jnp.asarray(np.r_[np.full(3, s.step_turn_rad), np.full(3, s.step_position_m),
+                                  np.full(n, s.step_joint_rad)])  # fmt: skip
+        low, high = arrays.lower[arrays.free], arrays.upper[arrays.free]
+
+        def f(x: Any, rotation: Any, zz: Any) -> tuple[Any, Any]:
+            return self.value({"w": x[:3], "d": x[3:6], "q": x[6:]}, rotation, 0.0, 1.0, zz)
+
+        value = jax.vmap(f)
+        graded = jax.vmap(jax.value_and_grad(f, has_aux=True))
+        hessian = jax.vmap(jax.hessian(lambda x, r, zz: f(x, r, zz)[0]))
+
+        def body(_: Any, state: tuple) -> tuple:
+            x, damping, z = state
+            (current, here), g = graded(x, rotation0, z)
+            g = g * scale
+            h = hessian(x, rotation0, z) * scale[:, None] * scale[None, :]
+            h = jnp.where(jnp.isfinite(h), h, 0.0)
+            e, v = jnp.linalg.eigh(h)
+            along = jnp.einsum("nji,nj->ni", v, g) / (jnp.abs(e) + damping[:, None])
+            trial = x - jnp.einsum("nij,nj->ni", v, along) * scale
+            trial = trial.at[:, 6:].set(jnp.clip(trial[:, 6:], low, high))
+            tried, there = value(trial, rotation0, z)
+            keep = finite & jnp.isfinite(tried) & (tried < current)
+            x = jnp.where(keep[:, None], trial, x)
+            damping = jnp.clip(jnp.where(keep, damping * 0.3, damping * 4.0), 1e-6, 1e6)
+            M = jnp.where(keep[:, None, None], there[-1], here[-1])
+            z = jnp.where(finite[:, None, None], self._forces_moved(jnp.nan_to_num(M), z), z)
+            return x, damping, z
+
+        x = jnp.concatenate([params["w"], params["d"], params["q"]], axis=1)
+        x, _, z = jax.lax.fori_loop(0, s.newton_iterations, body, (x, jnp.ones(len(x)), z))
+        return {"w": x[:, :3], "d": x[:, 3:6], "q": x[:, 6:]}, z, finite
+
+    def _end(self, params: dict, rotation0: np.ndarray, z: Any, finite: np.ndarray) -> BatchEnd:
+        jax = jax_module()
+        jnp = jax.numpy
+        _, (gaps, depth, short, Q, held, _) = self._judged(params, jnp.asarray(rotation0), 0.0, 1.0, z)
         turns = Rotation.from_rotvec(np.array(params["w"])).as_matrix()  # exp([w]x), as rotation_vector
         rotations = np.einsum("nij,njk->nik", rotation0, turns)
         joints = np.asarray(params["q"]) @ self.arrays.couple.T + self.arrays.couple_offset
         return BatchEnd(rotations, np.asarray(params["d"]), joints, np.asarray(gaps), np.asarray(depth),
-                        np.asarray(short), np.asarray(Q), finite)  # fmt: skip
+                        np.asarray(short), np.asarray(Q), finite, np.asarray(held))  # fmt: skip

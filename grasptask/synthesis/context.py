@@ -109,11 +109,17 @@ class SolverContext:
     @cached_property
     def batch_search(self) -> BatchSearch:
         """The search of route search, traced on first use: the paper's route never needs it."""
+        from grasptask.synthesis.batch_geometry import StrengthArrays
         from grasptask.synthesis.batch_search import BatchSearch
 
-        hand, settings = self.nlp.hand, self.settings
+        hand, settings, search = self.nlp.hand, self.settings, self.job.solver.search
+        strength = None
+        if search.strength_weight > 0:
+            axes = sorted({a for a, _, _, _ in self.nlp.model.lam.keys()})
+            lever = 0.5 * float(np.linalg.norm(np.diff(self.bounds, axis=0)))
+            strength = StrengthArrays.of(hand.capability, self.task, axes, settings, lever)
         return BatchSearch(
-            hand, self.obj, self.task, settings.pad_angle_max_deg, settings.rolling_contacts, self.job.solver.search
+            hand, self.obj, self.task, settings.pad_angle_max_deg, settings.rolling_contacts, search, strength
         )
 
     @cached_property

@@ -600,6 +600,14 @@ EQUATIONS: tuple[Callable[[NLPBuilder], None], ...] = (
 )
 
 
+def _set_within(var: Any, value: float) -> None:
+    """``var`` set to ``value`` clipped to its bounds."""
+    low, high = var.lb, var.ub
+    value = float(value)
+    value = value if low is None else max(value, low)
+    var.set_value(value if high is None else min(value, high))
+
+
 @dataclass
 class GraspNLP:
     """The Pyomo model and what is needed to start it from a palm pose and read a solution back."""
@@ -707,24 +715,46 @@ class GraspNLP:
         for var in m.act.values():
             var.set_value(0.2)
 
-    def set_forces(self, forces: ForceSolution, phi: np.ndarray | None = None) -> None:
-        """The task forces, eq. 10's cone-edge forces and activations at the force problem's solution for this
-        geometry, and the force-closure weights at ``phi`` (cell order): a polish's warm start."""
+    def set_forces(self, forces: ForceSolution) -> None:
+        """A polish's warm start at the current geometry: the task forces, eq. 10's cone-edge forces and
+        activations at the force problem's solution there (each within its bounds: the QPs' own tolerance may
+        leave a hair outside), and eq. 4's weights from :meth:`closure_weights`. Without the weights IPOPT began
+        0.1-0.5 off eq. 4 and spent its first iterations getting back."""
         m = self.model
-        if phi is not None:
-            for var, value in zip(m.phi.values(), phi, strict=True):
-                var.set_value(float(value), skip_validation=True)  # IPOPT's point may sit a hair past a bound
+        for var, value in zip(m.phi.values(), self.closure_weights(), strict=True):
+            _set_within(var, value)
         for (a, j, i), var in m.force.items():
-            var.set_value(float(forces.forces[a, j, i]), skip_validation=True)
+            _set_within(var, forces.forces[a, j, i])
         cone = forces.edge_forces.shape[-1]
         soft = sorted({j for j, _ in self.twists})
         for (a, s, j, e), var in m.lam.items():
             force = forces.edge_forces[a, s, j, e] if e < cone else forces.twist_forces[a, s, soft.index(j), e - cone]
-            var.set_value(float(force), skip_validation=True)
+            _set_within(var, force)
         for (a, j), var in m.task_twist.items() if m.component("task_twist") is not None else []:
-            var.set_value(float(forces.twists[a, soft.index(j)]), skip_validation=True)
+            _set_within(var, forces.twists[a, soft.index(j)])
         for (a, s, q), var in m.act.items():
-            var.set_value(float(forces.activations[a, s, q]), skip_validation=True)
+            _set_within(var, forces.activations[a, s, q])
+
+    def closure_weights(self) -> np.ndarray:
+        """Eq. 4's weights at the current geometry, in cell order: the weights within their bounds, summing to
+        1, whose wrench sum is least (zero where the grasp closes), a little drawn to their mean so that the
+        answer is unique. One small QP (quadprog)."""
+        import quadprog
+
+        m = self.model
+        cells = list(m.phi.keys())
+        wrenches = np.array([[pyo.value(m.l[j, e, i]) for i in XYZ] + [pyo.value(m.l_torque[j, e, i]) for i in XYZ]
+                             for j, e in cells]).T  # fmt: skip
+        n, floor = len(cells), m.phi[cells[0]].lb
+        gram = wrenches.T @ wrenches
+        tie = 1e-6 * max(float(np.trace(gram)) / n, 1e-12)
+        hessian = gram + tie * np.eye(n)
+        rows = np.vstack([np.ones(n), np.eye(n)])
+        limits = np.r_[1.0, np.full(n, floor)]
+        try:
+            return quadprog.solve_qp(hessian, np.full(n, tie / n), rows.T, limits, 1)[0]
+        except ValueError:  # inconsistent only by round-off: the mean, as initialise_forces has it
+            return np.full(n, 1.0 / n)
 
     def min_clearance(self, palm_position: np.ndarray | None = None) -> float:
         """The smallest eq. 14 margin (negative: a hand point is inside the object) at the current palm pose and
