@@ -1,7 +1,8 @@
 """The search's batch evaluation (issue 88): contacts, normals and Jacobians as functions of the palm pose and the
 joints alone, equal to the hand's own kinematics at the same pose; its gradient against finite differences; a
 batch of one and of many giving the same end points; a start whose value is not finite a status of its own; eq. 10's
-forces reaching the bounded least squares' residual that scipy finds."""
+forces reaching the bounded least squares' residual that scipy finds, and eq. 4's weights the least wrench sum that
+quadprog finds."""
 
 from __future__ import annotations
 
@@ -19,6 +20,8 @@ from grasptask.synthesis.batch_geometry import (
     Field,
     HandArrays,
     StrengthArrays,
+    closure_residual,
+    closure_steps,
     contacts,
     fingers,
     jax_module,
@@ -74,9 +77,9 @@ def search(tasks):
     hand = load_hand(HUMAN).grasping_hand()
     settings = load_grasp_settings()
     task = load_task_models(tasks)["drawing"]
-    strength = StrengthArrays.of(hand.capability, task, [0, 1], settings, 0.05)
+    strength = StrengthArrays.of(hand.capability, [0, 1], settings, 0.05)
     return BatchSearch(hand, load_object(TOOL), task, settings.pad_angle_max_deg, settings.rolling_contacts,
-                       BatchSearchConfig(iterations=40, newton_iterations=5), strength)  # fmt: skip
+                       BatchSearchConfig(iterations=40, newton_iterations=5, batch_size=6), strength)  # fmt: skip
 
 
 def starts(hand, count: int):
@@ -93,9 +96,11 @@ def test_the_gradient_is_the_values_own(search):
     rotation, position, q = starts(search.hand, 1)
     params = {"w": jnp.asarray([0.01, -0.02, 0.03]), "d": jnp.asarray(position[0]),
               "q": jnp.asarray(q[0][search.arrays.free])}  # fmt: skip
-    z = jnp.full((len(search.strength.targets), search.strength.columns(len(search.arrays.fingers))), 0.3)
-    value = jax.jit(lambda p: search.value(p, jnp.asarray(rotation[0]), 0.002, 1.0, z)[0])
-    grad = jax.jit(jax.grad(lambda p: search.value(p, jnp.asarray(rotation[0]), 0.002, 1.0, z)[0]))(params)
+    b = len(search.arrays.fingers)
+    z = {"forces": jnp.full((4, search.strength.columns(b)), 0.3), "closure": jnp.full(b * search.strength.edges, 0.1)}
+    task = search.task_arrays.arguments(jnp)
+    value = jax.jit(lambda p: search.value(p, jnp.asarray(rotation[0]), 0.002, 1.0, z, task)[0])
+    grad = jax.jit(jax.grad(lambda p: search.value(p, jnp.asarray(rotation[0]), 0.002, 1.0, z, task)[0]))(params)
     for key in params:
         for k in range(0, len(params[key]), 2 if key == "q" else 1):
             step = 1e-6
@@ -132,13 +137,37 @@ def test_eq10s_forces_reach_the_least_residual_that_scipy_finds(search, jnp, see
     placed = fingers(jnp, search.arrays, jnp.asarray(rotation), jnp.asarray(position), jnp.asarray(q))
     touch = contacts(jnp, search.arrays, search.field, placed)
     M = strength_matrix(jnp, strength, touch, [f.pad_tangent for f in placed])
-    z = strength_steps(jnp, strength, M, jnp.zeros((len(strength.targets), M.shape[1])), b, 20000)
-    ours = np.sum(np.asarray(strength_residuals(jnp, strength, M, z)) ** 2, axis=1)
+    task = search.task_arrays
+    given = task.arguments(jnp)
+    z = strength_steps(jnp, strength, M, jnp.zeros((len(task.targets), M.shape[1])), given, 20000)
+    ours = np.sum(np.asarray(strength_residuals(jnp, M, z, given)) ** 2, axis=1)
     n_edges = b * strength.edges
     upper = np.r_[np.full(n_edges, np.inf), np.full(M.shape[1] - n_edges, strength.cap)]
-    for k, target in enumerate(strength.scaled_targets):
+    for k, target in enumerate(task.targets):
         size = np.linalg.norm(target)
         rows = np.r_[np.full(6, 1.0 / size), np.ones(M.shape[0] - 6)]
         wanted = np.r_[target, np.zeros(M.shape[0] - 6)] * rows
         least = lsq_linear(np.asarray(M) * rows[:, None], wanted, bounds=(0.0, upper), tol=1e-12).cost * 2
         assert ours[k] == pytest.approx(least, rel=1e-3, abs=1e-6)
+
+
+@pytest.mark.parametrize("seed", [0, 3])
+def test_eq4s_weights_reach_the_least_wrench_sum_that_quadprog_finds(search, jnp, seed):
+    """The search's projected-gradient steps on eq. 4's weights (each at least the floor, summing to 1) end at
+    the least |sum phi w|^2 of the same problem, as quadprog solves it, and within its bounds."""
+    import quadprog
+
+    strength, b = search.strength, len(search.arrays.fingers)
+    rotation, position, q = posed(search.hand, seed)
+    placed = fingers(jnp, search.arrays, jnp.asarray(rotation), jnp.asarray(position), jnp.asarray(q))
+    touch = contacts(jnp, search.arrays, search.field, placed)
+    M = strength_matrix(jnp, strength, touch, [f.pad_tangent for f in placed])
+    n = b * strength.edges
+    phi = np.asarray(closure_steps(jnp, strength, M, jnp.full(n, 1.0 / n), 20000))
+    assert phi.sum() == pytest.approx(1.0, abs=1e-12) and phi.min() >= strength.closure_floor - 1e-12
+    W = np.asarray(M)[:6, :n]
+    rows = np.vstack([np.ones(n), np.eye(n)])
+    least = quadprog.solve_qp(W.T @ W + 1e-12 * np.eye(n), np.zeros(n), rows.T,
+                              np.r_[1.0, np.full(n, strength.closure_floor)], 1)[0]  # fmt: skip
+    ours = float(np.sum(np.asarray(closure_residual(M, jnp.asarray(phi))) ** 2))
+    assert ours == pytest.approx(float(np.sum((W @ least) ** 2)), rel=1e-3, abs=1e-9)

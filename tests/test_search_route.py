@@ -96,13 +96,14 @@ def test_the_force_problems_gradient_is_its_finite_differences():
 
 def test_the_search_objective_is_the_force_problems_task_part():
     """The closed form the batched search minimises equals the QP's eq. 8 part (Q and its penalised slack)."""
-    from grasptask.synthesis.batch_geometry import closed_form_q, jax_module
+    from grasptask.synthesis.batch_geometry import TaskArrays, closed_form_q, jax_module
 
     jnp = jax_module().numpy
     settings = GraspSettings()
     problem, geometry = _problem(settings), _sphere_grasp(80.0, settings, seed=1)
     jacobians = [jnp.asarray(J) for J in geometry.jacobians]
-    closed = closed_form_q(jnp, jnp.asarray(geometry.contacts), jacobians, problem.task, RHO, floor=0.0)
+    axes = jnp.asarray(TaskArrays.of(problem.task, None).axes_matrix)
+    closed = closed_form_q(jnp, jnp.asarray(geometry.contacts), jacobians, axes, RHO, floor=0.0)
     assert float(closed) == pytest.approx(_task_value(problem, geometry), rel=1e-8)
 
 

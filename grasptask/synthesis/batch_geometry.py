@@ -384,28 +384,30 @@ def contacts(jnp: Any, hand: HandArrays, field: Field, placed: list[Finger]) -> 
     return Contacts(jnp.stack(points), jnp.stack(normals), jacobians, jnp.stack(gaps))
 
 
-def closed_form_q(jnp: Any, points: Any, jacobians: list, task: TaskModel, rho: float, floor: float = 1e-10) -> Any:
+def closed_form_q(jnp: Any, points: Any, jacobians: list, axes_matrix: Any, rho: float, floor: float = 1e-10) -> Any:
     """Eq. 12's Q of eq. 8's closed form: tr((G W^-1 G^T + I / rho)^-1 U Gamma U^T), ``W = blockdiag(J^T J)``:
     the sum over the axes of min_f gamma_i (|J^T f|^2 + rho |G f - u_i|^2), the force problem's eq. 8 part.
-    ``floor`` m^2 on W's diagonal keeps a finger with fewer than three joints invertible."""
+    ``axes_matrix`` is ``U Gamma^1/2`` (:class:`TaskArrays`); ``floor`` m^2 on W's diagonal keeps a finger with
+    fewer than three joints invertible."""
     K = jnp.eye(6) / rho
     for j, J in enumerate(jacobians):
         W = J.T @ J + floor * jnp.eye(3)
         G = jnp.concatenate([jnp.eye(3), _skew(jnp, points[j])])
         K = K + G @ jnp.linalg.solve(W, G.T)
-    B = np.asarray(task.axes, dtype=float).T * np.sqrt(np.asarray(task.weights, dtype=float))
+    B = axes_matrix
     return jnp.trace(jnp.linalg.solve(K, B @ B.T))
 
 
 @dataclass(frozen=True)
 class StrengthArrays:
-    """Eq. 10 as the search holds it: the real task wrenches ``+-L_i u_i`` of the axes the first model holds,
-    the linearised friction cones (``mu``, ``edges`` each), the hand's transmission ``T`` and torque map ``A``
-    with its activation cap and each transmission row's full strength (its scale). The least normal force is
+    """Eq. 10 as the search holds it: the task axes whose real wrenches ``+-L_i u_i`` the first model holds
+    (their values come with the task, :class:`TaskArrays`), the linearised friction cones (``mu``, ``edges``
+    each), the hand's transmission ``T`` and torque map ``A`` with its activation cap and each transmission
+    row's full strength (its scale). The least normal force is
     left to the polish: as a hinge in the search it held the default human hand's fingers 2-16 mm off the
     tool (4 of 4 test starts failed, none without it)."""
 
-    targets: np.ndarray  # (k, 6): per axis and sign
+    axes: tuple[int, ...]  # the task's axes, by rank
     mu: float
     edges: int
     transmission: np.ndarray  # (r, joints)
@@ -414,28 +416,48 @@ class StrengthArrays:
     row_strength: np.ndarray  # (r,) N m
     #: the lever (m) a wrench's torque rows are divided by, so that its force and torque rows weigh alike
     lever_m: float
+    #: eq. 4's least weight of a primitive wrench
+    closure_floor: float
 
     @classmethod
-    def of(cls, capability: Any, task: TaskModel, axes: list[int], settings: Any, lever_m: float) -> StrengthArrays:
+    def of(cls, capability: Any, axes: list[int], settings: Any, lever_m: float) -> StrengthArrays:
         """``lever_m``: the object's size (half its bounding box's diagonal)."""
-        wrenches = [sign * task.lengths[a] * np.asarray(task.axes[a], float) for a in axes for sign in (1.0, -1.0)]
         cap = settings.activation_cap(capability.kind) - settings.activation_margin
         strength = np.abs(capability.torque_map).sum(axis=1) * cap
         return cls(
-            np.array(wrenches), settings.friction_scale * settings.friction_coefficient, settings.cone_edges,
+            tuple(axes), settings.friction_scale * settings.friction_coefficient, settings.cone_edges,
             np.asarray(capability.transmission, float), np.asarray(capability.torque_map, float), cap,
-            np.maximum(strength, 1e-9), float(lever_m),
+            np.maximum(strength, 1e-9), float(lever_m), float(settings.force_closure_min_weight),
         )  # fmt: skip
-
-    @property
-    def scaled_targets(self) -> np.ndarray:
-        """The wrenches with their torques divided by the lever, and their sizes so."""
-        scaled = self.targets / np.r_[1.0, 1.0, 1.0, np.full(3, self.lever_m)]
-        return scaled
 
     def columns(self, b: int) -> int:
         """Eq. 10's variables of one wrench: ``b`` contacts' cone-edge forces, then the activations."""
         return b * self.edges + self.torque_map.shape[1]
+
+
+@dataclass(frozen=True)
+class TaskArrays:
+    """What the search reads of a task, handed to the compiled search as arguments (so that one compile serves
+    every task of a hand and object): eq. 8's ``U Gamma^1/2`` and eq. 10's wrenches, their torques divided by
+    the lever, with their sizes."""
+
+    axes_matrix: np.ndarray  # (6, 6)
+    targets: np.ndarray  # (k, 6)
+    sizes: np.ndarray  # (k,)
+
+    @classmethod
+    def of(cls, task: TaskModel, strength: StrengthArrays | None) -> TaskArrays:
+        matrix = np.asarray(task.axes, dtype=float).T * np.sqrt(np.asarray(task.weights, dtype=float))
+        if strength is None:
+            return cls(matrix, np.zeros((0, 6)), np.zeros(0))
+        lever = np.r_[1.0, 1.0, 1.0, np.full(3, strength.lever_m)]
+        wrenches = np.array([sign * task.lengths[a] * np.asarray(task.axes[a], float) / lever
+                             for a in strength.axes for sign in (1.0, -1.0)])  # fmt: skip
+        return cls(matrix, wrenches, np.linalg.norm(wrenches, axis=1))
+
+    def arguments(self, jnp: Any) -> dict:
+        return {"axes": jnp.asarray(self.axes_matrix), "targets": jnp.asarray(self.targets),
+                "sizes": jnp.asarray(self.sizes)}  # fmt: skip
 
 
 def strength_matrix(jnp: Any, strength: StrengthArrays, touch: Contacts, tangents: list) -> Any:
@@ -467,37 +489,37 @@ def strength_matrix(jnp: Any, strength: StrengthArrays, touch: Contacts, tangent
     return jnp.concatenate([top, jnp.concatenate([carried, produced], axis=1)])
 
 
-def strength_residuals(jnp: Any, strength: StrengthArrays, M: Any, z: Any) -> Any:
+def strength_residuals(jnp: Any, M: Any, z: Any, task: dict) -> Any:
     """Each wrench's eq. 10 residuals at forces and activations ``z`` (k, columns): the wrench rows relative to
-    the wrench's size, the torque rows in shares of full strength."""
-    targets = jnp.asarray(strength.scaled_targets)
-    size = np.linalg.norm(strength.scaled_targets, axis=1)[:, None]
+    the wrench's size, the torque rows in shares of full strength (``task``: :meth:`TaskArrays.arguments`)."""
+    targets, size = task["targets"], task["sizes"][:, None]
     c = jnp.concatenate([targets, jnp.zeros((len(targets), M.shape[0] - 6))], axis=1)
     rows = z @ M.T - c
     return jnp.concatenate([rows[:, :6] / size, rows[:, 6:]], axis=1)
 
 
-def strength_steps(jnp: Any, strength: StrengthArrays, M: Any, z: Any, b: int, steps: int) -> Any:
+def strength_steps(jnp: Any, strength: StrengthArrays, M: Any, z: Any, task: dict, steps: int) -> Any:
     """``steps`` projected-gradient steps on the sum of squared :func:`strength_residuals` over ``z`` (edge
     forces >= 0, activations within [0, cap]), from ``z``: the search carries ``z`` from one of its iterations
-    to the next, so a few steps each keep it near the least residual of the moving geometry. The step is the
-    inverse of the Hessian's largest eigenvalue, by power iteration."""
+    to the next, so a few steps each move it toward the least residual of the moving geometry. Each wrench's step
+    is the inverse of its Hessian's largest eigenvalue, by power iteration. The forces lag their least residual
+    (the tool's Gram matrices are near singular): the penalty pulls the grasp toward holding the wrenches more
+    than it measures how far it is (docs/notebook.md)."""
     import jax
 
-    n_edges = b * strength.edges
-    size = np.linalg.norm(strength.scaled_targets, axis=1)
+    n_edges = z.shape[-1] - strength.torque_map.shape[1]
     upper = jnp.concatenate([jnp.full(n_edges, jnp.inf), jnp.full(M.shape[1] - n_edges, strength.cap)])
-    rows = np.ones((len(size), M.shape[0]))
-    rows[:, :6] = 1.0 / size[:, None]
-    S = jnp.asarray(rows)[:, :, None] * M[None]  # (k, rows, columns): each wrench's rows as it weighs them
-    v = jnp.ones((len(size), M.shape[1]))
+    rows = jnp.concatenate([jnp.tile(1.0 / task["sizes"][:, None], (1, 6)),
+                            jnp.ones((len(z), M.shape[0] - 6))], axis=1)  # fmt: skip
+    S = rows[:, :, None] * M[None]  # (k, rows, columns): each wrench's rows as it weighs them
+    v = jnp.ones((len(z), M.shape[1]))
     for _ in range(8):
         v = jnp.einsum("krc,kr->kc", S, jnp.einsum("krc,kc->kr", S, v))
         v = v / jnp.sqrt(jnp.sum(v * v, axis=1, keepdims=True) + 1e-300)
     lipschitz = 2.2 * jnp.sum(jnp.einsum("krc,kc->kr", S, v) ** 2, axis=1)[:, None] + 1e-12
 
     def loss(zz: Any) -> Any:
-        return jnp.sum(strength_residuals(jnp, strength, M, zz) ** 2)
+        return jnp.sum(strength_residuals(jnp, M, zz, task) ** 2)
 
     gradient = jax.grad(loss)
 
@@ -505,3 +527,37 @@ def strength_steps(jnp: Any, strength: StrengthArrays, M: Any, z: Any, b: int, s
         return jnp.clip(zz - gradient(zz) / lipschitz, 0.0, upper)
 
     return jax.lax.fori_loop(0, steps, body, z)
+
+
+def closure_residual(M: Any, phi: Any) -> Any:
+    """Eq. 4's wrench sum ``sum phi w`` of the primitive wrenches (the cone edges' columns of
+    :func:`strength_matrix`'s wrench rows, torques divided by the lever) at weights ``phi``."""
+    return M[:6, : phi.shape[-1]] @ phi
+
+
+def closure_steps(jnp: Any, strength: StrengthArrays, M: Any, phi: Any, steps: int) -> Any:
+    """``steps`` projected-gradient steps on ``|sum phi w|^2`` over eq. 4's weights (each at least the floor,
+    summing to 1), from ``phi``, carried from one step of the search to the next as eq. 10's forces are."""
+    import jax
+
+    W = M[:6, : phi.shape[-1]]
+    v = jnp.ones(phi.shape[-1])
+    for _ in range(8):
+        v = W.T @ (W @ v)
+        v = v / jnp.sqrt(jnp.sum(v * v) + 1e-300)
+    lipschitz = 2.2 * jnp.sum((W @ v) ** 2) + 1e-12
+    n, floor = phi.shape[-1], strength.closure_floor
+    radius = 1.0 - n * floor
+
+    def project(u: Any) -> Any:  # onto {u >= floor, sum u = 1}: the simplex of the weights above the floor
+        y = u - floor
+        ordered = -jnp.sort(-y)
+        excess = (jnp.cumsum(ordered) - radius) / jnp.arange(1, n + 1)
+        count = jnp.sum(ordered > excess)
+        theta = excess[count - 1]
+        return jnp.maximum(y - theta, 0.0) + floor
+
+    def body(_: Any, u: Any) -> Any:
+        return project(u - 2.0 * W.T @ (W @ u) / lipschitz)
+
+    return jax.lax.fori_loop(0, steps, body, phi)

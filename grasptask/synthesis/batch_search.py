@@ -31,7 +31,10 @@ from grasptask.synthesis.batch_geometry import (
     Field,
     HandArrays,
     StrengthArrays,
+    TaskArrays,
     closed_form_q,
+    closure_residual,
+    closure_steps,
     contacts,
     distance,
     fingers,
@@ -46,6 +49,9 @@ from grasptask.task.task_model import TaskModel
 
 #: the units the penalties are squared in: a millimetre, a hundredth of a radian
 MM, CRAD = 1e-3, 1e-2
+#: ... and eq. 4's wrench sum (of weights summing to 1 on unit cone edges): the polished grasps' are 0.0003 or
+#: less, the end points whose polish took 250-340 IPOPT iterations 0.04-0.7
+CLOSURE = 0.01
 
 
 @dataclass(frozen=True)
@@ -93,34 +99,54 @@ class BatchSearch:
         return Field.of(self.obj)
 
     def run(self, palm_rotation: np.ndarray, palm_position: np.ndarray, joints: np.ndarray) -> BatchEnd:
-        """Search from each start ``(R_0, d_0, q_0)`` (batched, ``q_0`` every joint); where each ended."""
+        """Search from each start ``(R_0, d_0, q_0)`` (batched, ``q_0`` every joint); where each ended. A batch
+        smaller than the config's is filled up with copies of its first start and those ends dropped: one
+        compiled search serves every batch (a start's end reads no other start)."""
+        count, size = len(palm_position), self.settings.batch_size
+        if 0 < count < size:
+            fill = np.zeros(size - count, dtype=int)
+            padded = [np.concatenate([a, np.asarray(a)[fill]]) for a in (palm_rotation, palm_position, joints)]
+            ended = self._run(*padded)
+            return BatchEnd(*(np.asarray(v)[:count] for v in vars(ended).values()))
+        return self._run(palm_rotation, palm_position, joints)
+
+    def _run(self, palm_rotation: np.ndarray, palm_position: np.ndarray, joints: np.ndarray) -> BatchEnd:
         jax = jax_module()
         jnp = jax.numpy
         arrays = self.arrays
         free = np.asarray(joints, dtype=float)[:, arrays.free]
         params = {"w": jnp.zeros((len(free), 3)), "d": jnp.asarray(palm_position, float), "q": jnp.asarray(free)}
-        z = jnp.zeros((len(free), *self._forces_shape))
-        final, z, finite = self._compiled(len(free))(params, jnp.asarray(palm_rotation, float), z)
-        return self._end(final, np.asarray(palm_rotation, float), z, np.asarray(finite))
+        z = self._forces_start(len(free))
+        task = self.task_arrays.arguments(jnp)
+        final, z, finite = self._compiled(len(free))(params, jnp.asarray(palm_rotation, float), z, task)
+        return self._end(final, np.asarray(palm_rotation, float), z, np.asarray(finite), task)
 
-    @property
-    def _forces_shape(self) -> tuple[int, int]:
-        """Eq. 10's forces and activations a start carries: per wrench searched, its columns."""
+    @cached_property
+    def task_arrays(self) -> TaskArrays:
+        return TaskArrays.of(self.task, self.strength)
+
+    def _forces_start(self, count: int) -> dict:
+        """Eq. 10's forces and activations a start carries (per wrench searched, its columns), at zero, and eq.
+        4's weights, at their mean."""
+        jnp = jax_module().numpy
         if self.strength is None:
-            return (0, 0)
-        return (len(self.strength.targets), self.strength.columns(len(self.arrays.fingers)))
+            return {"forces": jnp.zeros((count, 0, 0)), "closure": jnp.zeros((count, 0))}
+        b = len(self.arrays.fingers)
+        edges = b * self.strength.edges
+        forces = jnp.zeros((count, 2 * len(self.strength.axes), self.strength.columns(b)))
+        return {"forces": forces, "closure": jnp.full((count, edges), 1.0 / edges)}
 
-    def value(self, params: dict, rotation0: Any, standoff: Any, quality: Any, z: Any) -> tuple[Any, Any]:
+    def value(self, params: dict, rotation0: Any, standoff: Any, quality: Any, z: Any, task: dict) -> tuple[Any, Any]:
         """One start's value at eq. 10's forces and activations ``z`` (held: the search moves them apart, by
-        :func:`strength_steps`), and what ends it (its gaps, deepest sphere, facing shortfall, Q, eq. 10's
-        residuals and matrix)."""
+        :func:`strength_steps`) for the ``task`` (:meth:`TaskArrays.arguments`), and what ends it (its gaps,
+        deepest sphere, facing shortfall, Q, eq. 10's residuals and matrix)."""
         jnp = jax_module().numpy
         arrays, s = self.arrays, self.settings
         rotation = rotation0 @ rotation_vector(jnp, params["w"])
         q = jnp.asarray(arrays.couple) @ params["q"] + arrays.couple_offset
         placed = fingers(jnp, arrays, rotation, params["d"], q)
         touch = contacts(jnp, arrays, self.field, placed)
-        Q = closed_form_q(jnp, touch.points, touch.jacobians, self.task, s.rho)
+        Q = closed_form_q(jnp, touch.points, touch.jacobians, task["axes"], s.rho)
         gap = (touch.gaps - standoff) / MM
         spheres = jnp.concatenate([p.spheres for p in placed] + [params["d"] + arrays.palm_points @ rotation.T])
         radii = np.concatenate([f.sphere_radii for f in arrays.fingers] + [arrays.palm_radii])
@@ -131,13 +157,14 @@ class BatchSearch:
         tilt = jnp.where(flat, 1.0 - facing, 0.0)
         limits = jnp.maximum(q - arrays.upper, 0.0) + jnp.maximum(arrays.lower - q, 0.0)
         if self.strength is None:
-            M, held = jnp.zeros((0, 0)), jnp.zeros(1)
+            M, held, closure = jnp.zeros((0, 0)), jnp.zeros(1), jnp.zeros(1)
         else:
             tangents = [p.pad_tangent for p in placed]
             M = strength_matrix(jnp, self.strength, touch, tangents)
-            held = strength_residuals(jnp, self.strength, M, z)
+            held = strength_residuals(jnp, M, z["forces"], task)
+            closure = closure_residual(M, z["closure"])
         value = (
-            quality * s.strength_weight * jnp.sum((held / s.strength_unit) ** 2)
+            quality * s.strength_weight * (jnp.sum((held / s.strength_unit) ** 2) + jnp.sum((closure / CLOSURE) ** 2))
             + quality * jnp.log(Q)
             + jnp.sum(gap**2)
             + jnp.sum((depth / MM) ** 2)
@@ -171,16 +198,22 @@ class BatchSearch:
     def _judged(self) -> Any:
         """Each end point's gaps, deepest sphere, facing shortfall and Q, at no stand-off (compiled once)."""
         jax = jax_module()
-        return jax.jit(jax.vmap(self.value, in_axes=(0, 0, None, None, 0)))
+        return jax.jit(jax.vmap(self.value, in_axes=(0, 0, None, None, 0, None)))
 
-    def _forces_moved(self, M: Any, z: Any) -> Any:
-        """Each start's eq. 10 forces and activations ``z`` moved toward their least residual at its matrix ``M``."""
+    def _forces_moved(self, M: Any, z: dict, task: dict, finite: Any) -> dict:
+        """Each start's eq. 10 forces and activations and eq. 4's weights ``z`` moved toward their least
+        residuals at its matrix ``M``, where its search is still finite."""
         if self.strength is None:
             return z
         jax = jax_module()
-        b, steps = len(self.arrays.fingers), self.settings.strength_steps
-        moved = jax.vmap(lambda m, zz: strength_steps(jax.numpy, self.strength, m, zz, b, steps))
-        return moved(M, z)
+        jnp = jax.numpy
+        steps, M = self.settings.strength_steps, jnp.nan_to_num(M)
+        forces = jax.vmap(lambda m, zz: strength_steps(jnp, self.strength, m, zz, task, steps))(M, z["forces"])
+        closure = jax.vmap(lambda m, phi: closure_steps(jnp, self.strength, m, phi, steps))(M, z["closure"])
+        return {
+            "forces": jnp.where(finite[:, None, None], forces, z["forces"]),
+            "closure": jnp.where(finite[:, None], closure, z["closure"]),
+        }
 
     def _build(self) -> Any:
         jax = jax_module()
@@ -188,16 +221,16 @@ class BatchSearch:
         s, arrays = self.settings, self.arrays
         steps = {"w": s.step_turn_rad, "d": s.step_position_m, "q": s.step_joint_rad}
         low, high = arrays.lower[arrays.free], arrays.upper[arrays.free]
-        graded = jax.vmap(jax.value_and_grad(self.value, has_aux=True), in_axes=(0, 0, None, None, 0))
+        graded = jax.vmap(jax.value_and_grad(self.value, has_aux=True), in_axes=(0, 0, None, None, 0, None))
         total = s.iterations
 
-        def run(params: dict, rotation0: Any, z: Any) -> tuple:
+        def run(params: dict, rotation0: Any, z: Any, task: dict) -> tuple:
             def body(t: Any, state: tuple) -> tuple:
                 params, first, second, finite, z = state
                 progress = t / total
                 standoff = s.standoff_m * jnp.maximum(0.0, 1.0 - progress / s.standoff_until)
                 quality = jnp.clip((progress - s.quality_after) / 0.1, 0.0, 1.0)
-                (value, aux), grads = graded(params, rotation0, standoff, quality, z)
+                (value, aux), grads = graded(params, rotation0, standoff, quality, z, task)
                 ok = jnp.isfinite(value)
                 for grad in grads.values():
                     ok = ok & jnp.all(jnp.isfinite(grad), axis=-1)
@@ -211,17 +244,17 @@ class BatchSearch:
                     mean, var = moments[key] / (1 - 0.9 ** (t + 1)), squares[key] / (1 - 0.999 ** (t + 1))
                     new[key] = params[key] - steps[key] * decay * mean / (jnp.sqrt(var) + 1e-12)
                 new["q"] = jnp.clip(new["q"], low, high)
-                z = jnp.where(finite[:, None, None], self._forces_moved(jnp.nan_to_num(aux[-1]), z), z)
+                z = self._forces_moved(aux[-1], z, task, finite)
                 return new, moments, squares, finite, z
 
             zeros = {k: jnp.zeros_like(v) for k, v in params.items()}
             state = (params, zeros, dict(zeros), jnp.ones(len(params["q"]), dtype=bool), z)
             params, _, _, finite, z = jax.lax.fori_loop(0, total, body, state)
-            return self._newton(params, rotation0, finite, z)
+            return self._newton(params, rotation0, finite, z, task)
 
         return jax.jit(run)
 
-    def _newton(self, params: dict, rotation0: Any, finite: Any, z: Any) -> tuple[dict, Any, Any]:
+    def _newton(self, params: dict, rotation0: Any, finite: Any, z: Any, task: dict) -> tuple[dict, Any, Any]:
         """Damped Newton steps on each start's whole objective (no stand-off, Q in full) at its eq. 10 forces,
         in units of Adam's steps: the Hessian's eigenvalues taken by magnitude (a saddle is left, not climbed
         to), a step kept only where it lowers the value, the damping shrunk after a kept step and grown after a
@@ -235,7 +268,7 @@ class BatchSearch:
         low, high = arrays.lower[arrays.free], arrays.upper[arrays.free]
 
         def f(x: Any, rotation: Any, zz: Any) -> tuple[Any, Any]:
-            return self.value({"w": x[:3], "d": x[3:6], "q": x[6:]}, rotation, 0.0, 1.0, zz)
+            return self.value({"w": x[:3], "d": x[3:6], "q": x[6:]}, rotation, 0.0, 1.0, zz, task)
 
         value = jax.vmap(f)
         graded = jax.vmap(jax.value_and_grad(f, has_aux=True))
@@ -256,17 +289,17 @@ class BatchSearch:
             x = jnp.where(keep[:, None], trial, x)
             damping = jnp.clip(jnp.where(keep, damping * 0.3, damping * 4.0), 1e-6, 1e6)
             M = jnp.where(keep[:, None, None], there[-1], here[-1])
-            z = jnp.where(finite[:, None, None], self._forces_moved(jnp.nan_to_num(M), z), z)
+            z = self._forces_moved(M, z, task, finite)
             return x, damping, z
 
         x = jnp.concatenate([params["w"], params["d"], params["q"]], axis=1)
         x, _, z = jax.lax.fori_loop(0, s.newton_iterations, body, (x, jnp.ones(len(x)), z))
         return {"w": x[:, :3], "d": x[:, 3:6], "q": x[:, 6:]}, z, finite
 
-    def _end(self, params: dict, rotation0: np.ndarray, z: Any, finite: np.ndarray) -> BatchEnd:
+    def _end(self, params: dict, rotation0: np.ndarray, z: Any, finite: np.ndarray, task: dict) -> BatchEnd:
         jax = jax_module()
         jnp = jax.numpy
-        _, (gaps, depth, short, Q, held, _) = self._judged(params, jnp.asarray(rotation0), 0.0, 1.0, z)
+        _, (gaps, depth, short, Q, held, _) = self._judged(params, jnp.asarray(rotation0), 0.0, 1.0, z, task)
         turns = Rotation.from_rotvec(np.array(params["w"])).as_matrix()  # exp([w]x), as rotation_vector
         rotations = np.einsum("nij,njk->nik", rotation0, turns)
         joints = np.asarray(params["q"]) @ self.arrays.couple.T + self.arrays.couple_offset

@@ -117,7 +117,7 @@ class SolverContext:
         if search.strength_weight > 0:
             axes = sorted({a for a, _, _, _ in self.nlp.model.lam.keys()})
             lever = 0.5 * float(np.linalg.norm(np.diff(self.bounds, axis=0)))
-            strength = StrengthArrays.of(hand.capability, self.task, axes, settings, lever)
+            strength = StrengthArrays.of(hand.capability, axes, settings, lever)
         return BatchSearch(
             hand, self.obj, self.task, settings.pad_angle_max_deg, settings.rolling_contacts, search, strength
         )

@@ -91,13 +91,15 @@ class Regularisation:
 @dataclass(frozen=True, config=SCHEMA)
 class BatchSearchConfig:
     """The search of route search (SPEC section 12, :mod:`grasptask.synthesis.batch_search`): the starts of a
-    batch moved together by Adam on the palm pose and the joints, for a fixed budget of iterations."""
+    batch moved together by Adam, then damped Newton steps, on the palm pose and the joints, for a fixed budget
+    of iterations."""
 
     #: Adam's steps for every start of a batch; the rows depend on it, not on the machine
     iterations: Annotated[int, Strict(), Field(ge=1, le=MAX_ITERATIONS)] = 600
     #: starts searched as one batch (one compiled evaluation); a round's starts make batches of this many, in
-    #: start order, whatever the workers: the rows depend on it, not on them
-    batch_size: Annotated[int, Strict(), Field(ge=1, le=1008)] = 64
+    #: start order, whatever the workers: the rows depend on it, not on them. Half a round: a round's two
+    #: batches go to two workers
+    batch_size: Annotated[int, Strict(), Field(ge=1, le=1008)] = 21
     #: the contacts are held this far off the surface at first (m) ...
     standoff_m: Annotated[float, Strict(), Field(ge=0, le=0.05)] = 0.01
     #: ... falling to 0 at this share of the iterations (BODex's schedule: the fingers close from outside)
