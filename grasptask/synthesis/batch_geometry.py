@@ -51,7 +51,8 @@ FACING_SLACK = 0.02
 def jax_module() -> Any:
     """JAX, on one thread of the CPU (a worker's own core: the pool runs one worker a core), in float64, its
     compiled searches kept on disk beside the object cache (``GRASPTASK_CACHE``): a worker's first batch of a
-    hand, object and task compiles for 7-10 s, and loads in a second after that."""
+    hand and object compiles for about a minute; after that the search is traced again (7 s) and its compiled
+    code loaded (3 s), for any task (:class:`TaskArrays` are arguments, not constants)."""
     flags = os.environ.get("XLA_FLAGS", "")
     if "intra_op_parallelism_threads" not in flags:
         os.environ["XLA_FLAGS"] = f"{flags} --xla_cpu_multi_thread_eigen=false intra_op_parallelism_threads=1".strip()
