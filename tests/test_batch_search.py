@@ -78,8 +78,9 @@ def search(tasks):
     settings = load_grasp_settings()
     task = load_task_models(tasks)["drawing"]
     strength = StrengthArrays.of(hand.capability, [0, 1], settings, 0.05)
-    return BatchSearch(hand, load_object(TOOL), task, settings.pad_angle_max_deg, settings.rolling_contacts,
-                       BatchSearchConfig(iterations=40, newton_iterations=5, batch_size=6), strength)  # fmt: skip
+    config = BatchSearchConfig(iterations=40, newton_iterations=5, batch_size=6)
+    return BatchSearch(hand, load_object(TOOL), task, strength, settings.pad_angle_max_deg, settings.rolling_contacts,
+                       config)  # fmt: skip
 
 
 def starts(hand, count: int):

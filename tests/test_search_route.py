@@ -273,3 +273,25 @@ def test_a_sweep_stops_on_sigterm_keeping_what_is_finished(tasks, tmp_path):
     assert process.stderr is not None and "--resume" in process.stderr.read()
     assert 2 <= len(log.read_text().splitlines()) < 12
     assert not (tmp_path / "out" / "drawing" / "solutions.parquet").exists()
+
+
+def test_a_polish_starts_on_eq4_with_weights_within_their_bounds():
+    """The polish's eq. 4 weights at a grasp that closes (the verifier's ball grasp): within their bounds,
+    summing to 1, with a wrench sum far below the mean weights' (which IPOPT was started from before)."""
+    import pyomo.environ as pyo
+
+    from grasptask.hand import load_hand
+    from grasptask.synthesis.nlp import build_model
+    from tests.grasp_fixtures import ball_grasp, drawing_like_task
+
+    grasp, ball = ball_grasp()
+    settings = GraspSettings()
+    nlp = build_model(load_hand(), ball, drawing_like_task(), settings)
+    nlp.initialise(grasp.palm_rotation, grasp.palm_position, grasp.joint_angles)
+    m = nlp.model
+    phi = nlp.closure_weights()
+    assert phi.sum() == pytest.approx(1.0, abs=1e-9)
+    assert phi.min() >= settings.force_closure_min_weight - 1e-12 and phi.max() <= 1.0
+    wrenches = np.array([[pyo.value(v) for v in (*m.l[j, e, :], *m.l_torque[j, e, :])] for j, e in m.phi]).T
+    mean = np.full(len(phi), 1.0 / len(phi))
+    assert np.linalg.norm(wrenches @ phi) < 1e-3 * np.linalg.norm(wrenches @ mean)

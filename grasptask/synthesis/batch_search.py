@@ -67,7 +67,6 @@ class BatchEnd:
     facing: np.ndarray  # (N,) worst pad facing shortfall, in cosine
     Q: np.ndarray  # (N,)
     finite: np.ndarray  # (N,) bool
-    strength: np.ndarray  # (N,) eq. 10's largest residual (relative; 0: the hand holds every wrench searched)
 
     def converged(self) -> np.ndarray:
         """Every contact within :data:`CONVERGED_M` of the surface, no sphere deeper than that, the pads facing
@@ -84,11 +83,11 @@ class BatchSearch:
     hand: GraspingHand
     obj: ImplicitObject
     task: TaskModel
+    #: eq. 10 for the wrenches the first model holds, and eq. 4
+    strength: StrengthArrays
     pad_angle_max_deg: float
     rolling: bool = True
     settings: BatchSearchConfig = field(default_factory=BatchSearchConfig)
-    #: eq. 10 for the wrenches the first model holds; None: the search leaves it to the polish
-    strength: StrengthArrays | None = None
 
     @cached_property
     def arrays(self) -> HandArrays:
@@ -129,17 +128,16 @@ class BatchSearch:
         """Eq. 10's forces and activations a start carries (per wrench searched, its columns), at zero, and eq.
         4's weights, at their mean."""
         jnp = jax_module().numpy
-        if self.strength is None:
-            return {"forces": jnp.zeros((count, 0, 0)), "closure": jnp.zeros((count, 0))}
         b = len(self.arrays.fingers)
         edges = b * self.strength.edges
         forces = jnp.zeros((count, 2 * len(self.strength.axes), self.strength.columns(b)))
         return {"forces": forces, "closure": jnp.full((count, edges), 1.0 / edges)}
 
     def value(self, params: dict, rotation0: Any, standoff: Any, quality: Any, z: Any, task: dict) -> tuple[Any, Any]:
-        """One start's value at eq. 10's forces and activations ``z`` (held: the search moves them apart, by
-        :func:`strength_steps`) for the ``task`` (:meth:`TaskArrays.arguments`), and what ends it (its gaps,
-        deepest sphere, facing shortfall, Q, eq. 10's residuals and matrix)."""
+        """One start's value at eq. 10's forces and activations and eq. 4's weights ``z`` (held: the search moves
+        them apart, by :func:`strength_steps` and :func:`closure_steps`) for the ``task``
+        (:meth:`TaskArrays.arguments`), and what ends it (its gaps, deepest sphere, facing shortfall, Q, and eq.
+        10's matrix, from which the forces are moved)."""
         jnp = jax_module().numpy
         arrays, s = self.arrays, self.settings
         rotation = rotation0 @ rotation_vector(jnp, params["w"])
@@ -156,13 +154,9 @@ class BatchSearch:
         flat = np.array([f.flat for f in arrays.fingers])
         tilt = jnp.where(flat, 1.0 - facing, 0.0)
         limits = jnp.maximum(q - arrays.upper, 0.0) + jnp.maximum(arrays.lower - q, 0.0)
-        if self.strength is None:
-            M, held, closure = jnp.zeros((0, 0)), jnp.zeros(1), jnp.zeros(1)
-        else:
-            tangents = [p.pad_tangent for p in placed]
-            M = strength_matrix(jnp, self.strength, touch, tangents)
-            held = strength_residuals(jnp, M, z["forces"], task)
-            closure = closure_residual(M, z["closure"])
+        M = strength_matrix(jnp, self.strength, touch, [p.pad_tangent for p in placed])
+        held = strength_residuals(jnp, M, z["forces"], task)
+        closure = closure_residual(M, z["closure"])
         value = (
             quality * s.strength_weight * (jnp.sum((held / s.strength_unit) ** 2) + jnp.sum((closure / CLOSURE) ** 2))
             + quality * jnp.log(Q)
@@ -172,7 +166,7 @@ class BatchSearch:
             + jnp.sum((limits / CRAD) ** 2)
             + self._self_collision(jnp, placed)
         )
-        return value, (touch.gaps, jnp.max(depth), jnp.max(short), Q, jnp.max(jnp.abs(held)), M)
+        return value, (touch.gaps, jnp.max(depth), jnp.max(short), Q, M)
 
     def _self_collision(self, jnp: Any, placed: list) -> Any:
         pairs = self.arrays.proxy_pairs
@@ -203,8 +197,6 @@ class BatchSearch:
     def _forces_moved(self, M: Any, z: dict, task: dict, finite: Any) -> dict:
         """Each start's eq. 10 forces and activations and eq. 4's weights ``z`` moved toward their least
         residuals at its matrix ``M``, where its search is still finite."""
-        if self.strength is None:
-            return z
         jax = jax_module()
         jnp = jax.numpy
         steps, M = self.settings.strength_steps, jnp.nan_to_num(M)
@@ -299,9 +291,9 @@ class BatchSearch:
     def _end(self, params: dict, rotation0: np.ndarray, z: Any, finite: np.ndarray, task: dict) -> BatchEnd:
         jax = jax_module()
         jnp = jax.numpy
-        _, (gaps, depth, short, Q, held, _) = self._judged(params, jnp.asarray(rotation0), 0.0, 1.0, z, task)
+        _, (gaps, depth, short, Q, _) = self._judged(params, jnp.asarray(rotation0), 0.0, 1.0, z, task)
         turns = Rotation.from_rotvec(np.array(params["w"])).as_matrix()  # exp([w]x), as rotation_vector
         rotations = np.einsum("nij,njk->nik", rotation0, turns)
         joints = np.asarray(params["q"]) @ self.arrays.couple.T + self.arrays.couple_offset
         return BatchEnd(rotations, np.asarray(params["d"]), joints, np.asarray(gaps), np.asarray(depth),
-                        np.asarray(short), np.asarray(Q), finite, np.asarray(held))  # fmt: skip
+                        np.asarray(short), np.asarray(Q), finite)  # fmt: skip

@@ -112,15 +112,14 @@ class SolverContext:
         from grasptask.synthesis.batch_geometry import StrengthArrays
         from grasptask.synthesis.batch_search import BatchSearch
 
-        hand, settings, search = self.nlp.hand, self.settings, self.job.solver.search
-        strength = None
-        if search.strength_weight > 0:
-            axes = sorted({a for a, _, _, _ in self.nlp.model.lam.keys()})
-            lever = 0.5 * float(np.linalg.norm(np.diff(self.bounds, axis=0)))
-            strength = StrengthArrays.of(hand.capability, axes, settings, lever)
+        hand, settings = self.nlp.hand, self.settings
+        axes = sorted({a for a, _, _, _ in self.nlp.model.lam.keys()})
+        lever = 0.5 * float(np.linalg.norm(np.diff(self.bounds, axis=0)))
+        strength = StrengthArrays.of(hand.capability, axes, settings, lever)
         return BatchSearch(
-            hand, self.obj, self.task, settings.pad_angle_max_deg, settings.rolling_contacts, search, strength
-        )
+            hand, self.obj, self.task, strength, settings.pad_angle_max_deg, settings.rolling_contacts,
+            self.job.solver.search,
+        )  # fmt: skip
 
     @cached_property
     def force_problem(self) -> ForceProblem:

@@ -117,9 +117,9 @@ class BatchSearchConfig:
     #: damped Newton steps after Adam's, on the whole objective at no stand-off: they bring each end point to a
     #: local minimum, where two starts of one basin meet and the polish has little left to do
     newton_iterations: Annotated[int, Strict(), Field(ge=0, le=MAX_ITERATIONS)] = 100
-    #: eq. 10 in the search: the weight of its squared residuals (wrench rows relative to the wrench, torque
-    #: rows in shares of the hand's full strength), each in units of ``strength_unit``; 0 leaves eq. 10 to the
-    #: polish
+    #: eqs. 10 and 4 in the search: the weight of their squared residuals (eq. 10's wrench rows relative to the
+    #: wrench, its torque rows in shares of the hand's full strength, each in units of ``strength_unit``); 0
+    #: leaves them to the polish
     strength_weight: NonNegative = 1.0
     strength_unit: Annotated[float, Strict(), Field(gt=0, le=1)] = 0.25
     #: projected-gradient steps on eq. 10's forces after each step of the search
