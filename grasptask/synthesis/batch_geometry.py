@@ -404,9 +404,8 @@ class StrengthArrays:
     """Eq. 10 as the search holds it: the task axes whose real wrenches ``+-L_i u_i`` the first model holds
     (their values come with the task, :class:`TaskArrays`), the linearised friction cones (``mu``, ``edges``
     each), the hand's transmission ``T`` and torque map ``A`` with its activation cap and each transmission
-    row's full strength (its scale). The least normal force is
-    left to the polish: as a hinge in the search it held the default human hand's fingers 2-16 mm off the
-    tool (4 of 4 test starts failed, none without it)."""
+    row's full strength (its scale). The least normal force is left to the polish: as a hinge in the search it
+    held the default human hand's fingers 2-16 mm off the tool (4 of 4 test starts failed, none without it)."""
 
     axes: tuple[int, ...]  # the task's axes, by rank
     mu: float
@@ -464,7 +463,7 @@ class TaskArrays:
 def strength_matrix(jnp: Any, strength: StrengthArrays, touch: Contacts, tangents: list) -> Any:
     """Eq. 10's rows for one start, scaled: ``[G_edges, 0; T J^T L, -A]`` (wrench rows per unit of nothing, torque
     rows per unit of each row's full strength), columns the cone-edge forces (eq. 24's edges about the normal,
-    the first along the pad's tangent) then the activations; and each contact's normal share of its edges."""
+    the first along the pad's tangent) then the activations."""
     m, mu = strength.edges, strength.mu
     angles = 2 * np.pi * np.arange(1, m + 1) / m
     scale = 1.0 / np.sqrt(1 + mu**2)
@@ -499,11 +498,21 @@ def strength_residuals(jnp: Any, M: Any, z: Any, task: dict) -> Any:
     return jnp.concatenate([rows[:, :6] / size, rows[:, 6:]], axis=1)
 
 
+def _lipschitz(jnp: Any, S: Any) -> Any:
+    """A step bound for projected gradient on each ``|S_k x - c_k|^2`` (``S`` (k, rows, columns)): 1.1 times the
+    Hessian's largest eigenvalue, ``2 sigma_max(S_k)^2``, by eight power iterations (an underestimate by little)."""
+    v = jnp.ones((S.shape[0], S.shape[2]))
+    for _ in range(8):
+        v = jnp.einsum("krc,kr->kc", S, jnp.einsum("krc,kc->kr", S, v))
+        v = v / jnp.sqrt(jnp.sum(v * v, axis=1, keepdims=True) + 1e-300)
+    return 2.2 * jnp.sum(jnp.einsum("krc,kc->kr", S, v) ** 2, axis=1) + 1e-12
+
+
 def strength_steps(jnp: Any, strength: StrengthArrays, M: Any, z: Any, task: dict, steps: int) -> Any:
     """``steps`` projected-gradient steps on the sum of squared :func:`strength_residuals` over ``z`` (edge
     forces >= 0, activations within [0, cap]), from ``z``: the search carries ``z`` from one of its iterations
     to the next, so a few steps each move it toward the least residual of the moving geometry. Each wrench's step
-    is the inverse of its Hessian's largest eigenvalue, by power iteration. The forces lag their least residual
+    is its own (:func:`_lipschitz`). The forces lag their least residual
     (the tool's Gram matrices are near singular): the penalty pulls the grasp toward holding the wrenches more
     than it measures how far it is (docs/notebook.md)."""
     import jax
@@ -513,11 +522,7 @@ def strength_steps(jnp: Any, strength: StrengthArrays, M: Any, z: Any, task: dic
     rows = jnp.concatenate([jnp.tile(1.0 / task["sizes"][:, None], (1, 6)),
                             jnp.ones((len(z), M.shape[0] - 6))], axis=1)  # fmt: skip
     S = rows[:, :, None] * M[None]  # (k, rows, columns): each wrench's rows as it weighs them
-    v = jnp.ones((len(z), M.shape[1]))
-    for _ in range(8):
-        v = jnp.einsum("krc,kr->kc", S, jnp.einsum("krc,kc->kr", S, v))
-        v = v / jnp.sqrt(jnp.sum(v * v, axis=1, keepdims=True) + 1e-300)
-    lipschitz = 2.2 * jnp.sum(jnp.einsum("krc,kc->kr", S, v) ** 2, axis=1)[:, None] + 1e-12
+    lipschitz = _lipschitz(jnp, S)[:, None]
 
     def loss(zz: Any) -> Any:
         return jnp.sum(strength_residuals(jnp, M, zz, task) ** 2)
@@ -542,11 +547,7 @@ def closure_steps(jnp: Any, strength: StrengthArrays, M: Any, phi: Any, steps: i
     import jax
 
     W = M[:6, : phi.shape[-1]]
-    v = jnp.ones(phi.shape[-1])
-    for _ in range(8):
-        v = W.T @ (W @ v)
-        v = v / jnp.sqrt(jnp.sum(v * v) + 1e-300)
-    lipschitz = 2.2 * jnp.sum((W @ v) ** 2) + 1e-12
+    lipschitz = _lipschitz(jnp, W[None])[0]
     n, floor = phi.shape[-1], strength.closure_floor
     radius = 1.0 - n * floor
 

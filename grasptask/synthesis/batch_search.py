@@ -7,9 +7,12 @@ the paper's NLP holds as constraints, each squared in units of a millimetre (or 
 contacts' distance is held to a stand-off that falls from :attr:`BatchSearchConfig.standoff_m` to zero at
 :attr:`BatchSearchConfig.standoff_until` of the iterations, as BODex's schedule does: the fingers close on the object
 from outside rather than through it. Q enters after :attr:`BatchSearchConfig.quality_after` of them, once the pads
-are near the surface.
+are near the surface, and with it eq. 10's and eq. 4's least residuals: their forces, activations and weights
+carried from step to step and moved toward their least residual after each (BODex holds its force QP's solution
+between solves alike).
 
-The method is Adam (per-variable steps, cosine-decayed), the joints projected onto their limits after each step.
+The method is Adam (per-variable steps, cosine-decayed), the joints projected onto their limits after each step,
+then damped Newton steps on the whole objective at no stand-off.
 A start whose value or gradient is not finite stops where it is and is said so (``search-nan``); the rest of its
 batch goes on, as each start's evaluation reads no other's. The whole budget runs as one compiled loop.
 """
