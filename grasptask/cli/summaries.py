@@ -48,6 +48,12 @@ def synthesis_line(task: str, run: dict) -> str:
             f"{route['polished_verified']} verified, {route['same_basin']} joined a basin, "
             f"{route['search_failed']} searches failed), "
         )
+        model = route.get("polish_model")
+        if model:
+            verified += (
+                f"a polish {model['variables']} variables x {model['constraints']} constraints with "
+                f"{model['spheres']} collision spheres (median), "
+            )
     else:
         verified = (
             f"{run['verified']}/{plural(run['starts'], 'start')} verified ({run['verified_on_retry']} on a retry), "

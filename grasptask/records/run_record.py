@@ -105,7 +105,17 @@ def route_outcome(solutions: pd.DataFrame) -> dict | None:
         "same_basin": int((outcome == "same-basin").sum()),
         "search_failed": int((outcome == "search-failed").sum()),
         "basins": int(solutions["basin"].nunique()) if "basin" in solutions else 0,
+        "polish_model": polish_model(polished),
     }
+
+
+def polish_model(polished: pd.DataFrame) -> dict | None:
+    """The median polish's model where polishes carried only the collision spheres near their grasp (None: every
+    polish carried them all)."""
+    if "polish_spheres" not in polished or not polished["polish_spheres"].notna().any():
+        return None
+    columns = {"spheres": "polish_spheres", "variables": "polish_variables", "constraints": "polish_constraints"}
+    return {key: int(polished[column].median()) for key, column in columns.items()}
 
 
 def throughput(solutions: pd.DataFrame, optima: pd.DataFrame, solved: int, wall_seconds: float) -> dict:

@@ -288,7 +288,15 @@ def _prepare(options: SynthesisOptions) -> _Prepared:
     if isinstance(obj, MeshObject | PointCloudObject):
         obj.distance_grid  # noqa: B018 - a cached property, pickled with the object
     job = Job(
-        hand, obj, model, options.backend, solver, settings=settings, physics=physics, key=config_hash(definition)
+        hand,
+        obj,
+        model,
+        options.backend,
+        solver,
+        settings=settings,
+        physics=physics,
+        key=config_hash(definition),
+        route=options.route,
     )
     return _Prepared(
         job,
@@ -508,9 +516,16 @@ def _say_model(size: dict[str, Any], paper: PaperSynthesis, echo: Callable[[str]
     if size.get("held_axis_rotation"):
         option = "held_geometric_iterations, or geometric_iterations if null"
     geometric = f"; each start's first {warmup} iterations without eq. 10 ({option})" if warmup else ""
+    near = ""
+    if "spheres" in size:  # a search route's model on a hand of many spheres: its polishes carry the near ones
+        near = (
+            f"; none of the hand's {size['hand_spheres']} collision spheres: each polish carries those near its "
+            "grasp (search config polish_all_spheres_max, polish_sphere_distance_m)"
+        )
     echo(
         f"model {size['variables']} variables x {size['constraints']} constraints"
         f" (paper: {paper.variables} x {paper.constraints}){held if size.get('held_axis_rotation') else ''}{geometric}"
+        f"{near}"
     )
 
 

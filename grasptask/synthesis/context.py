@@ -24,6 +24,7 @@ from grasptask.physics.physics_settings import PhysicsSettings
 from grasptask.records import solutions as schema
 from grasptask.synthesis.feedback import Limits, tightened
 from grasptask.synthesis.judging import Judges
+from grasptask.synthesis.near_spheres import NearSpheres, carrying, clearances, penetrating, sphere_count, within
 from grasptask.synthesis.solver_config import SolverConfig
 from grasptask.synthesis.solvers import assign, build_models, values
 from grasptask.synthesis.starts import Start
@@ -36,6 +37,12 @@ if TYPE_CHECKING:  # the solver stack loads in the workers, not where a Job is m
     from grasptask.synthesis.nlp import GraspNLP
     from grasptask.synthesis.polish import Polish
     from grasptask.synthesis.search import SearchBatch, SearchEnd
+
+
+#: how many times a polish is done again with the left-out spheres its grasp sank into
+WIDENINGS = 2
+#: the polish models of other sphere sets a worker keeps (each built in seconds)
+KEPT_CONTEXTS = 4
 
 
 @dataclass(frozen=True)
@@ -55,6 +62,9 @@ class Job:
     physics: PhysicsSettings | None = None
     #: what the job was made from (a hash): a Dask worker keeps one context per job it was given
     key: str = field(kw_only=True)
+    #: "paper" or "search": a search's worker builds its NLP without collision spheres on a hand of many,
+    #: each polish's with those near its grasp (:mod:`grasptask.synthesis.near_spheres`)
+    route: str = field(default="paper", kw_only=True)
 
     @classmethod
     def from_files(
@@ -87,17 +97,27 @@ class SolverContext:
     about the object's axis is held), a start's first iterations are made on the model without eq. 10: they move
     the grasp most, and there they cost half. Meshes and point clouds skip that phase."""
 
-    def __init__(self, job: Job):
+    def __init__(self, job: Job, carried: NearSpheres | None = None, judges: Judges | None = None):
+        """``carried``: the collision spheres the models carry (None: every one; on the search route, a hand of
+        more than the search config's ``polish_all_spheres_max`` none, each polish then the spheres near its
+        grasp); ``judges``: another context's, shared."""
         # the solver stack (Pyomo, CasADi) and the loaders, in the worker that builds the models
         from grasptask.synthesis.placement import Anchors
 
         self.job = job
         self.hand, self.obj, self.task = job.hand, job.obj, job.task
         self.settings = job.settings
-        self.models = build_models(self.hand, self.obj, self.task, self.settings, job.solver, job.backend)
+        many = sphere_count(self.hand) > job.solver.search.polish_all_spheres_max
+        if carried is None and job.route == "search" and many:
+            carried = within(self.hand, np.full(sphere_count(self.hand), np.inf), 0.0)  # none
+        self.carried = carried
+        built = self.hand if carried is None else carrying(self.hand, carried)
+        self.models = build_models(built, self.obj, self.task, self.settings, job.solver, job.backend)
         self.nlp = self.models.first.nlp
         self.size = self.models.size
-        self.judges = Judges(self.hand, self.obj, self.task, self.settings, self.nlp, job.physics)
+        if carried is not None:
+            self.size = {**self.size, "spheres": carried.count, "hand_spheres": sphere_count(self.hand)}
+        self.judges = judges or Judges(self.hand, self.obj, self.task, self.settings, self.nlp, job.physics)
         self.nominal = Limits(
             self.settings.activation_cap(self.nlp.hand.capability.kind) - self.settings.activation_margin,
             self.nlp.hand.pad_angle_limits(self.settings.pad_angle_max_deg),
@@ -112,7 +132,7 @@ class SolverContext:
         from grasptask.synthesis.batch_geometry import StrengthArrays
         from grasptask.synthesis.batch_search import BatchSearch
 
-        hand, settings = self.nlp.hand, self.settings
+        hand, settings = self.hand.grasping_hand(), self.settings  # every sphere a penalty, near or not
         axes = sorted({a for a, _, _, _ in self.nlp.model.lam.keys()})
         lever = 0.5 * float(np.linalg.norm(np.diff(self.bounds, axis=0)))
         strength = StrengthArrays.of(hand.capability, axes, settings, lever)
@@ -178,8 +198,46 @@ class SolverContext:
         return out
 
     def polish(self, task: Polish) -> dict:
-        """A basin's end point solved by the paper's NLP from it, forces and all (:mod:`.polish`)."""
-        return self.solve(task.warm_start(), task.end)
+        """A basin's end point solved by the paper's NLP from it, forces and all (:mod:`.polish`). A context whose
+        models carry only some spheres polishes with those within the search config's
+        ``polish_sphere_distance_m`` of the object at the end point, and again with any left-out sphere the
+        polished grasp sinks into (at most :data:`WIDENINGS` times)."""
+        if self.carried is None:
+            return self.solve(task.warm_start(), task.end)
+        grasp = task.end.grasp
+        assert grasp is not None, "a polish of a search that did not converge"
+        reach = self.job.solver.search.polish_sphere_distance_m
+        at = clearances(self.hand, self.obj, grasp.palm_rotation, grasp.palm_position, grasp.joint_angles)
+        near, spent = self.carried.widened(within(self.hand, at, reach)), {"seconds": 0.0, "iterations": 0}
+        for widening in range(WIDENINGS + 1):
+            context = self._carrying(near)
+            row = context.solve(task.warm_start(), task.end)
+            for key in spent:  # a widened polish's seconds and iterations are those of all its solves
+                spent[key] += row[key]
+            size = context.size
+            row.update(spent, polish_spheres=near.count, polish_widenings=widening,
+                       polish_variables=size["variables"], polish_constraints=size["constraints"])  # fmt: skip
+            if not np.isfinite(row.get("Q", np.nan)):
+                return row
+            g = schema.grasp_from_row(row, self.judges.joint_names)
+            after = clearances(self.hand, self.obj, g.palm_rotation, g.palm_position, g.joint_angles)
+            deep = penetrating(self.hand, after, self.hand.compliance_m)
+            if near.covers(deep):
+                return row
+            near = near.widened(deep)
+        return row
+
+    def _carrying(self, near: NearSpheres) -> SolverContext:
+        """The context whose models carry the spheres ``near`` (built once; the last few kept), judged by this
+        context's judges: the verifier and physics check every sphere."""
+        if near == self.carried:
+            return self
+        cache = self.__dict__.setdefault("_near_contexts", {})
+        if near not in cache:
+            if len(cache) >= KEPT_CONTEXTS:
+                cache.pop(next(iter(cache)))
+            cache[near] = SolverContext(self.job, carried=near, judges=self.judges)
+        return cache[near]
 
     def _polish_point(self, end: SearchEnd) -> np.ndarray:
         """The first model's initial point at a search's end point (the model initialised there already): the

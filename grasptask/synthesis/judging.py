@@ -41,9 +41,10 @@ class Judges:
         from grasptask.synthesis.spline import distance_function  # CasADi: the solver stack, loaded in workers
 
         self.hand, self.obj, self.task, self.settings = hand, obj, task, settings
-        self.grasping = nlp.hand
-        self.fingers = list(nlp.hand.fingers)
-        self.joint_names = nlp.hand.joint_names
+        # every sphere of the hand, where the NLP may carry only those near the object (a polish's)
+        self.grasping = hand.grasping_hand()
+        self.fingers = list(self.grasping.fingers)
+        self.joint_names = self.grasping.joint_names
         # what the NLP saw of a mesh's or point cloud's surface, to record its error at each contact
         self.surrogate = distance_function(nlp.surrogate.grid) if nlp.surrogate is not None else None
         self.physics: Holding | None = None

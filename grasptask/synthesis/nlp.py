@@ -759,11 +759,12 @@ class GraspNLP:
     def min_clearance(self, palm_position: np.ndarray | None = None) -> float:
         """The smallest eq. 14 margin (negative: a hand point is inside the object) at the current palm pose and
         joints, or with the palm moved to ``palm_position`` first. Only the palm moves; the defined variables
-        (contacts, normals) keep their old values until the next :meth:`initialise`."""
+        (contacts, normals) keep their old values until the next :meth:`initialise`. A model without collision
+        spheres (a search route's on a hand of many, :mod:`.near_spheres`) has nothing in the way: infinity."""
         if palm_position is not None:
             for i in XYZ:
                 self.model.d_h[i].set_value(float(palm_position[i]))
-        return float(self._compiled.extra(self._compiled.input_values()).min())
+        return float(self._compiled.extra(self._compiled.input_values()).min(initial=np.inf))
 
     def geometry(self) -> GraspGeometry:
         """The contacts, cone edges and Jacobians at the current values: what the force problem holds fixed."""
