@@ -24,7 +24,15 @@ from grasptask.physics.physics_settings import PhysicsSettings
 from grasptask.records import solutions as schema
 from grasptask.synthesis.feedback import Limits, tightened
 from grasptask.synthesis.judging import Judges
-from grasptask.synthesis.near_spheres import NearSpheres, carrying, clearances, penetrating, sphere_count, within
+from grasptask.synthesis.near_spheres import (
+    NearSpheres,
+    carrying,
+    chosen,
+    clearances,
+    penetrating,
+    sphere_count,
+    within,
+)
 from grasptask.synthesis.solver_config import SolverConfig
 from grasptask.synthesis.solvers import assign, build_models, values
 from grasptask.synthesis.starts import Start
@@ -107,16 +115,18 @@ class SolverContext:
         self.job = job
         self.hand, self.obj, self.task = job.hand, job.obj, job.task
         self.settings = job.settings
-        many = sphere_count(self.hand) > job.solver.search.polish_all_spheres_max
-        if carried is None and job.route == "search" and many:
-            carried = within(self.hand, np.full(sphere_count(self.hand), np.inf), 0.0)  # none
+        count = sphere_count(self.hand)
+        if carried is None and job.route == "search" and count > job.solver.search.polish_all_spheres_max:
+            carried = chosen(self.hand, np.zeros(count, dtype=bool))  # none
         self.carried = carried
+        #: the polish contexts of other sphere sets, the last few kept (:meth:`_carrying`)
+        self._near_contexts: dict[NearSpheres, SolverContext] = {}
         built = self.hand if carried is None else carrying(self.hand, carried)
         self.models = build_models(built, self.obj, self.task, self.settings, job.solver, job.backend)
         self.nlp = self.models.first.nlp
         self.size = self.models.size
         if carried is not None:
-            self.size = {**self.size, "spheres": carried.count, "hand_spheres": sphere_count(self.hand)}
+            self.size = {**self.size, "spheres": carried.count, "hand_spheres": count}
         self.judges = judges or Judges(self.hand, self.obj, self.task, self.settings, self.nlp, job.physics)
         self.nominal = Limits(
             self.settings.activation_cap(self.nlp.hand.capability.kind) - self.settings.activation_margin,
@@ -232,7 +242,7 @@ class SolverContext:
         context's judges: the verifier and physics check every sphere."""
         if near == self.carried:
             return self
-        cache = self.__dict__.setdefault("_near_contexts", {})
+        cache = self._near_contexts
         if near not in cache:
             if len(cache) >= KEPT_CONTEXTS:
                 cache.pop(next(iter(cache)))

@@ -37,9 +37,8 @@ class NearSpheres:
 
     def covers(self, other: NearSpheres) -> bool:
         """Whether every sphere of ``other`` is one of these."""
-        return all(set(b) <= set(a) for a, b in zip(self.fingers, other.fingers, strict=True)) and set(
-            other.palm
-        ) <= set(self.palm)
+        fingers = all(set(b) <= set(a) for a, b in zip(self.fingers, other.fingers, strict=True))
+        return fingers and set(other.palm) <= set(self.palm)
 
 
 def sphere_count(hand: Hand) -> int:
@@ -58,27 +57,25 @@ def clearances(
     return obj.signed_distance(centres[0]) - radii
 
 
-def within(hand: Hand, clearance: np.ndarray, distance_m: float) -> NearSpheres:
-    """The spheres whose ``clearance`` (:func:`clearances`) is at most ``distance_m``. A fingertip's contact rolls
-    over its pad sphere, which is not one of them: a LEAP hand's mesh tips are covered by 728."""
+def chosen(hand: Hand, mask: np.ndarray) -> NearSpheres:
+    """The spheres where ``mask`` (one entry a sphere, ordered as :func:`clearances`) is true."""
     grasping = hand.grasping_hand()
     fingers, at = [], 0
     for finger in grasping.fingers.values():
-        near = clearance[at : at + len(finger.spheres)] <= distance_m
-        fingers.append(tuple(int(i) for i in np.flatnonzero(near)))
+        fingers.append(tuple(int(i) for i in np.flatnonzero(mask[at : at + len(finger.spheres)])))
         at += len(finger.spheres)
-    return NearSpheres(tuple(fingers), tuple(int(i) for i in np.flatnonzero(clearance[at:] <= distance_m)))
+    return NearSpheres(tuple(fingers), tuple(int(i) for i in np.flatnonzero(mask[at:])))
+
+
+def within(hand: Hand, clearance: np.ndarray, distance_m: float) -> NearSpheres:
+    """The spheres whose ``clearance`` (:func:`clearances`) is at most ``distance_m``. A fingertip's contact rolls
+    over its pad sphere, which is not one of them: a LEAP hand's mesh tips are covered by 728."""
+    return chosen(hand, clearance <= distance_m)
 
 
 def penetrating(hand: Hand, clearance: np.ndarray, allowance_m: float) -> NearSpheres:
     """The spheres deeper in the object than ``allowance_m`` (:func:`clearances`): those a polish must take in."""
-    grasping = hand.grasping_hand()
-    fingers, at = [], 0
-    for finger in grasping.fingers.values():
-        deep = clearance[at : at + len(finger.spheres)] < -allowance_m
-        fingers.append(tuple(int(i) for i in np.flatnonzero(deep)))
-        at += len(finger.spheres)
-    return NearSpheres(tuple(fingers), tuple(int(i) for i in np.flatnonzero(clearance[at:] < -allowance_m)))
+    return chosen(hand, clearance < -allowance_m)
 
 
 def carrying(hand: Hand, kept: NearSpheres) -> Hand:

@@ -125,8 +125,8 @@ class BatchSearchConfig:
     #: projected-gradient steps on eq. 10's forces after each step of the search
     strength_steps: Annotated[int, Strict(), Field(ge=1, le=1000)] = 20
     #: a hand with more collision spheres than this (its grasping fingers' and palm's) is polished with only the
-    #: spheres within ``polish_sphere_distance_m`` of the object where its search ended, and its fingertips':
-    #: each sphere is a constraint of the NLP. The verifier still checks them all
+    #: spheres within ``polish_sphere_distance_m`` of the object where its search ended: each sphere is a
+    #: constraint of the NLP. The verifier still checks them all
     polish_all_spheres_max: Annotated[int, Strict(), Field(ge=0)] = 500
     #: ... and how near the object (m) a sphere must be where the search ended to be one of a polish's constraints
     polish_sphere_distance_m: Annotated[float, Strict(), Field(gt=0, le=0.2)] = 0.015
