@@ -34,6 +34,12 @@ def _tip_geometry(tip: str, package: Path) -> str:
     if tip == "printed":
         rounded_box(np.array(BOX_TIP_M) / 2, PRINTED_FILLET_M).export(package / "meshes" / "tip.stl")
         return f'<origin xyz="{-depth} 0 0"/><geometry><mesh filename="package://gripper/meshes/tip.stl"/></geometry>'
+    if tip == "pad":  # the LEAP's printed pad, facing the axis (-x), centred where the sphere's centre is
+        pad = leap_tip_mesh()
+        pad.apply_transform(np.diag([-1.0, 1.0, 1.0, 1.0]))
+        pad.apply_translation([0.0, 0.0, -0.021])
+        pad.export(package / "meshes" / "tip_pad.obj")
+        return '<geometry><mesh filename="package://gripper/meshes/tip_pad.obj"/></geometry>'
     return f'<geometry><sphere radius="{TIP_RADIUS_M}"/></geometry>'
 
 
@@ -42,8 +48,9 @@ def write_mesh_gripper(root: Path, effort_nm: float = 2.0, inertia: str | None =
     ``gripper/meshes``. Each finger rises from the palm 3 cm off its axis, two links (STL boxes) and a sphere
     tip; at zero posture the tips touch a 2 cm ball centred :func:`ball_centre` above the palm, and the joints
     (named "0" to "5") close them towards it. ``inertia`` replaces the first link's inertial element; ``tip`` "box"
-    makes each tip a box whose inner face is where the sphere's nearest point to the ball is (a flat pad), and
-    "printed" the same box as an STL mesh with its edges rounded over :data:`PRINTED_FILLET_M`."""
+    makes each tip a box whose inner face is where the sphere's nearest point to the ball is (a flat pad),
+    "printed" the same box as an STL mesh with its edges rounded over :data:`PRINTED_FILLET_M`, and "pad" the
+    LEAP's printed pad (:func:`leap_tip_mesh`, an OBJ mesh, neither sphere nor box) facing the axis."""
     package = root / "gripper"
     (package / "meshes").mkdir(parents=True, exist_ok=True)
     (package / "urdf").mkdir(parents=True, exist_ok=True)
