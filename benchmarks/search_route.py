@@ -12,11 +12,13 @@ physics check then holds each route's verified grasps (not timed with the sweep)
 
 Targets (issue 75): the human hand's sweeps 5x sooner than the paper route, the Allegro's and the mesh Allegro's
 3x; per task at least as many distinct verified optima and the best Q within 1% of the paper route's; physics
-holds >= 90% of the verified grasps. Results are saved after every sweep (benchmarks/results/search_route.json).
+holds >= 90% of the verified grasps. Results are saved after every sweep (benchmarks/results/search_route.json);
+a run of some hands keeps the saved entries of the others (each names the commit it was measured at).
 """
 
 from __future__ import annotations
 
+import json
 import sys
 import tempfile
 import time
@@ -24,7 +26,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT / "benchmarks"), str(ROOT)]
-from common import check_solver, demonstration_tasks, finished_sweep, held, save, sweep_parser  # noqa: E402
+from common import check_solver, demonstration_tasks, finished_sweep, held, machine, save, sweep_parser  # noqa: E402
 
 from grasptask.stages import SynthesisOptions, run_synthesize  # noqa: E402
 
@@ -108,14 +110,26 @@ def sweep(options: SynthesisOptions) -> float:
     return time.perf_counter() - began
 
 
+def saved(starts: int) -> dict:
+    """The saved results of runs with as many starts, whose hands a run of other hands keeps (each hand's entry
+    names the commit it was measured at)."""
+    path = ROOT / "benchmarks" / "results" / f"{NAME}.json"
+    if path.exists():
+        kept = json.loads(path.read_text())
+        if kept.get("starts") == starts:
+            return {"starts": starts, "hands": kept.get("hands", {})}
+    return {"starts": starts, "hands": {}}
+
+
 def main(hands: list[str], tasks: list[str], starts: int | None) -> dict:
-    results: dict = {"starts": starts or 126, "hands": {}}
+    results = saved(starts or 126)
+    commit = machine()["commit"]
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
         models = demonstration_tasks(folder)
         for hand in hands:
             path, grasp = hand_file(hand, folder), HANDS[hand][1]
-            entry = results["hands"].setdefault(hand, {"tasks": {}})
+            entry = results["hands"][hand] = {"tasks": {}, "commit": commit}
             for task in tasks:
                 figures: dict = {}
                 for route in ("paper", "search"):
@@ -175,8 +189,6 @@ if __name__ == "__main__":
     parser.add_argument("--tasks", default=",".join(TASKS))
     args = parser.parse_args()
     if args.table:
-        import json
-
         print(markdown_table(json.loads((ROOT / "benchmarks" / "results" / f"{NAME}.json").read_text())))
         sys.exit(0)
     chosen_hands, chosen_tasks = args.hands.split(","), args.tasks.split(",")
