@@ -56,3 +56,25 @@ def test_the_printed_pad_is_fitted_as_a_sphere_not_a_face(tmp_path: Path):
         assert not pad.flat and pad.radius > 0.0 and pad.fit_error_m < 1e-4
         assert pad.normal @ np.array([-1.0, 0.0, 0.0]) > 0.99
         assert finger.tip_mesh is not None
+
+
+def test_a_pad_mesh_written_inside_out_gets_the_same_pad(tmp_path: Path):
+    """Some exporters write a closed mesh's faces inward: the fingertip is turned outward before its pad is
+    fitted, so its pad is the front's sphere, not the back face's plane (which faces the axis once inverted)."""
+    import trimesh
+
+    from grasptask.hand import load_hand
+
+    path = write_mesh_gripper(tmp_path, tip="pad")
+    as_published = {name: f.pad for name, f in load_hand(path).fingers.items()}
+    mesh_file = tmp_path / "gripper" / "meshes" / "tip_pad.obj"
+    inside_out = trimesh.load(mesh_file, force="mesh", process=False)
+    inside_out.invert()
+    assert inside_out.volume < 0
+    inside_out.export(mesh_file)
+    for name, finger in load_hand(path).fingers.items():
+        pad, expected = finger.pad, as_published[name]
+        assert not pad.flat
+        np.testing.assert_allclose(pad.point, expected.point, atol=1e-9)
+        np.testing.assert_allclose(pad.normal, expected.normal, atol=1e-9)
+        assert pad.radius == pytest.approx(expected.radius, abs=1e-9)

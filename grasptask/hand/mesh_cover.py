@@ -19,6 +19,7 @@ from scipy.spatial import cKDTree
 
 from grasptask.errors import BadInputError
 from grasptask.hand import skin
+from grasptask.hand.mesh_orientation import outward
 from grasptask.hand.spheres import mesh_box
 from grasptask.hand.tree import Shape
 
@@ -58,7 +59,7 @@ def mesh_spheres(
     most :data:`BOUND_M` outside it. Other links get the fewest fitted spheres that reach no farther, or, where
     :data:`MAX_SPHERES` cannot (a sharp 2 x 3 x 5 cm box needs 215 at 2.5 mm, every edge and corner its own),
     the closest that so few can, or the box's spheres if they reach less far."""
-    vertices, faces = _outward(np.asarray(vertices, float), np.asarray(faces, int))
+    vertices, faces = outward(np.asarray(vertices, float), np.asarray(faces, int))
     points, normals = surface_samples(vertices, faces, BOUND_M / 2)
     boxed = mesh_box(vertices, np.eye(4))  # a thin plate's box takes thousands of spheres: not measured
     boxed_reach = reach(boxed, points, normals) if len(boxed) <= MAX_BOX_SPHERES else np.inf
@@ -71,18 +72,6 @@ def mesh_spheres(
     # on an open mesh the normals need not point out, and the measured reach can miss a sphere's far side: the
     # stated reach is at least how far a sphere leaves the mesh's bounding box
     return placed, max(chosen_reach, box_overreach(chosen, vertices))
-
-
-def _outward(vertices: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """A closed mesh whose faces point inward (as some exporters write them) turned outward; others as given."""
-    import trimesh  # deferred: trimesh, only for mesh links
-
-    mesh = trimesh.Trimesh(vertices, faces, process=False)
-    with np.errstate(invalid="ignore", divide="ignore"):  # a flat closed mesh has no volume to divide by
-        inward = mesh.is_watertight and mesh.is_winding_consistent and mesh.volume < 0
-    if inward:
-        return vertices, faces[:, ::-1].copy()
-    return vertices, faces
 
 
 def box_overreach(spheres: list[tuple[np.ndarray, float]], vertices: np.ndarray) -> float:

@@ -37,6 +37,7 @@ import numpy as np
 from grasptask.errors import BadInputError
 from grasptask.hand.hand_model import DEFAULT_COMPLIANCE_M, Capability, Finger, Hand, Joint, Pad, Palm, Skin, Sphere
 from grasptask.hand.kinematics import forward
+from grasptask.hand.mesh_orientation import outward
 from grasptask.hand.pad_fit import NoPadError, box_pad, boxes_mesh, fit_pad, flat_face, motion, roll_limit_deg
 from grasptask.hand.palm import MOVING, branching_link, fixed_links, fixed_to_palm, held_joints
 
@@ -684,7 +685,10 @@ def _rounded_pad(chain: _Chain, last: Joint, closing: float, tip: str, source: P
 
 
 def _merged(meshes: list[tuple[np.ndarray, np.ndarray]]) -> tuple[np.ndarray, np.ndarray]:
-    """Several meshes as one: vertices stacked, faces renumbered."""
+    """A fingertip's meshes as one: each closed one that an exporter wrote inside out turned outward (a pad is
+    the faces that face the way the finger closes, and the verifier measures outside the tip by them), vertices
+    stacked, faces renumbered."""
+    meshes = [outward(np.asarray(v, float), np.asarray(f, int)) for v, f in meshes]
     offsets = np.cumsum([0] + [len(v) for v, _ in meshes])[:-1]
     return np.vstack([v for v, _ in meshes]), np.vstack([f + o for (_, f), o in zip(meshes, offsets, strict=True)])
 
