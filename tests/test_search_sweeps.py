@@ -1,7 +1,7 @@
-"""The search route's sweeps (SPEC section 12): the same rows with one worker, two and Dask; a sweep of one route
-not resumed by the other; sweeps started from a script, with and without a main guard, and stopped by SIGTERM.
-Their search batches are of two starts, compiled once for the module (the compiled code is kept in the test
-session's cache)."""
+"""The search route's sweeps (SPEC section 12): the same rows with one worker, two and (`make test-slow`) Dask; a
+sweep of one route not resumed by the other; sweeps started from a script, with and without a main guard, and
+stopped by SIGTERM. Their search batches are of two starts, compiled once for the module (the compiled code is
+kept in the test session's cache)."""
 
 from __future__ import annotations
 
@@ -34,25 +34,38 @@ def _sweep(tasks: Path, out: Path, config: Path, workers: int, **executor: str) 
     return pd.read_parquet(out / "drawing" / "solutions.parquet")
 
 
-def test_the_search_routes_rows_are_the_same_with_one_worker_two_and_dask(tasks, tmp_path, search_config):
-    from dask.distributed import LocalCluster
+#: what a row must say alike however the sweep was run
+SAME = ["start_id", "status", "outcome", "basin", "polished_start", "search_iterations", "iterations", "Q", "search_Q"]
 
-    one = _sweep(tasks, tmp_path / "one", search_config, 1)
+
+@pytest.fixture(scope="module")
+def one_worker(tasks, tmp_path_factory, search_config) -> tuple[pd.DataFrame, Path]:
+    """The search route's sweep of four starts in one worker: its rows and its folder."""
+    out = tmp_path_factory.mktemp("one")
+    return _sweep(tasks, out, search_config, 1), out
+
+
+def test_the_search_routes_rows_are_the_same_with_one_worker_and_two(tasks, tmp_path, search_config, one_worker):
+    one, folder = one_worker
     two = _sweep(tasks, tmp_path / "two", search_config, 2)
-    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
-        dask = _sweep(tasks, tmp_path / "dask", search_config, 1, executor="dask", scheduler=cluster.scheduler_address)
-    columns = ["start_id", "status", "outcome", "basin", "polished_start", "search_iterations", "iterations", "Q",
-               "search_Q"]  # fmt: skip
-    pd.testing.assert_frame_equal(one[columns], two[columns])
-    pd.testing.assert_frame_equal(one[columns], dask[columns])
+    pd.testing.assert_frame_equal(one[SAME], two[SAME])
     assert set(one["outcome"]) <= {"polished", "same-basin", "search-failed"}
     polished = one[one["outcome"] == "polished"]
     assert len(polished) >= 1 and polished["verified"].any()
     # every start is accounted for: a same-basin start names its basin's polished start
     joined = one[one["outcome"] == "same-basin"]
     assert set(joined["polished_start"]) <= set(polished["start_id"])
-    run = __import__("json").loads((tmp_path / "one" / "drawing" / "run.json").read_text())
+    run = __import__("json").loads((folder / "drawing" / "run.json").read_text())
     assert run["route"]["polished"] == len(polished)
+
+
+@pytest.mark.slow  # `make test-slow`: two more processes that trace and load the search again
+def test_the_search_routes_rows_are_the_same_with_dask(tasks, tmp_path, search_config, one_worker):
+    from dask.distributed import LocalCluster
+
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+        dask = _sweep(tasks, tmp_path / "dask", search_config, 1, executor="dask", scheduler=cluster.scheduler_address)
+    pd.testing.assert_frame_equal(one_worker[0][SAME], dask[SAME])
 
 
 @pytest.mark.parametrize("first", ["paper", "search"])
