@@ -20,7 +20,8 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT / "benchmarks"), str(ROOT)]
-from common import check_solver, demonstration_tasks, finished_sweep, save  # noqa: E402
+from common import check_solver, demonstration_tasks, save  # noqa: E402
+from search_route import route_figures  # noqa: E402
 
 from grasptask.stages import SynthesisOptions, run_synthesize  # noqa: E402
 
@@ -29,21 +30,6 @@ SOLVER = ROOT / "configs" / "solver.yaml"
 HAND = ROOT / "configs/hands/human_paper.yaml"
 GRASP = ROOT / "configs/grasp_paper.yaml"
 TASKS = ("drawing", "cutting", "screwdriving")
-
-
-def figures(folder: Path, wall_s: float) -> dict:
-    run, rows = finished_sweep(folder)
-    out = {
-        "starts": len(rows),
-        "sweep_wall_s": wall_s,
-        "distinct_optima": run["distinct_optima"],
-        "best_Q": run["best_Q"],
-        "best_Q_after_s": (run.get("throughput") or {}).get("best_Q_after_s"),
-        "verified_starts": run["verified"],
-    }
-    if run.get("route"):
-        out["route"] = run["route"]
-    return out
 
 
 def main(tasks: list[str], surface: int) -> dict:
@@ -61,7 +47,7 @@ def main(tasks: list[str], surface: int) -> dict:
                 )  # fmt: skip
                 began = time.perf_counter()
                 run_synthesize(options, echo=print)
-                entry[route] = figures(out / task, time.perf_counter() - began)
+                entry[route] = route_figures(out / task, time.perf_counter() - began)
                 print(f"{task} {route}: {entry[route]}", flush=True)
                 results["tasks"][task] = entry
                 save(NAME, results)  # partial results kept after every sweep

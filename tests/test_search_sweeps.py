@@ -98,9 +98,7 @@ print("finished", run.run["starts"])
 """
 
 
-def _script(tmp_path: Path, tasks: Path, route: str, guarded: bool, starts: int = 2) -> Path:
-    config = tmp_path / "solver.yaml"
-    config.write_text("search_round: 2\nsearch: {batch_size: 2}\n")
+def _script(tmp_path: Path, tasks: Path, config: Path, route: str, guarded: bool, starts: int = 2) -> Path:
     body = SCRIPT.format(tasks=str(tasks), out=str(tmp_path / "out"), route=route, starts=starts, config=str(config))
     if guarded:
         body = "if __name__ == '__main__':\n" + textwrap.indent(body, "    ")
@@ -109,8 +107,8 @@ def _script(tmp_path: Path, tasks: Path, route: str, guarded: bool, starts: int 
     return path
 
 
-def test_a_sweep_in_a_script_without_a_main_guard_is_refused_at_once(tasks, tmp_path):
-    script = _script(tmp_path, tasks, "paper", guarded=False)
+def test_a_sweep_in_a_script_without_a_main_guard_is_refused_at_once(tasks, tmp_path, search_config):
+    script = _script(tmp_path, tasks, search_config, "paper", guarded=False)
     began = time.monotonic()
     done = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=120, cwd=ROOT)
     assert time.monotonic() - began < 60
@@ -119,9 +117,9 @@ def test_a_sweep_in_a_script_without_a_main_guard_is_refused_at_once(tasks, tmp_
     assert "__main__" in last and "sweep_script.py" in last
 
 
-def test_a_sweep_stops_on_sigterm_keeping_what_is_finished(tasks, tmp_path):
+def test_a_sweep_stops_on_sigterm_keeping_what_is_finished(tasks, tmp_path, search_config):
     """SIGTERM once the first round's rows are in: the sweep ends within seconds, those rows kept."""
-    script = _script(tmp_path, tasks, "search", guarded=True, starts=12)
+    script = _script(tmp_path, tasks, search_config, "search", guarded=True, starts=12)
     log = tmp_path / "out" / "drawing" / "solutions.jsonl"
     process = subprocess.Popen([sys.executable, str(script)], stderr=subprocess.PIPE, text=True, cwd=ROOT)
     try:
